@@ -1,0 +1,1 @@
+/* 1_linalg api: owned by its helper until integration */

@@ -1,0 +1,1 @@
+/* 2_kdtree api: owned by its helper until integration */

@@ -1,0 +1,1 @@
+/* 2_kdtree impl: owned by its helper until integration */

@@ -1,0 +1,1 @@
+/* 3_superquadric api: owned by its helper until integration */

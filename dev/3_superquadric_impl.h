@@ -1,0 +1,1 @@
+/* 3_superquadric impl: owned by its helper until integration */

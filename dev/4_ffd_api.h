@@ -1,0 +1,1 @@
+/* 4_ffd api: owned by its helper until integration */

@@ -1,0 +1,1 @@
+/* 4_ffd impl: owned by its helper until integration */

@@ -1,0 +1,1 @@
+/* 5_model api: owned by its helper until integration */

@@ -1,0 +1,1 @@
+/* 5_model impl: owned by its helper until integration */

@@ -1,0 +1,16 @@
+/* A second translation unit that only uses the API (no implementation):
+   linked against check_header.c, it catches duplicate or missing symbols. */
+#include "../sqffd.h"
+
+#ifdef SQFFD_STATIC /* with SQFFD_STATIC the implementation must be in this unit */
+#define SQFFD_IMPLEMENTATION
+#include "../sqffd.h"
+#endif
+
+int sqffd_check_use(void);
+int sqffd_check_use(void)
+{
+    return sqffd_result_string(SQFFD_ERROR_CANCELLED)[0] != '\0';
+}
+
+int main(void) { return sqffd_check_use() ? 0 : 1; }

@@ -1,0 +1,40 @@
+/* Minimal test harness shared by every test file: checks count per test
+   case, the runner prints "N passed, N failed" last. */
+#ifndef SQFFD_TEST_H
+#define SQFFD_TEST_H
+
+#include <stdio.h>
+#include <math.h>
+#include "../sqffd.h"
+
+/* Record a failed check (file:line and a printf-style message). */
+void test_fail(const char *file, int line, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 3, 4)))
+#endif
+    ;
+/* Run one test case: it fails when any check inside it failed. */
+void test_run(const char *name, void (*fn)(void));
+
+#define CHECK(cond) \
+    do { if (!(cond)) test_fail(__FILE__, __LINE__, "%s", #cond); } while (0)
+#define CHECK_MSG(cond, ...) \
+    do { if (!(cond)) test_fail(__FILE__, __LINE__, __VA_ARGS__); } while (0)
+#define CHECK_NEAR(a, b, tol) \
+    do { double a_ = (a), b_ = (b), t_ = (tol); \
+         if (!(fabs(a_ - b_) <= t_)) test_fail(__FILE__, __LINE__, "%s = %.17g, %s = %.17g, |diff| %.3g > %.3g", \
+                                                #a, a_, #b, b_, fabs(a_ - b_), t_); } while (0)
+#define CHECK_RESULT(call, expected) \
+    do { sqffd_result r_ = (call), e_ = (expected); \
+         if (r_ != e_) test_fail(__FILE__, __LINE__, "%s returned %s, expected %s", #call, \
+                                 sqffd_result_string(r_), sqffd_result_string(e_)); } while (0)
+#define RUN_TEST(fn) test_run(#fn, fn)
+
+/* Test suites, one per layer file; each calls RUN_TEST on its cases. */
+void suite_linalg(void);
+void suite_kdtree(void);
+void suite_superquadric(void);
+void suite_ffd(void);
+void suite_io(void);
+
+#endif

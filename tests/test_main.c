@@ -1,0 +1,48 @@
+/* Test runner: every suite, then the line "N passed, N failed".
+   Usage: sqffd_tests [SUBSTRING]   runs only the cases whose name contains it. */
+#include "test.h"
+#include <stdarg.h>
+#include <string.h>
+#include <time.h>
+
+static int passed, failed, case_failures;
+static const char *filter;
+
+void test_fail(const char *file, int line, const char *fmt, ...)
+{
+    va_list ap;
+    if (case_failures < 10) { /* a broken loop must not flood the log */
+        fprintf(stdout, "    %s:%d: ", file, line);
+        va_start(ap, fmt);
+        vfprintf(stdout, fmt, ap);
+        va_end(ap);
+        fputc('\n', stdout);
+    }
+    case_failures++;
+}
+
+void test_run(const char *name, void (*fn)(void))
+{
+    clock_t start;
+    if (filter && !strstr(name, filter)) return;
+    case_failures = 0;
+    start = clock();
+    fn();
+    if (case_failures) failed++; else passed++;
+    printf("%-4s %-48s %8.1f ms%s\n", case_failures ? "FAIL" : "ok", name,
+           1000.0 * (double)(clock() - start) / CLOCKS_PER_SEC,
+           case_failures > 10 ? " (more failures not shown)" : "");
+    fflush(stdout);
+}
+
+int main(int argc, char **argv)
+{
+    filter = argc > 1 ? argv[1] : NULL;
+    suite_linalg();
+    suite_kdtree();
+    suite_superquadric();
+    suite_ffd();
+    suite_io();
+    printf("%d passed, %d failed\n", passed, failed);
+    return failed ? 1 : 0;
+}
