@@ -6,7 +6,7 @@ SAN      = -O1 -g -fsanitize=address,undefined -fno-sanitize-recover=all -fno-om
 BUILD    = build
 PREFIX  ?= /usr/local
 
-TEST_SRC = $(wildcard tests/test_*.c)
+TEST_SRC = $(filter-out tests/test_main.c tests/test_impl.c,$(wildcard tests/test_*.c))
 TEST_DEP = sqffd.h $(wildcard dev/*.h) $(wildcard tests/*.h) $(wildcard examples/*.h)
 FUZZ_TARGETS = $(patsubst fuzz/%.c,%,$(wildcard fuzz/fuzz_*.c))
 BENCHES = $(patsubst bench/%.c,%,$(wildcard bench/bench_*.c))

@@ -113,23 +113,26 @@ SQFFD_DEF const char *sqffd_result_string(sqffd_result result)
 #define SQFFD__ALIGN 16u
 
 typedef struct sqffd__arena {
-    unsigned char *base; /* NULL while measuring */
-    size_t size;         /* usable bytes (ignored while measuring) */
+    unsigned char *base; /* NULL while measuring, else 16-byte aligned */
+    size_t size;         /* usable bytes from base (ignored while measuring) */
     size_t used;
     int overflow;        /* a request did not fit, or its size overflowed */
 } sqffd__arena;
 
+/* The caller's block loses up to 15 bytes to alignment; exactly SQFFD__ALIGN
+   are always set aside for it, so a block of the measured size works at any
+   address and one byte less fails at any address. */
 static void sqffd__arena_init(sqffd__arena *a, void *memory, size_t size)
 {
-    a->base = (unsigned char *)memory;
-    a->size = size;
+    a->base = NULL;
+    a->size = 0;
     a->used = 0;
     a->overflow = 0;
-    if (memory) { /* skip to the first aligned byte */
+    if (memory) {
         size_t mis = (size_t)((uintptr_t)memory % SQFFD__ALIGN);
-        size_t skip = mis ? SQFFD__ALIGN - mis : 0;
-        if (skip > size) a->overflow = 1;
-        else a->used = skip;
+        if (size < SQFFD__ALIGN) { a->overflow = 1; return; }
+        a->base = (unsigned char *)memory + (mis ? SQFFD__ALIGN - mis : 0);
+        a->size = size - SQFFD__ALIGN;
     }
 }
 

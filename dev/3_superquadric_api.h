@@ -76,6 +76,9 @@ typedef struct sqffd_sq_fit_report {
     double inlier_fraction; /* robust mode: sum of weights / n; 1 otherwise */
 } sqffd_sq_fit_report;
 
+/* Fewest points sqffd_sq_fit accepts (one per parameter). */
+#define SQFFD_SQ_FIT_MIN_POINTS 13
+
 SQFFD_DEF sqffd_sq_fit_options sqffd_sq_fit_options_default(void);
 SQFFD_DEF size_t sqffd_sq_fit_workspace_size(size_t n, const sqffd_sq_fit_options *options);
 /* Fit a superquadric to n points (x y z each). report may be NULL.

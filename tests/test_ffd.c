@@ -1,5 +1,824 @@
+/* Layers 4 and 5: the free-form deformation and the model fit. */
 #include "test.h"
+#include "../examples/sqffd_synth.h"
+#include "../examples/sqffd_phantom.h"
+#include "../examples/sqffd_io.h"
+#include <stdlib.h>
+#include <string.h>
+
+/* ---- helpers ------------------------------------------------------------- */
+
+/* A random box: rotated, unequal, and sheared unless `aligned`. */
+static void random_box(synth_rng *r, int aligned, double origin[3], double edges[9])
+{
+    double rot[9];
+    int a, c;
+    synth_rotation(r, rot);
+    for (a = 0; a < 3; a++) {
+        double len = synth_range(r, 0.5, 3.0);
+        origin[a] = synth_range(r, -5.0, 5.0);
+        for (c = 0; c < 3; c++) edges[3 * a + c] = aligned ? (a == c ? len : 0.0) : len * rot[3 * c + a];
+    }
+    if (!aligned)
+        for (c = 0; c < 3; c++) edges[6 + c] += 0.3 * edges[c]; /* shear U toward S */
+}
+
+static double binomial(int n, int k)
+{
+    double b = 1.0;
+    int i;
+    for (i = 1; i <= k; i++) b = b * (double)(n - k + i) / (double)i;
+    return b;
+}
+
+/* C(d, i) s^i (1 - s)^(d - i), straight from the definition. */
+static double bernstein(int d, int i, double s)
+{
+    return binomial(d, i) * pow(s, i) * pow(1.0 - s, d - i);
+}
+
+static double norm3(const double v[3]) { return sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]); }
+static double dot3(const double a[3], const double b[3]) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+static void sub3(const double a[3], const double b[3], double out[3])
+{
+    out[0] = a[0] - b[0]; out[1] = a[1] - b[1]; out[2] = a[2] - b[2];
+}
+static void cross3(const double a[3], const double b[3], double out[3])
+{
+    out[0] = a[1] * b[2] - a[2] * b[1]; out[1] = a[2] * b[0] - a[0] * b[2]; out[2] = a[0] * b[1] - a[1] * b[0];
+}
+static double dist3(const double a[3], const double b[3])
+{
+    double d[3];
+    sub3(a, b, d);
+    return norm3(d);
+}
+
+/* Moves every control point by a uniform random vector of up to `amount`
+   times the box's mean edge length per coordinate. */
+static void jiggle(synth_rng *r, sqffd_ffd *ffd, double amount)
+{
+    double scale = (norm3(ffd->edges) + norm3(ffd->edges + 3) + norm3(ffd->edges + 6)) / 3.0;
+    int p, c, count = ffd->dims[0] * ffd->dims[1] * ffd->dims[2];
+    for (p = 0; p < count; p++)
+        for (c = 0; c < 3; c++) ffd->control[p][c] += amount * scale * synth_range(r, -1.0, 1.0);
+}
+
+static sqffd_superquadric test_sq(void)
+{
+    sqffd_superquadric sq;
+    synth_rng r = synth_rng_seed(7);
+    memset(&sq, 0, sizeof sq);
+    sq.size[0] = 1.0; sq.size[1] = 0.8; sq.size[2] = 1.4;
+    sq.shape[0] = 0.7; sq.shape[1] = 1.0;
+    sq.taper[0] = 0.2; sq.taper[1] = -0.1;
+    synth_rotation(&r, sq.rotation);
+    sq.center[0] = 0.3; sq.center[1] = -0.2; sq.center[2] = 0.5;
+    return sq;
+}
+
+/* ||D P||^2: squared lengths of the springs between lattice neighbours. */
+static double spring_energy(const sqffd_ffd *f)
+{
+    int i, j, k, l = f->dims[0], m = f->dims[1], n = f->dims[2];
+    double e = 0.0;
+    for (i = 0; i < l; i++)
+        for (j = 0; j < m; j++)
+            for (k = 0; k < n; k++) {
+                const double *p = f->control[(i * m + j) * n + k];
+                int c;
+                for (c = 0; c < 3; c++) {
+                    if (i + 1 < l) e += pow(p[c] - f->control[((i + 1) * m + j) * n + k][c], 2);
+                    if (j + 1 < m) e += pow(p[c] - f->control[(i * m + j + 1) * n + k][c], 2);
+                    if (k + 1 < n) e += pow(p[c] - f->control[(i * m + j) * n + k + 1][c], 2);
+                }
+            }
+    return e;
+}
+
+/* Runs sqffd_fit with a malloc'd workspace. */
+static sqffd_result run_fit(const double *pts, size_t n, const sqffd_fit_options *o, sqffd_model *m, sqffd_fit_report *rep)
+{
+    size_t size = sqffd_fit_workspace_size(n, o);
+    void *ws = malloc(size ? size : 1);
+    sqffd_result r = sqffd_fit(pts, n, o, m, rep, ws, size);
+    free(ws);
+    return r;
+}
+
+static sqffd_result run_fit_ffd(const double *pts, size_t n, const sqffd_fit_options *o, sqffd_model *m,
+                                sqffd_fit_report *rep)
+{
+    size_t size = sqffd_fit_ffd_workspace_size(n, m, o);
+    void *ws = malloc(size ? size : 1);
+    sqffd_result r = sqffd_fit_ffd(pts, n, o, m, rep, ws, size);
+    free(ws);
+    return r;
+}
+
+static double reverse_rms(const sqffd_model *m, const double *pts, size_t n)
+{
+    sqffd_distance_stats s;
+    size_t size = sqffd_model_reverse_distances_workspace_size(n, m);
+    void *ws = malloc(size);
+    CHECK_RESULT(sqffd_model_reverse_distances(m, pts, n, NULL, &s, ws, size), SQFFD_OK);
+    free(ws);
+    return s.rms_relative;
+}
+
+/* Points on a known superquadric deformed by a known random lattice: the
+   model class itself. */
+static double *in_class_points(size_t n, sqffd_model *truth)
+{
+    sqffd_superquadric sq = test_sq();
+    sqffd_fit_options o = sqffd_fit_options_default();
+    synth_rng r = synth_rng_seed(11);
+    double *pts = (double *)malloc(3 * n * sizeof *pts);
+    size_t i;
+    CHECK_RESULT(sqffd_model_init(truth, &sq, &o), SQFFD_OK);
+    jiggle(&r, &truth->ffd, 0.04);
+    CHECK(synth_sq_surface(&r, &sq, n, 0.0, pts) == n);
+    for (i = 0; i < n; i++) sqffd_ffd_deform(&truth->ffd, pts + 3 * i, pts + 3 * i);
+    return pts;
+}
+
+/* ---- layer 4: the FFD ---------------------------------------------------- */
+
+static void test_ffd_local_coordinates(void)
+{
+    synth_rng r = synth_rng_seed(1);
+    int trial, dims[3] = {3, 4, 5};
+    for (trial = 0; trial < 50; trial++) {
+        double origin[3], edges[9], stu[3], p[3], got[3];
+        sqffd_ffd f;
+        int c;
+        random_box(&r, trial % 2, origin, edges);
+        CHECK_RESULT(sqffd_ffd_init(&f, dims, origin, edges), SQFFD_OK);
+        for (c = 0; c < 3; c++) stu[c] = synth_range(&r, -0.5, 1.5);
+        for (c = 0; c < 3; c++) p[c] = origin[c] + stu[0] * edges[c] + stu[1] * edges[3 + c] + stu[2] * edges[6 + c];
+        sqffd_ffd_local(&f, p, got);
+        for (c = 0; c < 3; c++) CHECK_NEAR(got[c], stu[c], 1e-12);
+    }
+}
+
+static void test_ffd_identity(void)
+{
+    synth_rng r = synth_rng_seed(2);
+    int trial;
+    for (trial = 0; trial < 40; trial++) {
+        double origin[3], edges[9];
+        int dims[3], c, i;
+        sqffd_ffd f;
+        for (c = 0; c < 3; c++) dims[c] = 2 + (int)synth_index(&r, SQFFD_MAX_LATTICE - 1);
+        random_box(&r, trial % 2, origin, edges); /* odd trials axis-aligned, even ones rotated and sheared */
+        CHECK_RESULT(sqffd_ffd_init(&f, dims, origin, edges), SQFFD_OK);
+        for (i = 0; i < 60; i++) { /* inside the box to 1e-12, around it (stu in [-0.5, 1.5]) to 1e-11 */
+            double p[3], out[3], moved, tol = i < 40 ? 1e-12 : 1e-11;
+            for (c = 0; c < 3; c++) p[c] = origin[c];
+            for (c = 0; c < 3; c++) {
+                double t = i < 40 ? synth_uniform(&r) : synth_range(&r, -0.5, 1.5);
+                p[0] += t * edges[3 * c]; p[1] += t * edges[3 * c + 1]; p[2] += t * edges[3 * c + 2];
+            }
+            sqffd_ffd_deform(&f, p, out);
+            moved = dist3(p, out);
+            CHECK_MSG(moved <= tol, "dims %dx%dx%d: point moved by %g", dims[0], dims[1], dims[2], moved);
+        }
+    }
+}
+
+static void test_ffd_bernstein_partition_of_unity(void)
+{
+    synth_rng r = synth_rng_seed(3);
+    double w[SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE];
+    int trial;
+    for (trial = 0; trial < 200; trial++) {
+        int dims[3], c, i, j, k, count;
+        double stu[3], sum = 0.0, worst = 0.0;
+        for (c = 0; c < 3; c++) dims[c] = 2 + (int)synth_index(&r, SQFFD_MAX_LATTICE - 1);
+        for (c = 0; c < 3; c++) stu[c] = trial < 100 ? synth_uniform(&r) : synth_range(&r, -0.5, 1.5);
+        sqffd_ffd_weights(dims, stu, w);
+        count = dims[0] * dims[1] * dims[2];
+        for (i = 0; i < dims[0]; i++)
+            for (j = 0; j < dims[1]; j++)
+                for (k = 0; k < dims[2]; k++) {
+                    double direct = bernstein(dims[0] - 1, i, stu[0]) * bernstein(dims[1] - 1, j, stu[1]) *
+                                    bernstein(dims[2] - 1, k, stu[2]);
+                    double got = w[(i * dims[1] + j) * dims[2] + k];
+                    if (fabs(got - direct) > worst) worst = fabs(got - direct) / (fabs(direct) > 1.0 ? fabs(direct) : 1.0);
+                    if (trial < 100) CHECK(got >= 0.0); /* inside the box every weight is >= 0 */
+                }
+        for (i = 0; i < count; i++) sum += w[i];
+        CHECK_NEAR(sum, 1.0, 1e-13);
+        CHECK_MSG(worst <= 1e-13, "weights differ from C(d,i) s^i (1-s)^(d-i) by %g", worst);
+    }
+}
+
+static void test_ffd_linear_precision(void)
+{
+    synth_rng r = synth_rng_seed(4);
+    int trial;
+    for (trial = 0; trial < 30; trial++) {
+        double origin[3], edges[9], A[9], b[3];
+        int dims[3], c, p, i, count;
+        sqffd_ffd f;
+        for (c = 0; c < 3; c++) dims[c] = 2 + (int)synth_index(&r, SQFFD_MAX_LATTICE - 1);
+        random_box(&r, 0, origin, edges);
+        CHECK_RESULT(sqffd_ffd_init(&f, dims, origin, edges), SQFFD_OK);
+        for (c = 0; c < 9; c++) A[c] = synth_range(&r, -2.0, 2.0);
+        for (c = 0; c < 3; c++) b[c] = synth_range(&r, -3.0, 3.0);
+        count = dims[0] * dims[1] * dims[2];
+        for (p = 0; p < count; p++) { /* an affine map of the lattice */
+            double q[3];
+            for (c = 0; c < 3; c++) q[c] = dot3(A + 3 * c, f.control[p]);
+            for (c = 0; c < 3; c++) f.control[p][c] = q[c] + b[c];
+        }
+        for (i = 0; i < 20; i++) { /* maps every point by the same affine map */
+            double x[3], want[3], got[3];
+            int a;
+            for (c = 0; c < 3; c++) x[c] = origin[c];
+            for (a = 0; a < 3; a++) {
+                double t = synth_range(&r, -0.5, 1.5);
+                for (c = 0; c < 3; c++) x[c] += t * edges[3 * a + c];
+            }
+            for (c = 0; c < 3; c++) want[c] = dot3(A + 3 * c, x);
+            for (c = 0; c < 3; c++) want[c] += b[c];
+            sqffd_ffd_deform(&f, x, got);
+            for (c = 0; c < 3; c++) CHECK_NEAR(got[c], want[c], 1e-11);
+        }
+    }
+}
+
+static void test_ffd_faces_and_corners(void)
+{
+    synth_rng r = synth_rng_seed(5);
+    double origin[3], edges[9];
+    int dims[3] = {4, 3, 5}, corner, trial, c, j, k;
+    sqffd_ffd f, g;
+    random_box(&r, 0, origin, edges);
+    CHECK_RESULT(sqffd_ffd_init(&f, dims, origin, edges), SQFFD_OK);
+    jiggle(&r, &f, 0.3);
+    for (corner = 0; corner < 8; corner++) { /* a corner lands exactly on its control point */
+        double stu[3], out[3], world[3];
+        int i0 = corner & 1 ? dims[0] - 1 : 0, j0 = corner & 2 ? dims[1] - 1 : 0, k0 = corner & 4 ? dims[2] - 1 : 0;
+        const double *p = f.control[(i0 * dims[1] + j0) * dims[2] + k0];
+        stu[0] = corner & 1; stu[1] = (corner >> 1) & 1; stu[2] = (corner >> 2) & 1;
+        sqffd_ffd_eval(&f, stu, out);
+        for (c = 0; c < 3; c++) CHECK(out[c] == p[c]);
+        for (c = 0; c < 3; c++) world[c] = origin[c] + stu[0] * edges[c] + stu[1] * edges[3 + c] + stu[2] * edges[6 + c];
+        sqffd_ffd_deform(&f, world, out); /* through the local coordinates: to rounding */
+        for (c = 0; c < 3; c++) CHECK_NEAR(out[c], p[c], 1e-12);
+    }
+    /* on the face s = 0 only the i = 0 control points act: the point is their
+       2-D Bernstein patch, whatever the other control points do */
+    g = f;
+    jiggle(&r, &g, 0.5);
+    for (c = 0; c < dims[1] * dims[2]; c++) memcpy(g.control[c], f.control[c], sizeof g.control[c]);
+    for (trial = 0; trial < 30; trial++) {
+        double stu[3], a[3], b[3], patch[3] = {0.0, 0.0, 0.0};
+        stu[0] = 0.0; stu[1] = synth_uniform(&r); stu[2] = synth_uniform(&r);
+        sqffd_ffd_eval(&f, stu, a);
+        sqffd_ffd_eval(&g, stu, b);
+        for (j = 0; j < dims[1]; j++)
+            for (k = 0; k < dims[2]; k++)
+                for (c = 0; c < 3; c++)
+                    patch[c] += bernstein(dims[1] - 1, j, stu[1]) * bernstein(dims[2] - 1, k, stu[2]) *
+                                f.control[j * dims[2] + k][c];
+        for (c = 0; c < 3; c++) {
+            CHECK(a[c] == b[c]);
+            CHECK_NEAR(a[c], patch[c], 1e-12);
+        }
+    }
+}
+
+static void test_ffd_bad_input(void)
+{
+    double origin[3] = {0, 0, 0}, edges[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1}, flat[9] = {1, 0, 0, 0, 1, 0, 1, 1, 0};
+    int good[3] = {3, 3, 3}, small[3] = {1, 3, 3}, big[3] = {3, SQFFD_MAX_LATTICE + 1, 3}, neg[3] = {3, 3, -2};
+    sqffd_ffd f;
+    CHECK_RESULT(sqffd_ffd_init(&f, small, origin, edges), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(sqffd_ffd_init(&f, big, origin, edges), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(sqffd_ffd_init(&f, neg, origin, edges), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(sqffd_ffd_init(NULL, good, origin, edges), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(sqffd_ffd_init(&f, good, origin, flat), SQFFD_ERROR_DEGENERATE);
+    origin[1] = NAN;
+    CHECK_RESULT(sqffd_ffd_init(&f, good, origin, edges), SQFFD_ERROR_NON_FINITE);
+    origin[1] = 0.0; edges[4] = INFINITY;
+    CHECK_RESULT(sqffd_ffd_init(&f, good, origin, edges), SQFFD_ERROR_NON_FINITE);
+}
+
+/* ---- layer 5: the model -------------------------------------------------- */
+
+/* An identity model reproduces its superquadric. */
+static void test_model_point_identity(void)
+{
+    sqffd_superquadric sq = test_sq();
+    sqffd_fit_options o = sqffd_fit_options_default();
+    sqffd_model m;
+    int i, c;
+    CHECK_RESULT(sqffd_model_init(&m, &sq, &o), SQFFD_OK);
+    for (i = 0; i < 200; i++) {
+        double eta = -1.5 + 3.0 * i / 199.0, omega = -3.1 + 0.031 * i, a[3], b[3];
+        sqffd_model_point(&m, eta, omega, a);
+        sqffd_sq_point(&sq, eta, omega, b, NULL);
+        for (c = 0; c < 3; c++) CHECK_NEAR(a[c], b[c], 1e-12);
+    }
+}
+
+static int cmp_u64(const void *a, const void *b)
+{
+    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return (x > y) - (x < y);
+}
+
+/* The mesh is closed, 2-manifold, consistently outward oriented (positive
+   volume close to the superquadric's) and has Euler characteristic 2. */
+static void test_model_mesh(void)
+{
+    sqffd_superquadric sq = test_sq();
+    sqffd_fit_options o = sqffd_fit_options_default();
+    sqffd_model m;
+    int grids[3][2] = {{2, 3}, {5, 7}, {60, 120}}, g;
+    CHECK_RESULT(sqffd_model_init(&m, &sq, &o), SQFFD_OK);
+    for (g = 0; g < 3; g++) {
+        size_t nv, nt, t, e, bad = 0;
+        double *v, volume = 0.0;
+        uint32_t *tri;
+        uint64_t *edges;
+        CHECK_RESULT(sqffd_model_mesh_size(grids[g][0], grids[g][1], &nv, &nt), SQFFD_OK);
+        CHECK(nv == (size_t)(grids[g][0] * grids[g][1] + 2));
+        CHECK(nt == (size_t)(2 * grids[g][0] * grids[g][1]));
+        v = (double *)malloc(3 * nv * sizeof *v);
+        tri = (uint32_t *)malloc(3 * nt * sizeof *tri);
+        edges = (uint64_t *)malloc(3 * nt * sizeof *edges);
+        CHECK_RESULT(sqffd_model_mesh(&m, grids[g][0], grids[g][1], v, tri), SQFFD_OK);
+        for (t = 0; t < nt; t++) {
+            const double *a = v + 3 * tri[3 * t], *b = v + 3 * tri[3 * t + 1], *c = v + 3 * tri[3 * t + 2];
+            double bc[3];
+            for (e = 0; e < 3; e++) {
+                uint32_t from = tri[3 * t + e], to = tri[3 * t + (e + 1) % 3];
+                if (from >= nv || to >= nv || from == to) bad++;
+                edges[3 * t + e] = (uint64_t)from << 32 | to;
+            }
+            cross3(b, c, bc);
+            volume += dot3(a, bc) / 6.0;
+        }
+        qsort(edges, 3 * nt, sizeof *edges, cmp_u64);
+        for (e = 0; e < 3 * nt; e++) { /* each edge once in each direction */
+            uint64_t reverse = (edges[e] << 32) | (edges[e] >> 32);
+            if (e > 0 && edges[e] == edges[e - 1]) bad++;
+            if (!bsearch(&reverse, edges, 3 * nt, sizeof *edges, cmp_u64)) bad++;
+        }
+        CHECK_MSG(bad == 0, "grid %dx%d: %zu bad edges", grids[g][0], grids[g][1], bad);
+        CHECK((long)nv - (long)(3 * nt / 2) + (long)nt == 2);
+        CHECK(volume > 0.0);
+        if (g == 2) CHECK_NEAR(volume / sqffd_sq_volume(&sq), 1.0, 0.01);
+        free(v); free(tri); free(edges);
+    }
+}
+
+/* Closest point on a triangle by brute force: the plane projection when it
+   falls inside, else the nearest of the three edges. */
+static double brute_triangle_dist(const double p[3], const double *a, const double *b, const double *c)
+{
+    const double *v[3];
+    double n[3], ab[3], ac[3], ap[3], best = HUGE_VAL, nn, h;
+    int e, k, inside = 1;
+    v[0] = a; v[1] = b; v[2] = c;
+    sub3(b, a, ab); sub3(c, a, ac); sub3(p, a, ap);
+    cross3(ab, ac, n);
+    nn = dot3(n, n);
+    if (nn > 0.0) {
+        h = dot3(ap, n) / nn;
+        for (e = 0; e < 3; e++) {
+            double edge[3], to[3], x[3];
+            sub3(v[(e + 1) % 3], v[e], edge);
+            for (k = 0; k < 3; k++) to[k] = p[k] - h * n[k] - v[e][k];
+            cross3(edge, to, x);
+            if (dot3(x, n) < 0.0) inside = 0;
+        }
+        if (inside) return fabs(h) * sqrt(nn);
+    }
+    for (e = 0; e < 3; e++) {
+        double edge[3], to[3], t, q[3], d;
+        sub3(v[(e + 1) % 3], v[e], edge);
+        sub3(p, v[e], to);
+        t = dot3(edge, edge) > 0.0 ? dot3(to, edge) / dot3(edge, edge) : 0.0;
+        t = t < 0.0 ? 0.0 : t > 1.0 ? 1.0 : t;
+        for (k = 0; k < 3; k++) q[k] = v[e][k] + t * edge[k];
+        d = dist3(p, q);
+        if (d < best) best = d;
+    }
+    return best;
+}
+
+/* The error of each point against brute force over every triangle of the
+   model's mesh (a coarse one, and points up to a fifth of its spacing off
+   it): never below it, equal for 99.5% of the points, and the statistics
+   agree with the per-point values. */
+static void test_model_distances(void)
+{
+    sqffd_superquadric sq = test_sq();
+    sqffd_fit_options o = sqffd_fit_options_default();
+    synth_rng r = synth_rng_seed(21);
+    sqffd_model m;
+    sqffd_distance_stats s;
+    enum { N = 400 };
+    double pts[3 * N], got[N], *v, sum2 = 0.0, max = 0.0;
+    uint32_t *tri;
+    size_t nv, nt, i, t, equal = 0, size;
+    void *ws;
+    o.grid[0] = 12; o.grid[1] = 24;
+    CHECK_RESULT(sqffd_model_init(&m, &sq, &o), SQFFD_OK);
+    jiggle(&r, &m.ffd, 0.05);
+    CHECK_RESULT(sqffd_model_mesh_size(12, 24, &nv, &nt), SQFFD_OK);
+    v = (double *)malloc(3 * nv * sizeof *v);
+    tri = (uint32_t *)malloc(3 * nt * sizeof *tri);
+    CHECK_RESULT(sqffd_model_mesh(&m, 12, 24, v, tri), SQFFD_OK);
+    for (i = 0; i < N; i++) { /* near the surface: around mesh points, off by up to 5% of the size */
+        double eta = synth_range(&r, -1.5, 1.5), omega = synth_range(&r, -3.14, 3.14);
+        int c;
+        sqffd_model_point(&m, eta, omega, pts + 3 * i);
+        for (c = 0; c < 3; c++) pts[3 * i + c] += synth_range(&r, -0.05, 0.05);
+    }
+    size = sqffd_model_distances_workspace_size(N, &m);
+    ws = malloc(size);
+    CHECK_RESULT(sqffd_model_distances(&m, pts, N, got, &s, ws, size), SQFFD_OK);
+    for (i = 0; i < N; i++) {
+        double best = HUGE_VAL;
+        for (t = 0; t < nt; t++) {
+            double d = brute_triangle_dist(pts + 3 * i, v + 3 * tri[3 * t], v + 3 * tri[3 * t + 1], v + 3 * tri[3 * t + 2]);
+            if (d < best) best = d;
+        }
+        CHECK_MSG(got[i] >= best - 1e-12, "point %zu: %g below the true mesh distance %g", i, got[i], best);
+        if (fabs(got[i] - best) <= 1e-12) equal++;
+        sum2 += got[i] * got[i];
+        if (got[i] > max) max = got[i];
+    }
+    CHECK_MSG(equal >= N * 995 / 1000, "only %zu of %d points at the exact mesh distance", equal, N);
+    CHECK_NEAR(s.rms, sqrt(sum2 / N), 1e-12);
+    CHECK_NEAR(s.max, max, 1e-15);
+    CHECK_NEAR(s.rms_relative * s.diagonal, s.rms, 1e-12);
+    /* mesh vertices are at distance 0 */
+    CHECK_RESULT(sqffd_model_distances(&m, v, nv, NULL, &s, ws, size), SQFFD_OK);
+    CHECK(s.max <= 1e-12);
+    free(ws); free(v); free(tri);
+}
+
+/* In-class recovery: a known superquadric deformed by a known random 5x5x5
+   lattice; the FFD stage from that superquadric finds the surface again. */
+static void test_fit_in_class_recovery(void)
+{
+    enum { N = 6000 };
+    sqffd_model truth, m;
+    sqffd_superquadric sq = test_sq();
+    sqffd_fit_options o = sqffd_fit_options_default();
+    sqffd_fit_report rep;
+    double *pts = in_class_points(N, &truth);
+    o.tolerance = 0.0;
+    CHECK_RESULT(sqffd_model_init(&m, &sq, &o), SQFFD_OK);
+    CHECK_RESULT(run_fit_ffd(pts, N, &o, &m, &rep), SQFFD_OK);
+    CHECK_MSG(rep.error.rms_relative <= 1e-3, "relative RMS error %g (superquadric alone %g)", rep.error.rms_relative,
+              rep.sq_error.rms_relative);
+    CHECK(rep.sq_error.rms_relative > 10.0 * rep.error.rms_relative);
+    CHECK(rep.iterations == 30);
+    free(pts);
+}
+
+/* The paper's Table 1 with its own springs ||D P||^2: as alpha grows the
+   error rises and the spring energy falls. */
+static void test_fit_regularisation_monotone(void)
+{
+    enum { N = 3000 };
+    const double alphas[4] = {1e-4, 1e-3, 1e-2, 1e-1};
+    sqffd_model truth, m;
+    sqffd_superquadric sq = test_sq();
+    sqffd_fit_options o = sqffd_fit_options_default();
+    sqffd_fit_report rep;
+    double *pts = in_class_points(N, &truth), error[4], energy[4];
+    int a;
+    o.regularization = SQFFD_REG_POSITION;
+    for (a = 0; a < 4; a++) {
+        o.alpha = alphas[a];
+        CHECK_RESULT(sqffd_model_init(&m, &sq, &o), SQFFD_OK);
+        CHECK_RESULT(run_fit_ffd(pts, N, &o, &m, &rep), SQFFD_OK);
+        error[a] = rep.error.rms_relative;
+        energy[a] = spring_energy(&m.ffd);
+        if (a > 0) {
+            CHECK_MSG(error[a] > error[a - 1], "alpha %g: error %g not above %g", alphas[a], error[a], error[a - 1]);
+            CHECK_MSG(energy[a] < energy[a - 1], "alpha %g: ||DP||^2 %g not below %g", alphas[a], energy[a], energy[a - 1]);
+        }
+    }
+    free(pts);
+}
+
+/* The paper's Fig. 3: on a left-ventricle-like shape of 6,000 points the
+   error per iteration does not increase (to 1%) and after 30 iterations is
+   at least 3 times below the superquadric's. */
+static void test_fit_convergence_lv(void)
+{
+    enum { N = 6000 };
+    phantom_lv ph = phantom_lv_default();
+    sqffd_fit_options o = sqffd_fit_options_default();
+    sqffd_fit_report rep;
+    sqffd_model m;
+    double *pts = (double *)malloc(3 * N * sizeof *pts);
+    int k;
+    phantom_lv_sample(&ph, 0.0, N, pts);
+    o.tolerance = 0.0;
+    CHECK_RESULT(run_fit(pts, N, &o, &m, &rep), SQFFD_OK);
+    CHECK(rep.iterations == 30 && rep.history_count == 30);
+    CHECK(rep.history[0] <= 1.01 * rep.sq_error.rms_relative);
+    for (k = 1; k < rep.history_count; k++)
+        CHECK_MSG(rep.history[k] <= 1.01 * rep.history[k - 1], "iteration %d: error %g after %g", k + 1,
+                  rep.history[k], rep.history[k - 1]);
+    CHECK_NEAR(rep.history[29], rep.error.rms_relative, 0.0);
+    CHECK_MSG(3.0 * rep.error.rms_relative <= rep.sq_error.rms_relative, "error %g, superquadric alone %g",
+              rep.error.rms_relative, rep.sq_error.rms_relative);
+    free(pts);
+}
+
+/* Real data: the Stanford bunny (1,839 points). */
+static void test_fit_bunny(void)
+{
+    double *pts = NULL;
+    size_t n = 0;
+    char err[256];
+    sqffd_fit_options o = sqffd_fit_options_default();
+    sqffd_fit_report r5, r8;
+    sqffd_model m;
+    double rev;
+    if (sqffd_io_read_file("tests/data/bunny.ply", &pts, &n, err, sizeof err) != 0) {
+        CHECK_MSG(0, "%s (run the tests from the repository root)", err);
+        return;
+    }
+    CHECK(n == 1839);
+    CHECK_RESULT(run_fit(pts, n, &o, &m, &r5), SQFFD_OK);
+    rev = reverse_rms(&m, pts, n);
+    CHECK_MSG(2.0 * r5.error.rms_relative <= r5.sq_error.rms_relative, "5x5x5: error %g, superquadric alone %g",
+              r5.error.rms_relative, r5.sq_error.rms_relative);
+    CHECK_MSG(rev < 0.05, "model -> data RMS %g of the diagonal", rev);
+    o.lattice[0] = o.lattice[1] = o.lattice[2] = 8;
+    CHECK_RESULT(run_fit(pts, n, &o, &m, &r8), SQFFD_OK);
+    CHECK_MSG(r8.error.rms_relative < r5.error.rms_relative, "8x8x8: error %g, 5x5x5 %g", r8.error.rms_relative,
+              r5.error.rms_relative);
+    CHECK(reverse_rms(&m, pts, n) < 0.05);
+    free(pts);
+}
+
+/* The SVD of the stacked system gives the Cholesky solution when alpha > 0,
+   and still works without regularisation. */
+static void test_fit_solvers_agree(void)
+{
+    enum { N = 2000 };
+    sqffd_model truth, a, b;
+    sqffd_superquadric sq = test_sq();
+    sqffd_fit_options o = sqffd_fit_options_default();
+    sqffd_fit_report ra, rb;
+    double *pts = in_class_points(N, &truth), worst = 0.0;
+    int p, c;
+    o.max_iterations = 5;
+    o.alpha = 1e-3;
+    CHECK_RESULT(sqffd_model_init(&a, &sq, &o), SQFFD_OK);
+    b = a;
+    CHECK_RESULT(run_fit_ffd(pts, N, &o, &a, &ra), SQFFD_OK);
+    o.solver = SQFFD_SOLVER_SVD;
+    CHECK_RESULT(run_fit_ffd(pts, N, &o, &b, &rb), SQFFD_OK);
+    for (p = 0; p < 125; p++)
+        for (c = 0; c < 3; c++)
+            if (fabs(a.ffd.control[p][c] - b.ffd.control[p][c]) > worst) worst = fabs(a.ffd.control[p][c] - b.ffd.control[p][c]);
+    CHECK_MSG(worst <= 1e-7, "control points differ by %g", worst);
+    CHECK_NEAR(ra.error.rms_relative, rb.error.rms_relative, 1e-9);
+    o.alpha = 0.0;
+    CHECK_RESULT(sqffd_model_init(&b, &sq, &o), SQFFD_OK);
+    CHECK_RESULT(run_fit_ffd(pts, N, &o, &b, &rb), SQFFD_OK);
+    CHECK(rb.error.rms_relative < rb.sq_error.rms_relative);
+    free(pts);
+}
+
+/* The symmetric option pulls the model toward the data where the data has
+   no opposite (the ventricle's open base): model -> data distance falls. */
+static void test_fit_symmetric(void)
+{
+    enum { N = 3000 };
+    phantom_lv ph = phantom_lv_default();
+    sqffd_fit_options o = sqffd_fit_options_default();
+    sqffd_fit_report plain, sym;
+    sqffd_model m;
+    double *pts = (double *)malloc(3 * N * sizeof *pts), rev_plain, rev_sym;
+    phantom_lv_sample(&ph, 0.0, N, pts);
+    CHECK_RESULT(run_fit(pts, N, &o, &m, &plain), SQFFD_OK);
+    rev_plain = reverse_rms(&m, pts, N);
+    o.symmetric = 1;
+    CHECK_RESULT(run_fit(pts, N, &o, &m, &sym), SQFFD_OK);
+    rev_sym = reverse_rms(&m, pts, N);
+    CHECK_MSG(rev_sym < rev_plain, "model -> data RMS %g symmetric, %g plain", rev_sym, rev_plain);
+    CHECK(sym.error.rms_relative < sym.sq_error.rms_relative);
+    free(pts);
+}
+
+/* Same input, same bits; a second fit_ffd from the result (as tracking does
+   frame after frame) starts where the first ended and stays there. */
+static void test_fit_deterministic_and_restartable(void)
+{
+    enum { N = 2000 };
+    phantom_lv ph = phantom_lv_default();
+    sqffd_fit_options o = sqffd_fit_options_default();
+    sqffd_fit_report r1, r2, r3;
+    sqffd_model m1, m2;
+    double *pts = (double *)malloc(3 * N * sizeof *pts);
+    phantom_lv_sample(&ph, 0.0, N, pts);
+    CHECK_RESULT(run_fit(pts, N, &o, &m1, &r1), SQFFD_OK);
+    CHECK_RESULT(run_fit(pts, N, &o, &m2, &r2), SQFFD_OK);
+    CHECK(memcmp(&m1, &m2, sizeof m1) == 0);
+    CHECK(memcmp(&r1, &r2, sizeof r1) == 0);
+    CHECK_RESULT(run_fit_ffd(pts, N, &o, &m2, &r3), SQFFD_OK);
+    CHECK_NEAR(r3.sq_error.rms_relative, r1.error.rms_relative, 1e-12);
+    CHECK(r3.error.rms_relative <= 1.01 * r1.error.rms_relative);
+    free(pts);
+}
+
+static int count_calls(void *user, int stage, int iteration, double error)
+{
+    int *calls = (int *)user;
+    if (stage != SQFFD_STAGE_FFD) return 0;
+    CHECK(iteration == calls[0] + 1);
+    CHECK(error > 0.0 && error < 1.0);
+    calls[0]++;
+    return calls[0] == calls[1];
+}
+
+static void test_fit_progress_and_cancel(void)
+{
+    enum { N = 1000 };
+    sqffd_model truth, m;
+    sqffd_superquadric sq = test_sq();
+    sqffd_fit_options o = sqffd_fit_options_default();
+    sqffd_fit_report rep;
+    double *pts = in_class_points(N, &truth);
+    int calls[2] = {0, -1};
+    o.progress = count_calls;
+    o.progress_user = calls;
+    o.tolerance = 0.0;
+    o.max_iterations = 7;
+    CHECK_RESULT(sqffd_model_init(&m, &sq, &o), SQFFD_OK);
+    CHECK_RESULT(run_fit_ffd(pts, N, &o, &m, &rep), SQFFD_OK);
+    CHECK(calls[0] == 7 && rep.iterations == 7 && rep.history_count == 7);
+    calls[0] = 0; calls[1] = 3;
+    CHECK_RESULT(sqffd_model_init(&m, &sq, &o), SQFFD_OK);
+    CHECK_RESULT(run_fit_ffd(pts, N, &o, &m, &rep), SQFFD_ERROR_CANCELLED);
+    CHECK(calls[0] == 3);
+    /* a loose tolerance stops early */
+    o.progress = NULL;
+    o.tolerance = 1e-2;
+    o.max_iterations = 30;
+    CHECK_RESULT(sqffd_model_init(&m, &sq, &o), SQFFD_OK);
+    CHECK_RESULT(run_fit_ffd(pts, N, &o, &m, &rep), SQFFD_OK);
+    CHECK(rep.converged && rep.iterations < 30);
+    free(pts);
+}
+
+/* Stage 1 on a subsample: the fit still works and stays close. */
+static void test_fit_subsampled_stage1(void)
+{
+    enum { N = 6000 };
+    phantom_lv ph = phantom_lv_default();
+    sqffd_fit_options o = sqffd_fit_options_default();
+    sqffd_fit_report all, some;
+    sqffd_model m;
+    double *pts = (double *)malloc(3 * N * sizeof *pts);
+    phantom_lv_sample(&ph, 0.0, N, pts);
+    CHECK_RESULT(run_fit(pts, N, &o, &m, &all), SQFFD_OK);
+    o.sq_max_points = 1000;
+    CHECK(sqffd_fit_workspace_size(N, &o) < sqffd_fit_workspace_size(N, &o) + 1);
+    CHECK_RESULT(run_fit(pts, N, &o, &m, &some), SQFFD_OK);
+    CHECK(some.error.rms_relative <= 1.5 * all.error.rms_relative);
+    free(pts);
+}
+
+static void test_fit_bad_input(void)
+{
+    enum { N = 500 };
+    phantom_lv ph = phantom_lv_default();
+    sqffd_fit_options o = sqffd_fit_options_default(), bad;
+    sqffd_fit_report rep;
+    sqffd_model m;
+    sqffd_superquadric sq = test_sq();
+    double *pts = (double *)malloc(3 * N * sizeof *pts), *flat = (double *)malloc(3 * N * sizeof *flat);
+    size_t size = sqffd_fit_workspace_size(N, &o), i;
+    void *ws = malloc(size);
+    phantom_lv_sample(&ph, 0.0, N, pts);
+    /* options */
+    bad = o; bad.lattice[1] = 1;
+    CHECK(sqffd_fit_workspace_size(N, &bad) == 0);
+    CHECK_RESULT(sqffd_fit(pts, N, &bad, &m, &rep, ws, size), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(sqffd_model_init(&m, &sq, &bad), SQFFD_ERROR_INVALID_ARGUMENT);
+    bad = o; bad.lattice[2] = SQFFD_MAX_LATTICE + 1;
+    CHECK_RESULT(sqffd_fit(pts, N, &bad, &m, &rep, ws, size), SQFFD_ERROR_INVALID_ARGUMENT);
+    bad = o; bad.alpha = -1e-3;
+    CHECK_RESULT(sqffd_fit(pts, N, &bad, &m, &rep, ws, size), SQFFD_ERROR_INVALID_ARGUMENT);
+    bad = o; bad.alpha = NAN;
+    CHECK_RESULT(sqffd_fit(pts, N, &bad, &m, &rep, ws, size), SQFFD_ERROR_INVALID_ARGUMENT);
+    bad = o; bad.grid[0] = 1;
+    CHECK_RESULT(sqffd_fit(pts, N, &bad, &m, &rep, ws, size), SQFFD_ERROR_INVALID_ARGUMENT);
+    bad = o; bad.grid[1] = 2;
+    CHECK_RESULT(sqffd_fit(pts, N, &bad, &m, &rep, ws, size), SQFFD_ERROR_INVALID_ARGUMENT);
+    bad = o; bad.grid[1] = 1 << 20;
+    CHECK_RESULT(sqffd_fit(pts, N, &bad, &m, &rep, ws, size), SQFFD_ERROR_TOO_LARGE);
+    bad = o; bad.box_margin = -0.5;
+    CHECK_RESULT(sqffd_fit(pts, N, &bad, &m, &rep, ws, size), SQFFD_ERROR_INVALID_ARGUMENT);
+    bad = o; bad.tolerance = NAN;
+    CHECK_RESULT(sqffd_fit(pts, N, &bad, &m, &rep, ws, size), SQFFD_ERROR_INVALID_ARGUMENT);
+    bad = o; bad.max_iterations = -1;
+    CHECK_RESULT(sqffd_fit(pts, N, &bad, &m, &rep, ws, size), SQFFD_ERROR_INVALID_ARGUMENT);
+    bad = o; bad.solver = (sqffd_solver)7;
+    CHECK_RESULT(sqffd_fit(pts, N, &bad, &m, &rep, ws, size), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(sqffd_fit(NULL, N, &o, &m, &rep, ws, size), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(sqffd_fit(pts, N, &o, &m, &rep, NULL, size), SQFFD_ERROR_INVALID_ARGUMENT);
+    /* meshes too coarse or too big */
+    CHECK_RESULT(sqffd_model_mesh_size(1, 10, NULL, NULL), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(sqffd_model_mesh_size(10, 2, NULL, NULL), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(sqffd_model_mesh_size(70000, 70000, NULL, NULL), SQFFD_ERROR_TOO_LARGE);
+    /* data */
+    CHECK_RESULT(sqffd_fit(pts, 3, &o, &m, &rep, ws, size), SQFFD_ERROR_TOO_FEW_POINTS);
+    pts[3 * 17 + 1] = NAN;
+    CHECK_RESULT(sqffd_fit(pts, N, &o, &m, &rep, ws, size), SQFFD_ERROR_NON_FINITE);
+    pts[3 * 17 + 1] = INFINITY;
+    CHECK_RESULT(sqffd_fit(pts, N, &o, &m, &rep, ws, size), SQFFD_ERROR_NON_FINITE);
+    CHECK_RESULT(sqffd_model_init(&m, &sq, &o), SQFFD_OK);
+    CHECK_RESULT(sqffd_model_distances(&m, pts, N, NULL, NULL, ws, size), SQFFD_ERROR_NON_FINITE);
+    pts[3 * 17 + 1] = 0.0;
+    for (i = 0; i < N; i++) { /* coplanar: the superquadric fit rejects it */
+        flat[3 * i] = pts[3 * i]; flat[3 * i + 1] = pts[3 * i + 1]; flat[3 * i + 2] = 2.0;
+    }
+    CHECK_RESULT(sqffd_fit(flat, N, &o, &m, &rep, ws, size), SQFFD_ERROR_DEGENERATE);
+    for (i = 0; i < 3 * N; i++) flat[i] = 1.5; /* all identical */
+    CHECK_RESULT(sqffd_fit(flat, N, &o, &m, &rep, ws, size), SQFFD_ERROR_DEGENERATE);
+    CHECK_RESULT(sqffd_model_init(&m, &sq, &o), SQFFD_OK);
+    CHECK_RESULT(sqffd_fit_ffd(flat, N, &o, &m, &rep, ws, size), SQFFD_ERROR_DEGENERATE);
+    m.grid[0] = 0;
+    CHECK_RESULT(sqffd_fit_ffd(pts, N, &o, &m, &rep, ws, size), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK(sqffd_model_distances_workspace_size(N, &m) == 0);
+    free(pts); free(flat); free(ws);
+}
+
+/* The workspace: exactly the reported size works from any alignment and
+   nothing past it is touched; a little less is refused. */
+static void test_fit_workspace_canary(void)
+{
+    enum { N = 800, GUARD = 64 };
+    phantom_lv ph = phantom_lv_default();
+    sqffd_fit_options o = sqffd_fit_options_default();
+    sqffd_fit_report rep;
+    sqffd_model m;
+    double *pts = (double *)malloc(3 * N * sizeof *pts);
+    size_t size, i, k;
+    unsigned char *block;
+    phantom_lv_sample(&ph, 0.0, N, pts);
+    o.max_iterations = 3;
+    for (k = 0; k < 2; k++) {
+        o.symmetric = (int)k;
+        o.solver = k ? SQFFD_SOLVER_SVD : SQFFD_SOLVER_CHOLESKY;
+        size = sqffd_fit_workspace_size(N, &o);
+        CHECK(size > 0);
+        block = (unsigned char *)malloc(size + GUARD + 1);
+        memset(block, 0xA5, size + GUARD + 1);
+        CHECK_RESULT(sqffd_fit(pts, N, &o, &m, &rep, block + 1, size), SQFFD_OK); /* misaligned on purpose */
+        for (i = 0; i < GUARD; i++) CHECK(block[1 + size + i] == 0xA5);
+        CHECK(block[0] == 0xA5);
+        CHECK_RESULT(sqffd_fit(pts, N, &o, &m, &rep, block, size - 17), SQFFD_ERROR_WORKSPACE_TOO_SMALL);
+        CHECK_RESULT(sqffd_fit(pts, N, &o, &m, &rep, block, 0), SQFFD_ERROR_WORKSPACE_TOO_SMALL);
+        free(block);
+    }
+    size = sqffd_model_distances_workspace_size(N, &m);
+    block = (unsigned char *)malloc(size + GUARD);
+    memset(block, 0xA5, size + GUARD);
+    CHECK_RESULT(sqffd_model_distances(&m, pts, N, NULL, NULL, block, size), SQFFD_OK);
+    for (i = 0; i < GUARD; i++) CHECK(block[size + i] == 0xA5);
+    CHECK_RESULT(sqffd_model_distances(&m, pts, N, NULL, NULL, block, size / 2), SQFFD_ERROR_WORKSPACE_TOO_SMALL);
+    free(block);
+    free(pts);
+}
 
 void suite_ffd(void)
 {
+    RUN_TEST(test_ffd_local_coordinates);
+    RUN_TEST(test_ffd_identity);
+    RUN_TEST(test_ffd_bernstein_partition_of_unity);
+    RUN_TEST(test_ffd_linear_precision);
+    RUN_TEST(test_ffd_faces_and_corners);
+    RUN_TEST(test_ffd_bad_input);
+    RUN_TEST(test_model_point_identity);
+    RUN_TEST(test_model_mesh);
+    RUN_TEST(test_model_distances);
+    RUN_TEST(test_fit_in_class_recovery);
+    RUN_TEST(test_fit_regularisation_monotone);
+    RUN_TEST(test_fit_convergence_lv);
+    RUN_TEST(test_fit_bunny);
+    RUN_TEST(test_fit_solvers_agree);
+    RUN_TEST(test_fit_symmetric);
+    RUN_TEST(test_fit_deterministic_and_restartable);
+    RUN_TEST(test_fit_progress_and_cancel);
+    RUN_TEST(test_fit_subsampled_stage1);
+    RUN_TEST(test_fit_bad_input);
+    RUN_TEST(test_fit_workspace_canary);
 }

@@ -1,0 +1,978 @@
+/* sqffd_io.h - point-cloud and mesh files for the sqffd tools (not part of the library).
+
+   Header-only, every function `static inline`; plain C99 plus the C library
+   (stdio, stdlib). Independent of sqffd.h.
+
+   Reading: XYZ, PLY (ascii, binary_little_endian, binary_big_endian), OFF
+   and the vertices of Wavefront OBJ.
+   Every reader takes a memory buffer and its size, checks every count and
+   offset against that size before using or allocating anything, and returns
+     0  with *points = malloc'd x y z triples (free() them) and *count, or
+     1  with *points = NULL, *count = 0 and a message "NAME: what is wrong"
+        in err (NAME is the file name the caller passed, for messages only).
+   A file that holds no points is an error; so are NaN and infinite
+   coordinates. Element indices in messages count from 0 (like PLY face
+   indices), line numbers from 1.
+
+   Writing: PLY (binary little endian, or ascii) of a point set or a triangle
+   mesh, float x y z plus any number of per-vertex float scalars, faces as
+   `property list uchar int vertex_indices` - what MeshLab, ParaView and
+   CloudCompare read. */
+#ifndef SQFFD_IO_H
+#define SQFFD_IO_H
+
+#include <errno.h>
+#include <float.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* sqffd_io_read_file refuses larger files. */
+#define SQFFD_IO_MAX_FILE_SIZE ((size_t)1 << 31)
+
+typedef enum sqffd_io_format {
+    SQFFD_IO_XYZ = 0,
+    SQFFD_IO_PLY = 1,
+    SQFFD_IO_OFF = 2,
+    SQFFD_IO_OBJ = 3
+} sqffd_io_format;
+
+/* One per-vertex scalar for the writer: `name` becomes a float property. */
+typedef struct sqffd_io_scalar {
+    const char *name;
+    const double *values; /* one per vertex */
+} sqffd_io_scalar;
+
+/* ---- messages ------------------------------------------------------------ */
+
+#if defined(__GNUC__)
+static inline int sqffd_io__fail(char *err, size_t err_size, const char *name, const char *fmt, ...)
+    __attribute__((format(printf, 4, 5)));
+#endif
+/* Writes "NAME: message" into err; returns 1 so readers can `return sqffd_io__fail(...)`. */
+static inline int sqffd_io__fail(char *err, size_t err_size, const char *name, const char *fmt, ...)
+{
+    va_list ap;
+    size_t used;
+    if (!err || err_size == 0) return 1;
+    snprintf(err, err_size, "%s: ", name ? name : "input");
+    used = strlen(err);
+    va_start(ap, fmt);
+    vsnprintf(err + used, err_size - used, fmt, ap);
+    va_end(ap);
+    return 1;
+}
+
+/* A token quoted for a message: at most 24 characters, unprintable bytes as '?'. */
+static inline const char *sqffd_io__quote(const char *text, size_t len, char out[32])
+{
+    size_t i, n = len > 24 ? 24 : len;
+    out[0] = '\'';
+    for (i = 0; i < n; i++) {
+        unsigned char c = (unsigned char)text[i];
+        out[i + 1] = (char)(c >= 32 && c < 127 ? c : '?');
+    }
+    if (len > n) { out[n + 1] = '.'; out[n + 2] = '.'; out[n + 3] = '.'; n += 3; }
+    out[n + 1] = '\'';
+    out[n + 2] = '\0';
+    return out;
+}
+
+/* ---- numbers and tokens -------------------------------------------------- */
+
+enum { SQFFD_IO__NUMBER = 0, SQFFD_IO__NOT_NUMBER = 1, SQFFD_IO__NOT_FINITE = 2 };
+
+/* Parses exactly [text, text + len) as a double (strtod on a bounded copy:
+   the buffer is not NUL-terminated). NaN, infinities and overflow are
+   SQFFD_IO__NOT_FINITE. */
+static inline int sqffd_io__parse_double(const char *text, size_t len, double *out)
+{
+    char buf[128];
+    char *stop;
+    double v;
+    if (len == 0 || len >= sizeof buf) return SQFFD_IO__NOT_NUMBER;
+    memcpy(buf, text, len);
+    buf[len] = '\0';
+    v = strtod(buf, &stop);
+    if (stop != buf + len) return SQFFD_IO__NOT_NUMBER;
+    if (!isfinite(v)) return SQFFD_IO__NOT_FINITE;
+    *out = v;
+    return SQFFD_IO__NUMBER;
+}
+
+/* Parses exactly [text, text + len) as an unsigned decimal integer; 0 on success. */
+static inline int sqffd_io__parse_count(const char *text, size_t len, uint64_t *out)
+{
+    uint64_t v = 0;
+    size_t i;
+    if (len == 0) return 1;
+    for (i = 0; i < len; i++) {
+        unsigned digit = (unsigned)((unsigned char)text[i] - '0');
+        if (digit > 9) return 1;
+        if (v > (UINT64_MAX - digit) / 10) return 1;
+        v = v * 10 + digit;
+    }
+    *out = v;
+    return 0;
+}
+
+static inline int sqffd_io__is_space(char c)
+{
+    return c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == '\v' || c == '\f';
+}
+
+/* A cursor over text, for the line-oriented formats (XYZ, OFF, PLY header)
+   and the whitespace-separated token stream of an ascii PLY body. */
+typedef struct sqffd_io__text {
+    const char *p, *end;
+    unsigned long long line; /* line of p, from 1 */
+} sqffd_io__text;
+
+/* The next content line: skips blank lines and '#' comments; the line is
+   [*start, *stop) with any trailing comment cut off. 0 at the end of the text. */
+static inline int sqffd_io__next_line(sqffd_io__text *t, const char **start, const char **stop)
+{
+    while (t->p < t->end) {
+        const char *s = t->p, *e, *hash;
+        const char *nl = (const char *)memchr(s, '\n', (size_t)(t->end - s));
+        e = nl ? nl : t->end;
+        t->p = nl ? nl + 1 : t->end;
+        hash = (const char *)memchr(s, '#', (size_t)(e - s));
+        if (hash) e = hash;
+        while (s < e && sqffd_io__is_space(*s)) s++;
+        t->line++;
+        if (s < e) {
+            *start = s;
+            *stop = e;
+            return 1;
+        }
+    }
+    return 0;
+}
+
+/* The next token of a line [*p, stop); separators are blanks and commas. */
+static inline int sqffd_io__line_token(const char **p, const char *stop, const char **tok, size_t *len)
+{
+    const char *s = *p, *e;
+    while (s < stop && (sqffd_io__is_space(*s) || *s == ',')) s++;
+    if (s == stop) { *p = s; return 0; }
+    e = s;
+    while (e < stop && !sqffd_io__is_space(*e) && *e != ',') e++;
+    *tok = s;
+    *len = (size_t)(e - s);
+    *p = e;
+    return 1;
+}
+
+/* The next whitespace-separated token anywhere (ascii PLY body), counting lines. */
+static inline int sqffd_io__token(sqffd_io__text *t, const char **tok, size_t *len)
+{
+    const char *s = t->p;
+    while (s < t->end && sqffd_io__is_space(*s)) {
+        if (*s == '\n') t->line++;
+        s++;
+    }
+    t->p = s;
+    if (s == t->end) return 0;
+    while (t->p < t->end && !sqffd_io__is_space(*t->p)) t->p++;
+    *tok = s;
+    *len = (size_t)(t->p - s);
+    return 1;
+}
+
+/* The x y z of one point from the first three tokens of [s, e); extra
+   tokens are ignored. `what` names the point for messages ("line 7",
+   "vertex 3 (line 9)"). */
+static inline int sqffd_io__line_xyz(const char *s, const char *e, double xyz[3], const char *name,
+                                     const char *what, char *err, size_t err_size)
+{
+    int k;
+    for (k = 0; k < 3; k++) {
+        const char *tok;
+        size_t len;
+        char q[32];
+        int r;
+        if (!sqffd_io__line_token(&s, e, &tok, &len))
+            return sqffd_io__fail(err, err_size, name, "%s: expected 3 numbers (x y z), found %d", what, k);
+        r = sqffd_io__parse_double(tok, len, &xyz[k]);
+        if (r == SQFFD_IO__NOT_FINITE)
+            return sqffd_io__fail(err, err_size, name, "%s: %s is not a finite number", what,
+                                  sqffd_io__quote(tok, len, q));
+        if (r != SQFFD_IO__NUMBER)
+            return sqffd_io__fail(err, err_size, name, "%s: expected a number, found %s", what,
+                                  sqffd_io__quote(tok, len, q));
+    }
+    return 0;
+}
+
+/* ---- the output array ---------------------------------------------------- */
+
+typedef struct sqffd_io__points {
+    double *xyz;
+    size_t count, capacity;
+} sqffd_io__points;
+
+/* Room for `capacity` points; 0 on success. */
+static inline int sqffd_io__reserve(sqffd_io__points *pts, size_t capacity)
+{
+    double *grown;
+    if (capacity <= pts->capacity) return 0;
+    if (capacity > (size_t)-1 / (3 * sizeof(double))) return 1;
+    grown = (double *)realloc(pts->xyz, capacity * 3 * sizeof(double));
+    if (!grown) return 1;
+    pts->xyz = grown;
+    pts->capacity = capacity;
+    return 0;
+}
+
+/* Hands the points to the caller, or frees them and reports an empty file. */
+static inline int sqffd_io__finish(sqffd_io__points *pts, double **points, size_t *count, const char *name,
+                                   char *err, size_t err_size)
+{
+    if (pts->count == 0) {
+        free(pts->xyz);
+        return sqffd_io__fail(err, err_size, name, "holds no points");
+    }
+    *points = pts->xyz;
+    *count = pts->count;
+    return 0;
+}
+
+/* ---- XYZ ----------------------------------------------------------------- */
+
+/* XYZ: one point per line, x y z first (blanks or commas between), extra
+   columns ignored, blank lines and '#' comments skipped. */
+static inline int sqffd_io_read_xyz(const void *data, size_t size, const char *name, double **points,
+                                    size_t *count, char *err, size_t err_size)
+{
+    sqffd_io__text t;
+    sqffd_io__points pts = {NULL, 0, 0};
+    const char *s, *e;
+    *points = NULL;
+    *count = 0;
+    t.p = (const char *)data;
+    t.end = t.p + size;
+    t.line = 0;
+    while (sqffd_io__next_line(&t, &s, &e)) {
+        char what[48];
+        if (pts.count == pts.capacity &&
+            sqffd_io__reserve(&pts, pts.capacity ? 2 * pts.capacity : 1024)) {
+            free(pts.xyz);
+            return sqffd_io__fail(err, err_size, name, "out of memory at line %llu", t.line);
+        }
+        snprintf(what, sizeof what, "line %llu", t.line);
+        if (sqffd_io__line_xyz(s, e, pts.xyz + 3 * pts.count, name, what, err, err_size)) {
+            free(pts.xyz);
+            return 1;
+        }
+        pts.count++;
+    }
+    return sqffd_io__finish(&pts, points, count, name, err, err_size);
+}
+
+/* ---- OFF ----------------------------------------------------------------- */
+
+/* "OFF" with the optional prefixes ST (texture), C (colour), N (normal);
+   4OFF and nOFF (other dimensions) are recognised so they can be refused. */
+static inline int sqffd_io__off_keyword(const char *tok, size_t len, int *other_dimension)
+{
+    size_t i = 0;
+    if (len >= 2 && tok[0] == 'S' && tok[1] == 'T') i = 2;
+    if (i < len && tok[i] == 'C') i++;
+    if (i < len && tok[i] == 'N') i++;
+    *other_dimension = i < len && (tok[i] == '4' || tok[i] == 'n');
+    if (*other_dimension) i++;
+    return len - i == 3 && memcmp(tok + i, "OFF", 3) == 0;
+}
+
+/* OFF: keyword, counts line "vertices faces [edges]" (may follow the keyword
+   on its line), then one vertex per line (first three numbers; colours and
+   normals after them ignored); faces are not read. */
+static inline int sqffd_io_read_off(const void *data, size_t size, const char *name, double **points,
+                                    size_t *count, char *err, size_t err_size)
+{
+    sqffd_io__text t;
+    sqffd_io__points pts = {NULL, 0, 0};
+    const char *s, *e, *tok;
+    size_t len, remaining;
+    uint64_t counts[2], i;
+    int other_dimension, k;
+    char q[32];
+    *points = NULL;
+    *count = 0;
+    t.p = (const char *)data;
+    t.end = t.p + size;
+    t.line = 0;
+    if (!sqffd_io__next_line(&t, &s, &e) || !sqffd_io__line_token(&s, e, &tok, &len) ||
+        !sqffd_io__off_keyword(tok, len, &other_dimension))
+        return sqffd_io__fail(err, err_size, name, "not an OFF file: the first word is not OFF");
+    if (other_dimension)
+        return sqffd_io__fail(err, err_size, name, "%s: only 3-D OFF files are supported",
+                              sqffd_io__quote(tok, len, q));
+    if (!sqffd_io__line_token(&s, e, &tok, &len)) { /* counts on their own line */
+        if (!sqffd_io__next_line(&t, &s, &e))
+            return sqffd_io__fail(err, err_size, name, "file ends before the counts line");
+        if (!sqffd_io__line_token(&s, e, &tok, &len))
+            return sqffd_io__fail(err, err_size, name, "line %llu: expected the vertex count", t.line);
+    }
+    for (k = 0; k < 2; k++) {
+        if (k == 1 && !sqffd_io__line_token(&s, e, &tok, &len))
+            return sqffd_io__fail(err, err_size, name, "line %llu: expected vertex and face counts", t.line);
+        if (sqffd_io__parse_count(tok, len, &counts[k]))
+            return sqffd_io__fail(err, err_size, name, "line %llu: %s is not a valid %s count", t.line,
+                                  sqffd_io__quote(tok, len, q), k == 0 ? "vertex" : "face");
+    }
+    /* each vertex line holds at least "x y z" and a line break */
+    remaining = (size_t)(t.end - t.p);
+    if (counts[0] > (uint64_t)(remaining + 1) / 6)
+        return sqffd_io__fail(err, err_size, name, "header says %llu vertices, file holds %llu bytes of data",
+                              (unsigned long long)counts[0], (unsigned long long)remaining);
+    if (sqffd_io__reserve(&pts, (size_t)counts[0]))
+        return sqffd_io__fail(err, err_size, name, "out of memory for %llu vertices", (unsigned long long)counts[0]);
+    for (i = 0; i < counts[0]; i++) {
+        char what[64];
+        if (!sqffd_io__next_line(&t, &s, &e)) {
+            free(pts.xyz);
+            return sqffd_io__fail(err, err_size, name, "file ends after %llu of %llu vertices",
+                                  (unsigned long long)i, (unsigned long long)counts[0]);
+        }
+        snprintf(what, sizeof what, "vertex %llu (line %llu)", (unsigned long long)i, t.line);
+        if (sqffd_io__line_xyz(s, e, pts.xyz + 3 * i, name, what, err, err_size)) {
+            free(pts.xyz);
+            return 1;
+        }
+        pts.count++;
+    }
+    return sqffd_io__finish(&pts, points, count, name, err, err_size);
+}
+
+/* ---- OBJ ----------------------------------------------------------------- */
+
+/* The first word of an OBJ statement that may start a file. */
+static inline int sqffd_io__obj_keyword(const char *tok, size_t len)
+{
+    static const char *const words[] = {"v", "vn", "vt", "vp", "f", "l", "o", "g", "s", "mtllib", "usemtl"};
+    size_t i;
+    for (i = 0; i < sizeof words / sizeof words[0]; i++)
+        if (strlen(words[i]) == len && memcmp(words[i], tok, len) == 0) return 1;
+    return 0;
+}
+
+/* Wavefront OBJ: the "v x y z [w | r g b]" lines; every other statement
+   (faces, normals, texture coordinates, groups, materials) is skipped. */
+static inline int sqffd_io_read_obj(const void *data, size_t size, const char *name, double **points,
+                                    size_t *count, char *err, size_t err_size)
+{
+    sqffd_io__text t;
+    sqffd_io__points pts = {NULL, 0, 0};
+    const char *s, *e, *tok;
+    size_t len;
+    *points = NULL;
+    *count = 0;
+    t.p = (const char *)data;
+    t.end = t.p + size;
+    t.line = 0;
+    while (sqffd_io__next_line(&t, &s, &e)) {
+        char what[48];
+        if (!sqffd_io__line_token(&s, e, &tok, &len) || len != 1 || tok[0] != 'v') continue;
+        if (pts.count == pts.capacity &&
+            sqffd_io__reserve(&pts, pts.capacity ? 2 * pts.capacity : 1024)) {
+            free(pts.xyz);
+            return sqffd_io__fail(err, err_size, name, "out of memory at line %llu", t.line);
+        }
+        snprintf(what, sizeof what, "line %llu", t.line);
+        if (sqffd_io__line_xyz(s, e, pts.xyz + 3 * pts.count, name, what, err, err_size)) {
+            free(pts.xyz);
+            return 1;
+        }
+        pts.count++;
+    }
+    return sqffd_io__finish(&pts, points, count, name, err, err_size);
+}
+
+/* ---- PLY ----------------------------------------------------------------- */
+
+/* value as a float; beyond the float range it becomes an infinity (a plain
+   cast would be undefined behaviour). */
+static inline float sqffd_io__to_float(double value)
+{
+    if (value > FLT_MAX) return (float)HUGE_VAL;
+    if (value < -FLT_MAX) return (float)-HUGE_VAL;
+    return (float)value;
+}
+
+enum { SQFFD_IO__I8, SQFFD_IO__U8, SQFFD_IO__I16, SQFFD_IO__U16, SQFFD_IO__I32, SQFFD_IO__U32,
+       SQFFD_IO__F32, SQFFD_IO__F64 };
+enum { SQFFD_IO__PLY_ASCII, SQFFD_IO__PLY_LE, SQFFD_IO__PLY_BE };
+#define SQFFD_IO__PLY_MAX_ELEMENTS 64
+#define SQFFD_IO__PLY_MAX_PROPERTIES 1024
+
+static inline size_t sqffd_io__type_size(int type)
+{
+    static const unsigned char sizes[] = {1, 1, 2, 2, 4, 4, 4, 8};
+    return sizes[type];
+}
+
+/* A PLY scalar type name (both the classic names and the sized aliases); -1 if unknown. */
+static inline int sqffd_io__ply_type(const char *tok, size_t len)
+{
+    static const char *const names[] = {"char", "int8", "uchar", "uint8", "short", "int16", "ushort", "uint16",
+                                        "int", "int32", "uint", "uint32", "float", "float32", "double", "float64"};
+    int i;
+    for (i = 0; i < 16; i++)
+        if (strlen(names[i]) == len && memcmp(names[i], tok, len) == 0) return i / 2;
+    return -1;
+}
+
+typedef struct sqffd_io__ply_property {
+    int type;       /* the scalar type, or the item type of a list */
+    int count_type; /* the list's count type; -1 for a scalar */
+    int role;       /* 0 skipped, 1..3: x, y, z of the vertex element */
+} sqffd_io__ply_property;
+
+typedef struct sqffd_io__ply_element {
+    char name[32];
+    uint64_t count;
+    int first, properties; /* its properties in the header's property array */
+} sqffd_io__ply_element;
+
+typedef struct sqffd_io__ply {
+    int format;
+    int elements, properties, vertex; /* vertex: index of the vertex element, -1 if none */
+    sqffd_io__ply_element element[SQFFD_IO__PLY_MAX_ELEMENTS];
+    sqffd_io__ply_property property[SQFFD_IO__PLY_MAX_PROPERTIES];
+    size_t data_offset; /* first byte after end_header */
+} sqffd_io__ply;
+
+/* Reads the header lines up to end_header into h; 0 on success. */
+static inline int sqffd_io__ply_header(const char *text, size_t size, sqffd_io__ply *h, const char *name,
+                                       char *err, size_t err_size)
+{
+    const char *p = text, *end = text + size;
+    unsigned long long line = 0;
+    int have_format = 0;
+    char q[32];
+    h->elements = h->properties = 0;
+    h->vertex = -1;
+    for (;;) {
+        const char *nl, *e, *s, *tok[6];
+        size_t len[6];
+        int n = 0;
+        if (p == end)
+            return sqffd_io__fail(err, err_size, name, "file ends inside the header (no end_header line)");
+        nl = (const char *)memchr(p, '\n', (size_t)(end - p));
+        e = nl ? nl : end;
+        s = p;
+        p = nl ? nl + 1 : end;
+        line++;
+        if (e > s && e[-1] == '\r') e--;
+        if (line == 1) {
+            if (e - s != 3 || memcmp(s, "ply", 3) != 0)
+                return sqffd_io__fail(err, err_size, name, "not a PLY file: the first line is not 'ply'");
+            continue;
+        }
+        if (!sqffd_io__line_token(&s, e, &tok[0], &len[0])) continue; /* blank line */
+        if ((len[0] == 7 && memcmp(tok[0], "comment", 7) == 0) || (len[0] == 8 && memcmp(tok[0], "obj_info", 8) == 0))
+            continue;
+        for (n = 1; n < 6 && sqffd_io__line_token(&s, e, &tok[n], &len[n]); n++) {}
+        if (len[0] == 10 && memcmp(tok[0], "end_header", 10) == 0) {
+            if (!have_format)
+                return sqffd_io__fail(err, err_size, name, "header has no format line");
+            h->data_offset = (size_t)(p - text);
+            return 0;
+        } else if (len[0] == 6 && memcmp(tok[0], "format", 6) == 0) {
+            if (n != 3)
+                return sqffd_io__fail(err, err_size, name, "header line %llu: expected 'format TYPE 1.0'", line);
+            if (len[1] == 5 && memcmp(tok[1], "ascii", 5) == 0) h->format = SQFFD_IO__PLY_ASCII;
+            else if (len[1] == 20 && memcmp(tok[1], "binary_little_endian", 20) == 0) h->format = SQFFD_IO__PLY_LE;
+            else if (len[1] == 17 && memcmp(tok[1], "binary_big_endian", 17) == 0) h->format = SQFFD_IO__PLY_BE;
+            else
+                return sqffd_io__fail(err, err_size, name, "header line %llu: unknown format %s", line,
+                                      sqffd_io__quote(tok[1], len[1], q));
+            have_format = 1;
+        } else if (len[0] == 7 && memcmp(tok[0], "element", 7) == 0) {
+            sqffd_io__ply_element *el = &h->element[h->elements];
+            if (n != 3)
+                return sqffd_io__fail(err, err_size, name, "header line %llu: expected 'element NAME COUNT'", line);
+            if (h->elements == SQFFD_IO__PLY_MAX_ELEMENTS)
+                return sqffd_io__fail(err, err_size, name, "header line %llu: more than %d elements", line,
+                                      SQFFD_IO__PLY_MAX_ELEMENTS);
+            if (sqffd_io__parse_count(tok[2], len[2], &el->count))
+                return sqffd_io__fail(err, err_size, name, "header line %llu: element count %s is not a number below 2^64",
+                                      line, sqffd_io__quote(tok[2], len[2], q));
+            snprintf(el->name, sizeof el->name, "%.*s", (int)(len[1] < 31 ? len[1] : 31), tok[1]);
+            el->first = h->properties;
+            el->properties = 0;
+            if (len[1] == 6 && memcmp(tok[1], "vertex", 6) == 0) {
+                if (h->vertex >= 0)
+                    return sqffd_io__fail(err, err_size, name, "header line %llu: a second vertex element", line);
+                h->vertex = h->elements;
+            }
+            h->elements++;
+        } else if (len[0] == 8 && memcmp(tok[0], "property", 8) == 0) {
+            sqffd_io__ply_property *pr = &h->property[h->properties];
+            int is_list = n >= 2 && len[1] == 4 && memcmp(tok[1], "list", 4) == 0;
+            int type_tok = is_list ? 3 : 1;
+            const char *pname;
+            size_t plen;
+            if (h->elements == 0)
+                return sqffd_io__fail(err, err_size, name, "header line %llu: property before any element", line);
+            if (n != (is_list ? 5 : 3))
+                return sqffd_io__fail(err, err_size, name, "header line %llu: expected 'property TYPE NAME' or "
+                                      "'property list COUNT_TYPE TYPE NAME'", line);
+            if (h->properties == SQFFD_IO__PLY_MAX_PROPERTIES)
+                return sqffd_io__fail(err, err_size, name, "header line %llu: more than %d properties", line,
+                                      SQFFD_IO__PLY_MAX_PROPERTIES);
+            pr->type = sqffd_io__ply_type(tok[type_tok], len[type_tok]);
+            if (pr->type < 0)
+                return sqffd_io__fail(err, err_size, name, "header line %llu: unknown property type %s", line,
+                                      sqffd_io__quote(tok[type_tok], len[type_tok], q));
+            pr->count_type = -1;
+            if (is_list) {
+                pr->count_type = sqffd_io__ply_type(tok[2], len[2]);
+                if (pr->count_type < 0 || pr->count_type >= SQFFD_IO__F32)
+                    return sqffd_io__fail(err, err_size, name, "header line %llu: list count type %s is not an integer type",
+                                          line, sqffd_io__quote(tok[2], len[2], q));
+            }
+            pname = tok[n - 1];
+            plen = len[n - 1];
+            pr->role = 0;
+            if (h->vertex == h->elements - 1 && plen == 1 && pname[0] >= 'x' && pname[0] <= 'z') {
+                int i, role = pname[0] - 'x' + 1;
+                sqffd_io__ply_element *el = &h->element[h->elements - 1];
+                for (i = el->first; i < h->properties; i++)
+                    if (h->property[i].role == role)
+                        return sqffd_io__fail(err, err_size, name, "header line %llu: a second vertex property '%c'",
+                                              line, pname[0]);
+                if (is_list)
+                    return sqffd_io__fail(err, err_size, name, "header line %llu: vertex property '%c' is a list",
+                                          line, pname[0]);
+                pr->role = role;
+            }
+            h->element[h->elements - 1].properties++;
+            h->properties++;
+        } else {
+            return sqffd_io__fail(err, err_size, name, "header line %llu: unknown keyword %s", line,
+                                  sqffd_io__quote(tok[0], len[0], q));
+        }
+    }
+}
+
+/* A binary scalar at p as a double (exact for every PLY type). */
+static inline double sqffd_io__ply_load(const unsigned char *p, int type, int big_endian)
+{
+    size_t size = sqffd_io__type_size(type), i;
+    uint64_t u = 0;
+    for (i = 0; i < size; i++) u |= (uint64_t)p[big_endian ? size - 1 - i : i] << (8 * i);
+    switch (type) {
+    case SQFFD_IO__I8: return (double)u - (u >= 0x80u ? 256.0 : 0.0);
+    case SQFFD_IO__I16: return (double)u - (u >= 0x8000u ? 65536.0 : 0.0);
+    case SQFFD_IO__I32: return (double)u - (u >= 0x80000000u ? 4294967296.0 : 0.0);
+    case SQFFD_IO__F32: {
+        uint32_t bits = (uint32_t)u;
+        float f;
+        memcpy(&f, &bits, sizeof f);
+        return (double)f;
+    }
+    case SQFFD_IO__F64: {
+        double d;
+        memcpy(&d, &u, sizeof d);
+        return d;
+    }
+    default: return (double)u; /* unsigned types */
+    }
+}
+
+/* The least number of bytes (binary) or tokens (ascii) one instance of an element takes. */
+static inline uint64_t sqffd_io__ply_min_record(const sqffd_io__ply *h, const sqffd_io__ply_element *el)
+{
+    uint64_t bytes = 0;
+    int i;
+    if (h->format == SQFFD_IO__PLY_ASCII) return (uint64_t)el->properties;
+    for (i = el->first; i < el->first + el->properties; i++) {
+        const sqffd_io__ply_property *pr = &h->property[i];
+        bytes += sqffd_io__type_size(pr->count_type >= 0 ? pr->count_type : pr->type);
+    }
+    return bytes;
+}
+
+/* Reads (vertex element) or skips every element of a PLY body. */
+static inline int sqffd_io__ply_body(const char *text, size_t size, const sqffd_io__ply *h, sqffd_io__points *pts,
+                                     const char *name, char *err, size_t err_size)
+{
+    const unsigned char *bytes = (const unsigned char *)text;
+    size_t at = h->data_offset; /* binary: the next byte to read */
+    sqffd_io__text t;           /* ascii: the token cursor */
+    int big = h->format == SQFFD_IO__PLY_BE, ascii = h->format == SQFFD_IO__PLY_ASCII, e;
+    char q[32];
+    t.p = text + h->data_offset;
+    t.end = text + size;
+    t.line = 0;
+    if (ascii) { /* line numbers of the body continue the header's */
+        const char *c;
+        for (c = text; c < t.p; c++) t.line += *c == '\n';
+        t.line++;
+    }
+    for (e = 0; e < h->elements; e++) {
+        const sqffd_io__ply_element *el = &h->element[e];
+        uint64_t min_record = sqffd_io__ply_min_record(h, el), i;
+        size_t remaining = ascii ? (size_t)(t.end - t.p) : size - at;
+        int is_vertex = e == h->vertex;
+        if (el->properties == 0) continue; /* instances of nothing take no room */
+        /* ascii: a token is at least one byte plus a separator */
+        if (el->count > (ascii ? (uint64_t)(remaining + 1) / (2 * min_record) : (uint64_t)remaining / min_record))
+            return sqffd_io__fail(err, err_size, name,
+                                  "header says %llu %s%s%s of at least %llu %s each, file holds %llu bytes of data%s",
+                                  (unsigned long long)el->count, is_vertex ? "vertices" : "'", is_vertex ? "" : el->name,
+                                  is_vertex ? "" : "' elements", (unsigned long long)min_record,
+                                  ascii ? "values" : "bytes", (unsigned long long)remaining,
+                                  remaining == size - h->data_offset ? "" : " after the elements before it");
+        if (is_vertex && sqffd_io__reserve(pts, (size_t)el->count))
+            return sqffd_io__fail(err, err_size, name, "out of memory for %llu vertices", (unsigned long long)el->count);
+        for (i = 0; i < el->count; i++) {
+            double xyz[3] = {0.0, 0.0, 0.0};
+            int k;
+            for (k = el->first; k < el->first + el->properties; k++) {
+                const sqffd_io__ply_property *pr = &h->property[k];
+                double value = 0.0;
+                if (ascii) {
+                    const char *tok;
+                    size_t len;
+                    int r;
+                    if (!sqffd_io__token(&t, &tok, &len))
+                        return sqffd_io__fail(err, err_size, name, "%s %llu: file ends inside it", el->name,
+                                              (unsigned long long)i);
+                    if (pr->count_type >= 0 || pr->role) {
+                        r = sqffd_io__parse_double(tok, len, &value);
+                        /* a float property holds a float, as in the binary formats */
+                        if (r == SQFFD_IO__NUMBER && pr->count_type < 0 && pr->type == SQFFD_IO__F32) {
+                            value = (double)sqffd_io__to_float(value);
+                            if (!isfinite(value)) r = SQFFD_IO__NOT_FINITE;
+                        }
+                        if (r == SQFFD_IO__NOT_FINITE)
+                            return sqffd_io__fail(err, err_size, name, "%s %llu (line %llu): %s is not a finite number",
+                                                  el->name, (unsigned long long)i, t.line, sqffd_io__quote(tok, len, q));
+                        if (r != SQFFD_IO__NUMBER)
+                            return sqffd_io__fail(err, err_size, name, "%s %llu (line %llu): expected a number, found %s",
+                                                  el->name, (unsigned long long)i, t.line, sqffd_io__quote(tok, len, q));
+                    }
+                    if (pr->count_type >= 0) {
+                        uint64_t n, j;
+                        if (value < 0.0 || value != floor(value))
+                            return sqffd_io__fail(err, err_size, name, "%s %llu (line %llu): list count %s is not a count",
+                                                  el->name, (unsigned long long)i, t.line, sqffd_io__quote(tok, len, q));
+                        if (value > (double)(t.end - t.p))
+                            return sqffd_io__fail(err, err_size, name, "%s %llu (line %llu): list of %s values, "
+                                                  "file holds %llu more bytes", el->name, (unsigned long long)i, t.line,
+                                                  sqffd_io__quote(tok, len, q), (unsigned long long)(t.end - t.p));
+                        n = (uint64_t)value;
+                        for (j = 0; j < n; j++)
+                            if (!sqffd_io__token(&t, &tok, &len))
+                                return sqffd_io__fail(err, err_size, name, "%s %llu: file ends inside its list",
+                                                      el->name, (unsigned long long)i);
+                    }
+                } else if (pr->count_type >= 0) {
+                    size_t csize = sqffd_io__type_size(pr->count_type), isize = sqffd_io__type_size(pr->type);
+                    double n;
+                    if (size - at < csize)
+                        return sqffd_io__fail(err, err_size, name, "%s %llu: file ends inside it", el->name,
+                                              (unsigned long long)i);
+                    n = sqffd_io__ply_load(bytes + at, pr->count_type, big);
+                    at += csize;
+                    if (n < 0.0)
+                        return sqffd_io__fail(err, err_size, name, "%s %llu: negative list count %.0f", el->name,
+                                              (unsigned long long)i, n);
+                    if (n > (double)((size - at) / isize))
+                        return sqffd_io__fail(err, err_size, name, "%s %llu: list of %.0f values of %llu bytes, "
+                                              "file holds %llu more bytes", el->name, (unsigned long long)i, n,
+                                              (unsigned long long)isize, (unsigned long long)(size - at));
+                    at += (size_t)n * isize;
+                } else {
+                    size_t vsize = sqffd_io__type_size(pr->type);
+                    if (size - at < vsize)
+                        return sqffd_io__fail(err, err_size, name, "%s %llu: file ends inside it", el->name,
+                                              (unsigned long long)i);
+                    if (pr->role) value = sqffd_io__ply_load(bytes + at, pr->type, big);
+                    at += vsize;
+                    if (pr->role && !isfinite(value))
+                        return sqffd_io__fail(err, err_size, name, "%s %llu: %c is not finite (%g)", el->name,
+                                              (unsigned long long)i, 'x' + pr->role - 1, value);
+                }
+                if (pr->role) xyz[pr->role - 1] = value;
+            }
+            if (is_vertex) {
+                memcpy(pts->xyz + 3 * pts->count, xyz, sizeof xyz);
+                pts->count++;
+            }
+        }
+    }
+    return 0;
+}
+
+/* PLY: ascii, binary_little_endian or binary_big_endian. The vertex
+   element's x, y, z are read whatever their type and place among its
+   properties; every other property and element is skipped, but the whole
+   file is checked (a truncated file is an error even past the vertices). */
+static inline int sqffd_io_read_ply(const void *data, size_t size, const char *name, double **points,
+                                    size_t *count, char *err, size_t err_size)
+{
+    sqffd_io__points pts = {NULL, 0, 0};
+    sqffd_io__ply *h;
+    int role;
+    *points = NULL;
+    *count = 0;
+    h = (sqffd_io__ply *)malloc(sizeof *h);
+    if (!h) return sqffd_io__fail(err, err_size, name, "out of memory");
+    if (sqffd_io__ply_header((const char *)data, size, h, name, err, err_size)) {
+        free(h);
+        return 1;
+    }
+    if (h->vertex < 0) {
+        free(h);
+        return sqffd_io__fail(err, err_size, name, "header has no vertex element");
+    }
+    for (role = 1; role <= 3; role++) {
+        const sqffd_io__ply_element *el = &h->element[h->vertex];
+        int i, found = 0;
+        for (i = el->first; i < el->first + el->properties; i++) found |= h->property[i].role == role;
+        if (!found) {
+            free(h);
+            return sqffd_io__fail(err, err_size, name, "vertex element has no '%c' property", 'x' + role - 1);
+        }
+    }
+    if (sqffd_io__ply_body((const char *)data, size, h, &pts, name, err, err_size)) {
+        free(h);
+        free(pts.xyz);
+        return 1;
+    }
+    free(h);
+    return sqffd_io__finish(&pts, points, count, name, err, err_size);
+}
+
+/* ---- format detection and files ------------------------------------------ */
+
+static inline int sqffd_io__has_extension(const char *name, const char *ext)
+{
+    size_t n = name ? strlen(name) : 0, m = strlen(ext), i;
+    if (n < m) return 0;
+    for (i = 0; i < m; i++) {
+        char c = name[n - m + i];
+        if (c >= 'A' && c <= 'Z') c = (char)(c - 'A' + 'a');
+        if (c != ext[i]) return 0;
+    }
+    return 1;
+}
+
+/* The format of a file: by content (the PLY magic line; an OFF keyword or an
+   OBJ statement as the first word), else by the name's extension (.ply,
+   .off, .obj), else XYZ. */
+static inline sqffd_io_format sqffd_io_detect(const void *data, size_t size, const char *name)
+{
+    const char *text = (const char *)data, *s, *e, *tok;
+    sqffd_io__text t;
+    size_t len;
+    int other_dimension;
+    if (size >= 4 && memcmp(text, "ply", 3) == 0 && (text[3] == '\n' || text[3] == '\r')) return SQFFD_IO_PLY;
+    t.p = text;
+    t.end = text + size;
+    t.line = 0;
+    if (sqffd_io__next_line(&t, &s, &e) && sqffd_io__line_token(&s, e, &tok, &len)) {
+        if (sqffd_io__off_keyword(tok, len, &other_dimension)) return SQFFD_IO_OFF;
+        if (sqffd_io__obj_keyword(tok, len)) return SQFFD_IO_OBJ;
+    }
+    if (sqffd_io__has_extension(name, ".ply")) return SQFFD_IO_PLY;
+    if (sqffd_io__has_extension(name, ".off")) return SQFFD_IO_OFF;
+    if (sqffd_io__has_extension(name, ".obj")) return SQFFD_IO_OBJ;
+    return SQFFD_IO_XYZ;
+}
+
+/* Reads points from memory in the detected format. */
+static inline int sqffd_io_read_points(const void *data, size_t size, const char *name, double **points,
+                                       size_t *count, char *err, size_t err_size)
+{
+    const unsigned char *b = (const unsigned char *)data;
+    *points = NULL;
+    *count = 0;
+    if (size == 0) return sqffd_io__fail(err, err_size, name, "file is empty");
+    if (size >= 2 && b[0] == 0x1f && b[1] == 0x8b)
+        return sqffd_io__fail(err, err_size, name, "gzip-compressed; decompress it first");
+    switch (sqffd_io_detect(data, size, name)) {
+    case SQFFD_IO_PLY: return sqffd_io_read_ply(data, size, name, points, count, err, err_size);
+    case SQFFD_IO_OFF: return sqffd_io_read_off(data, size, name, points, count, err, err_size);
+    case SQFFD_IO_OBJ: return sqffd_io_read_obj(data, size, name, points, count, err, err_size);
+    default: return sqffd_io_read_xyz(data, size, name, points, count, err, err_size);
+    }
+}
+
+/* The whole file at `path` in a malloc'd buffer (free() it); refuses files
+   over SQFFD_IO_MAX_FILE_SIZE. */
+static inline int sqffd_io_load_file(const char *path, unsigned char **data, size_t *size, char *err, size_t err_size)
+{
+    FILE *f;
+    unsigned char *buf = NULL;
+    size_t used = 0, capacity = 0;
+    *data = NULL;
+    *size = 0;
+    errno = 0;
+    f = fopen(path, "rb");
+    if (!f) return sqffd_io__fail(err, err_size, path, "cannot open: %s", errno ? strerror(errno) : "unknown error");
+    for (;;) {
+        size_t got;
+        if (used == capacity) {
+            unsigned char *grown;
+            if (capacity == SQFFD_IO_MAX_FILE_SIZE) { /* full: one more byte means too large */
+                if (fread(buf + used, 1, 1, f) == 1) {
+                    free(buf);
+                    fclose(f);
+                    return sqffd_io__fail(err, err_size, path, "larger than %llu bytes, the limit",
+                                          (unsigned long long)SQFFD_IO_MAX_FILE_SIZE);
+                }
+                break;
+            }
+            capacity = capacity ? 2 * capacity : (size_t)1 << 16;
+            if (capacity > SQFFD_IO_MAX_FILE_SIZE) capacity = SQFFD_IO_MAX_FILE_SIZE;
+            grown = (unsigned char *)realloc(buf, capacity + 1); /* +1: the probe byte above */
+            if (!grown) {
+                free(buf);
+                fclose(f);
+                return sqffd_io__fail(err, err_size, path, "out of memory after %llu bytes", (unsigned long long)used);
+            }
+            buf = grown;
+        }
+        got = fread(buf + used, 1, capacity - used, f);
+        used += got;
+        if (got == 0) break;
+    }
+    if (ferror(f)) {
+        int code = errno;
+        free(buf);
+        fclose(f);
+        return sqffd_io__fail(err, err_size, path, "read error: %s", code ? strerror(code) : "unknown error");
+    }
+    fclose(f);
+    *data = buf;
+    *size = used;
+    return 0;
+}
+
+/* Reads the points of the file at `path` (any supported format). */
+static inline int sqffd_io_read_file(const char *path, double **points, size_t *count, char *err, size_t err_size)
+{
+    unsigned char *data;
+    size_t size;
+    int r;
+    *points = NULL;
+    *count = 0;
+    if (sqffd_io_load_file(path, &data, &size, err, err_size)) return 1;
+    r = sqffd_io_read_points(data, size, path, points, count, err, err_size);
+    free(data);
+    return r;
+}
+
+/* ---- PLY writer ---------------------------------------------------------- */
+
+static inline void sqffd_io__put_le32(unsigned char *out, uint32_t v)
+{
+    out[0] = (unsigned char)(v & 0xffu);
+    out[1] = (unsigned char)((v >> 8) & 0xffu);
+    out[2] = (unsigned char)((v >> 16) & 0xffu);
+    out[3] = (unsigned char)((v >> 24) & 0xffu);
+}
+
+static inline void sqffd_io__put_float(unsigned char *out, double value)
+{
+    float f = sqffd_io__to_float(value);
+    uint32_t bits;
+    memcpy(&bits, &f, sizeof bits);
+    sqffd_io__put_le32(out, bits);
+}
+
+#define SQFFD_IO_MAX_SCALARS 16
+
+/* Writes a PLY of vertex_count vertices (x y z as float, then each scalar as
+   a float property) and triangle_count triangles (three vertex indices each;
+   no face element when triangle_count is 0) to an open stream; binary little
+   endian, or ascii when `ascii` is non-zero. `name` is for messages. */
+static inline int sqffd_io_write_ply_stream(FILE *f, const char *name, const double *vertices, size_t vertex_count,
+                                            const uint32_t *triangles, size_t triangle_count,
+                                            const sqffd_io_scalar *scalars, int scalar_count, int ascii,
+                                            char *err, size_t err_size)
+{
+    unsigned char record[4 * (3 + SQFFD_IO_MAX_SCALARS)];
+    size_t i;
+    int k;
+    if (scalar_count < 0 || scalar_count > SQFFD_IO_MAX_SCALARS)
+        return sqffd_io__fail(err, err_size, name, "%d scalars, at most %d", scalar_count, SQFFD_IO_MAX_SCALARS);
+    if (vertex_count > 0x7fffffffu)
+        return sqffd_io__fail(err, err_size, name, "%llu vertices, more than int indices reach",
+                              (unsigned long long)vertex_count);
+    for (k = 0; k < scalar_count; k++) {
+        const char *c = scalars[k].name;
+        if (!c || !*c || !scalars[k].values)
+            return sqffd_io__fail(err, err_size, name, "scalar %d has no name or no values", k);
+        for (; *c; c++)
+            if (sqffd_io__is_space(*c))
+                return sqffd_io__fail(err, err_size, name, "scalar name '%s' contains a blank", scalars[k].name);
+    }
+    for (i = 0; i < 3 * triangle_count; i++)
+        if (triangles[i] >= vertex_count)
+            return sqffd_io__fail(err, err_size, name, "triangle %llu uses vertex %lu of %llu",
+                                  (unsigned long long)(i / 3), (unsigned long)triangles[i],
+                                  (unsigned long long)vertex_count);
+    fprintf(f, "ply\nformat %s 1.0\ncomment written by sqffd\nelement vertex %llu\n"
+               "property float x\nproperty float y\nproperty float z\n",
+            ascii ? "ascii" : "binary_little_endian", (unsigned long long)vertex_count);
+    for (k = 0; k < scalar_count; k++) fprintf(f, "property float %s\n", scalars[k].name);
+    if (triangle_count)
+        fprintf(f, "element face %llu\nproperty list uchar int vertex_indices\n", (unsigned long long)triangle_count);
+    fputs("end_header\n", f);
+    for (i = 0; i < vertex_count; i++) {
+        if (ascii) {
+            /* %.9g: a float's decimal form that reads back to the same float */
+            fprintf(f, "%.9g %.9g %.9g", (double)sqffd_io__to_float(vertices[3 * i]),
+                    (double)sqffd_io__to_float(vertices[3 * i + 1]), (double)sqffd_io__to_float(vertices[3 * i + 2]));
+            for (k = 0; k < scalar_count; k++) fprintf(f, " %.9g", (double)sqffd_io__to_float(scalars[k].values[i]));
+            fputc('\n', f);
+        } else {
+            for (k = 0; k < 3; k++) sqffd_io__put_float(record + 4 * k, vertices[3 * i + (size_t)k]);
+            for (k = 0; k < scalar_count; k++) sqffd_io__put_float(record + 12 + 4 * k, scalars[k].values[i]);
+            fwrite(record, 1, 4 * (3 + (size_t)scalar_count), f);
+        }
+    }
+    for (i = 0; i < triangle_count; i++) {
+        const uint32_t *tri = triangles + 3 * i;
+        if (ascii) {
+            fprintf(f, "3 %lu %lu %lu\n", (unsigned long)tri[0], (unsigned long)tri[1], (unsigned long)tri[2]);
+        } else {
+            record[0] = 3;
+            for (k = 0; k < 3; k++) sqffd_io__put_le32(record + 1 + 4 * k, tri[k]);
+            fwrite(record, 1, 13, f);
+        }
+    }
+    if (ferror(f)) return sqffd_io__fail(err, err_size, name, "write error");
+    return 0;
+}
+
+/* sqffd_io_write_ply_stream into a new file at `path`. */
+static inline int sqffd_io_write_ply(const char *path, const double *vertices, size_t vertex_count,
+                                     const uint32_t *triangles, size_t triangle_count,
+                                     const sqffd_io_scalar *scalars, int scalar_count, int ascii,
+                                     char *err, size_t err_size)
+{
+    FILE *f;
+    int r;
+    errno = 0;
+    f = fopen(path, "wb");
+    if (!f) return sqffd_io__fail(err, err_size, path, "cannot create: %s", errno ? strerror(errno) : "unknown error");
+    r = sqffd_io_write_ply_stream(f, path, vertices, vertex_count, triangles, triangle_count, scalars, scalar_count,
+                                  ascii, err, err_size);
+    errno = 0;
+    if (fclose(f) != 0 && r == 0)
+        r = sqffd_io__fail(err, err_size, path, "write error: %s", errno ? strerror(errno) : "unknown error");
+    return r;
+}
+
+#endif /* SQFFD_IO_H */

@@ -1,0 +1,230 @@
+/* sqffd_synth.h - synthetic data for the tests, the benchmarks and the demo.
+
+   Header-only, every function `static inline`; include after sqffd.h (the
+   surface sampler calls the library's sqffd_sq_sample_uniform). Uses the C
+   library (malloc, qsort) freely. Everything is driven by synth_rng, a
+   splitmix64 generator, so the same seed gives the same data on every
+   machine. */
+#ifndef SQFFD_SYNTH_H
+#define SQFFD_SYNTH_H
+
+#include <math.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define SYNTH_PI 3.14159265358979323846
+
+/* ---- deterministic random numbers ------------------------------------ */
+typedef struct synth_rng {
+    uint64_t state;
+} synth_rng;
+
+static inline synth_rng synth_rng_seed(uint64_t seed)
+{
+    synth_rng r;
+    r.state = seed;
+    return r;
+}
+
+/* splitmix64 */
+static inline uint64_t synth_u64(synth_rng *r)
+{
+    uint64_t z = (r->state += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+}
+
+/* uniform in [0, 1), 53 random bits */
+static inline double synth_uniform(synth_rng *r)
+{
+    return (double)(synth_u64(r) >> 11) * (1.0 / 9007199254740992.0);
+}
+
+/* uniform in [lo, hi) */
+static inline double synth_range(synth_rng *r, double lo, double hi)
+{
+    return lo + (hi - lo) * synth_uniform(r);
+}
+
+/* uniform integer in [0, n), n > 0 */
+static inline size_t synth_index(synth_rng *r, size_t n)
+{
+    return (size_t)(synth_uniform(r) * (double)n) % n;
+}
+
+/* standard normal (Box-Muller, one value per call: no hidden state) */
+static inline double synth_gaussian(synth_rng *r)
+{
+    double u1 = 1.0 - synth_uniform(r); /* (0, 1]: log is finite */
+    double u2 = synth_uniform(r);
+    return sqrt(-2.0 * log(u1)) * cos(2.0 * SYNTH_PI * u2);
+}
+
+/* ---- geometry ------------------------------------------------------------ */
+
+/* Uniformly distributed rotation (Shoemake's uniform unit quaternion), as a
+   row-major matrix with det +1. */
+static inline void synth_rotation(synth_rng *r, double rot[9])
+{
+    double u1 = synth_uniform(r), u2 = synth_uniform(r), u3 = synth_uniform(r);
+    double s1 = sqrt(1.0 - u1), s2 = sqrt(u1);
+    double x = s1 * sin(2.0 * SYNTH_PI * u2), y = s1 * cos(2.0 * SYNTH_PI * u2);
+    double z = s2 * sin(2.0 * SYNTH_PI * u3), w = s2 * cos(2.0 * SYNTH_PI * u3);
+    rot[0] = 1 - 2 * (y * y + z * z); rot[1] = 2 * (x * y - z * w);     rot[2] = 2 * (x * z + y * w);
+    rot[3] = 2 * (x * y + z * w);     rot[4] = 1 - 2 * (x * x + z * z); rot[5] = 2 * (y * z - x * w);
+    rot[6] = 2 * (x * z - y * w);     rot[7] = 2 * (y * z + x * w);     rot[8] = 1 - 2 * (x * x + y * y);
+}
+
+/* Ranges for a random superquadric. */
+typedef struct synth_sq_ranges {
+    double shape_min, shape_max; /* e1, e2 uniform in [min, max] */
+    double size_min, size_max;   /* each a_i log-uniform in [min, max] */
+    double taper_max;            /* Kx, Ky uniform in [-taper_max, taper_max] */
+    double center_max;           /* centre uniform in [-center_max, center_max]^3 */
+} synth_sq_ranges;
+
+/* The test ranges of issue 3: e in [0.1, 1.9], sizes spread 1:5, |K| <= 0.6. */
+static inline synth_sq_ranges synth_sq_ranges_default(void)
+{
+    synth_sq_ranges g;
+    g.shape_min = 0.1; g.shape_max = 1.9;
+    g.size_min = 1.0; g.size_max = 5.0;
+    g.taper_max = 0.6;
+    g.center_max = 3.0;
+    return g;
+}
+
+/* Random superquadric within the ranges, random rotation. */
+static inline void synth_superquadric(synth_rng *r, const synth_sq_ranges *g, sqffd_superquadric *sq)
+{
+    int i;
+    for (i = 0; i < 3; i++) sq->size[i] = g->size_min * pow(g->size_max / g->size_min, synth_uniform(r));
+    for (i = 0; i < 2; i++) sq->shape[i] = synth_range(r, g->shape_min, g->shape_max);
+    for (i = 0; i < 2; i++) sq->taper[i] = synth_range(r, -g->taper_max, g->taper_max);
+    synth_rotation(r, sq->rotation);
+    for (i = 0; i < 3; i++) sq->center[i] = synth_range(r, -g->center_max, g->center_max);
+}
+
+/* Mean of a1, a2, a3: the unit of the noise level. */
+static inline double synth_mean_size(const sqffd_superquadric *sq)
+{
+    return (sq->size[0] + sq->size[1] + sq->size[2]) / 3.0;
+}
+
+/* Partial Fisher-Yates: moves a random choice of k of the n points
+   (xyz each) to the front, in random order. */
+static inline void synth_choose(synth_rng *r, double *points, size_t n, size_t k)
+{
+    size_t i;
+    for (i = 0; i < k && i < n; i++) {
+        size_t j = i + synth_index(r, n - i);
+        double t[3];
+        memcpy(t, points + 3 * i, sizeof t);
+        memcpy(points + 3 * i, points + 3 * j, sizeof t);
+        memcpy(points + 3 * j, t, sizeof t);
+    }
+}
+
+/* n points spread evenly over the surface (a random choice among the
+   library's near-equal-distance samples, so the density per area is about
+   constant), each moved by isotropic Gaussian noise of standard deviation
+   noise * mean size. Writes 3n doubles to out; returns n, or 0 when memory
+   ran out or the surface could not be sampled. */
+static inline size_t synth_sq_surface(synth_rng *r, const sqffd_superquadric *sq, size_t n, double noise,
+                                      double *out)
+{
+    double spacing = synth_mean_size(sq) * sqrt(4.0 * SYNTH_PI / (double)(n ? n : 1));
+    double sigma = noise * synth_mean_size(sq);
+    size_t count = 0, i, tries;
+    double *all;
+    if (n == 0) return 0;
+    /* aim for 2-4 times n candidates so the random choice is even */
+    for (tries = 0; tries < 40; tries++) {
+        count = sqffd_sq_sample_uniform(sq, spacing, NULL, 0);
+        if (count >= 2 * n && count <= 4 * n) break;
+        spacing *= count ? sqrt((double)count / (3.0 * (double)n)) : 0.5;
+    }
+    if (count < n) return 0;
+    all = (double *)malloc(3 * count * sizeof *all);
+    if (!all) return 0;
+    count = sqffd_sq_sample_uniform(sq, spacing, all, count);
+    synth_choose(r, all, count, n);
+    for (i = 0; i < 3 * n; i++) out[i] = all[i] + (sigma > 0 ? sigma * synth_gaussian(r) : 0.0);
+    free(all);
+    return n;
+}
+
+/* Axis-aligned bounding box of n points. */
+static inline void synth_bounds(const double *points, size_t n, double lo[3], double hi[3])
+{
+    size_t i;
+    int k;
+    for (k = 0; k < 3; k++) lo[k] = hi[k] = n ? points[k] : 0.0;
+    for (i = 1; i < n; i++)
+        for (k = 0; k < 3; k++) {
+            if (points[3 * i + k] < lo[k]) lo[k] = points[3 * i + k];
+            if (points[3 * i + k] > hi[k]) hi[k] = points[3 * i + k];
+        }
+}
+
+/* m outliers uniform in the bounding box of the n points scaled by `scale`
+   about its centre (1.5 in the issue's tests), written to out (3m doubles).
+   The caller appends them (out may point just past the n points). */
+static inline void synth_outliers(synth_rng *r, const double *points, size_t n, size_t m, double scale, double *out)
+{
+    double lo[3], hi[3];
+    size_t i;
+    int k;
+    synth_bounds(points, n, lo, hi);
+    for (i = 0; i < m; i++)
+        for (k = 0; k < 3; k++) {
+            double c = 0.5 * (lo[k] + hi[k]), h = 0.5 * scale * (hi[k] - lo[k]);
+            out[3 * i + k] = synth_range(r, c - h, c + h);
+        }
+}
+
+static inline int synth__cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+/* Removes the points on one side of a random plane, chosen so that the
+   fraction `cut` (0..1) of them goes; the survivors are compacted in place
+   (order kept). Returns how many remain (n when memory ran out). */
+static inline size_t synth_cut_plane(synth_rng *r, double *points, size_t n, double cut)
+{
+    double dir[3], len, threshold, *proj;
+    size_t i, kept = 0, removed;
+    int k;
+    if (n == 0 || cut <= 0.0) return n;
+    do { /* uniform direction */
+        for (k = 0; k < 3; k++) dir[k] = synth_gaussian(r);
+        len = sqrt(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);
+    } while (len < 1e-9);
+    proj = (double *)malloc(n * sizeof *proj);
+    if (!proj) return n;
+    for (i = 0; i < n; i++)
+        proj[i] = (dir[0] * points[3 * i] + dir[1] * points[3 * i + 1] + dir[2] * points[3 * i + 2]) / len;
+    removed = (size_t)(cut * (double)n + 0.5);
+    if (removed >= n) removed = n - 1;
+    {
+        double *sorted = (double *)malloc(n * sizeof *sorted);
+        if (!sorted) { free(proj); return n; }
+        memcpy(sorted, proj, n * sizeof *sorted);
+        qsort(sorted, n, sizeof *sorted, synth__cmp_double);
+        threshold = sorted[n - removed - 1]; /* keep proj <= threshold */
+        free(sorted);
+    }
+    for (i = 0; i < n && kept < n - removed; i++)
+        if (proj[i] <= threshold) {
+            memmove(points + 3 * kept, points + 3 * i, 3 * sizeof *points);
+            kept++;
+        }
+    free(proj);
+    return kept;
+}
+
+#endif /* SQFFD_SYNTH_H */

@@ -1,0 +1,143 @@
+/* libFuzzer target: bytes -> a small point set -> kd-tree build and queries
+   (checked against brute force), superquadric fit and the whole model fit
+   with small limits, so each input takes milliseconds.
+
+   Layout: byte 0 options (bit 0 robust, 1 no taper, 2 symmetric, 3 SVD
+   solver, 4 paper's regularisation, 5 radial cost, 6 CG optimiser, 7 alpha 0),
+   byte 1 encoding (bit 0: raw little-endian doubles, may be NaN or huge;
+   else int16 triples scaled by 2^-(byte 1 >> 1 & 15)), byte 2 lattice size
+   2..4, then the points (at most 64). */
+#define SQFFD_IMPLEMENTATION
+#include "../sqffd.h"
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define MAX_POINTS 64
+
+static size_t decode_points(const uint8_t *data, size_t size, int raw, int shift, double *points)
+{
+    size_t n = 0, i;
+    if (raw) {
+        for (; n < MAX_POINTS && (n + 1) * 24 <= size; n++)
+            for (i = 0; i < 3; i++) {
+                uint64_t bits = 0;
+                int b;
+                for (b = 0; b < 8; b++) bits |= (uint64_t)data[24 * n + 8 * i + (size_t)b] << (8 * b);
+                memcpy(&points[3 * n + i], &bits, 8);
+            }
+    } else {
+        for (; n < MAX_POINTS && (n + 1) * 6 <= size; n++)
+            for (i = 0; i < 3; i++) {
+                int v = (int)((unsigned)data[6 * n + 2 * i] | (unsigned)data[6 * n + 2 * i + 1] << 8);
+                if (v >= 32768) v -= 65536;
+                points[3 * n + i] = ldexp((double)v, -shift);
+            }
+    }
+    return n;
+}
+
+/* kd-tree: nearest of every point and of shifted queries must match brute force. */
+static void fuzz_kdtree(const double *points, size_t n)
+{
+    size_t size = sqffd_kdtree_workspace_size(n), i, j;
+    void *work = size ? malloc(size) : NULL;
+    sqffd_kdtree tree;
+    if (!work) return;
+    if (sqffd_kdtree_build(&tree, points, n, work, size) == SQFFD_OK) {
+        for (i = 0; i < n; i++) {
+            double q[3], best = HUGE_VAL, d2, knn_d2[4];
+            size_t knn_idx[4], got;
+            q[0] = points[3 * i] + 0.25;
+            q[1] = points[3 * i + 1] - 0.125;
+            q[2] = points[3 * ((i * 7) % n) + 2];
+            for (j = 0; j < n; j++) {
+                double d = sqffd__dist2_3(q, points + 3 * j);
+                if (d < best) best = d;
+            }
+            sqffd_kdtree_nearest(&tree, q, &d2);
+            if (d2 != best && !(isinf(best) && isinf(d2))) abort();
+            got = sqffd_kdtree_knn(&tree, q, 4, knn_idx, knn_d2);
+            if (got != (n < 4 ? n : 4) || knn_d2[0] != d2) abort();
+            for (j = 1; j < got; j++)
+                if (knn_d2[j] < knn_d2[j - 1]) abort();
+            if (isfinite(d2) && sqffd_kdtree_radius(&tree, q, sqrt(d2) * 1.5 + 1e-9, NULL, NULL, 0) < 1 && d2 < 1e300)
+                abort();
+        }
+    }
+    free(work);
+}
+
+static void fuzz_sq_fit(const double *points, size_t n, uint8_t flags)
+{
+    sqffd_sq_fit_options o = sqffd_sq_fit_options_default();
+    sqffd_superquadric sq;
+    size_t size;
+    void *work;
+    o.robust = flags & 1;
+    o.taper = !(flags & 2);
+    o.cost = (flags & 32) ? SQFFD_SQ_COST_RADIAL : SQFFD_SQ_COST_SOLINA;
+    o.optimizer = (flags & 64) ? SQFFD_SQ_OPTIMIZER_CG : SQFFD_SQ_OPTIMIZER_LM;
+    o.max_iterations = 8;
+    o.robust_rounds = 2;
+    size = sqffd_sq_fit_workspace_size(n, &o);
+    work = size ? malloc(size) : NULL;
+    if (!work) return;
+    if (sqffd_sq_fit(points, n, &o, &sq, NULL, work, size) == SQFFD_OK) {
+        int k;
+        for (k = 0; k < 3; k++)
+            if (!(sq.size[k] > 0.0) || !isfinite(sq.center[k])) abort();
+    }
+    free(work);
+}
+
+static void fuzz_model_fit(const double *points, size_t n, uint8_t flags, int lattice)
+{
+    sqffd_fit_options o = sqffd_fit_options_default();
+    sqffd_model model;
+    sqffd_fit_report report;
+    size_t size;
+    void *work;
+    o.sq.robust = flags & 1;
+    o.sq.taper = !(flags & 2);
+    o.sq.max_iterations = 8;
+    o.sq.robust_rounds = 2;
+    o.symmetric = (flags & 4) != 0;
+    o.solver = (flags & 8) ? SQFFD_SOLVER_SVD : SQFFD_SOLVER_CHOLESKY;
+    o.regularization = (flags & 16) ? SQFFD_REG_POSITION : SQFFD_REG_DISPLACEMENT;
+    if (flags & 128) o.alpha = 0.0;
+    o.lattice[0] = o.lattice[1] = o.lattice[2] = lattice;
+    o.grid[0] = 6;
+    o.grid[1] = 8;
+    o.max_iterations = 3;
+    size = sqffd_fit_workspace_size(n, &o);
+    work = size ? malloc(size) : NULL;
+    if (!work) return;
+    if (sqffd_fit(points, n, &o, &model, &report, work, size) == SQFFD_OK) {
+        double p[3];
+        sqffd_model_point(&model, 0.3, -1.0, p);
+        if (!isfinite(report.error.rms) || report.iterations < 0 || report.iterations > 3) abort();
+    }
+    free(work);
+}
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+{
+    double *points;
+    size_t n;
+    uint8_t flags, encoding;
+    int lattice;
+    if (size < 3) return 0;
+    flags = data[0];
+    encoding = data[1];
+    lattice = 2 + data[2] % 3;
+    points = (double *)malloc(3 * MAX_POINTS * sizeof(double));
+    if (!points) return 0;
+    n = decode_points(data + 3, size - 3, encoding & 1, (encoding >> 1) & 15, points);
+    if (n > 0) fuzz_kdtree(points, n);
+    fuzz_sq_fit(points, n, flags);
+    fuzz_model_fit(points, n, flags, lattice);
+    free(points);
+    return 0;
+}

@@ -1,0 +1,37 @@
+/* libFuzzer target: the bytes go to every reader of examples/sqffd_io.h.
+   Checks the readers' contract beyond "no crash": success means at least one
+   point and finite coordinates; failure means no points and a message
+   "NAME: ...". */
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+#include "../examples/sqffd_io.h"
+
+typedef int (*reader_fn)(const void *, size_t, const char *, double **, size_t *, char *, size_t);
+
+static void check_reader(reader_fn read, const uint8_t *data, size_t size, const char *name)
+{
+    double *points = NULL;
+    size_t count = 0, i;
+    char err[256];
+    if (read(data, size, name, &points, &count, err, sizeof err) == 0) {
+        if (count == 0 || !points) abort();
+        for (i = 0; i < 3 * count; i++)
+            if (!isfinite(points[i])) abort();
+        free(points);
+    } else {
+        if (points || count) abort();
+        if (strncmp(err, name, strlen(name)) != 0 || strncmp(err + strlen(name), ": ", 2) != 0) abort();
+    }
+}
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+{
+    check_reader(sqffd_io_read_points, data, size, "fuzz.dat");
+    check_reader(sqffd_io_read_ply, data, size, "fuzz.ply");
+    check_reader(sqffd_io_read_off, data, size, "fuzz.off");
+    check_reader(sqffd_io_read_xyz, data, size, "fuzz.xyz");
+    check_reader(sqffd_io_read_obj, data, size, "fuzz.obj");
+    return 0;
+}

@@ -1,0 +1,104 @@
+#!/bin/sh
+# End-to-end checks of the sqffd command: exit statuses, messages, and the
+# PLY it writes. Usage: sh tests/cli_test.sh [PATH_TO_SQFFD]   (from the repository root)
+SQFFD=${1:-build/sqffd}
+DATA=tests/data/bunny.ply
+TMP=$(mktemp -d "${TMPDIR:-/tmp}/sqffd_cli.XXXXXX") || exit 1
+trap 'rm -rf "$TMP"' EXIT INT TERM
+passed=0
+failed=0
+
+ok() { passed=$((passed + 1)); }
+bad() { failed=$((failed + 1)); echo "FAIL cli: $*"; }
+
+# expect STATUS 'TEXT IN STDERR OR STDOUT' ARGS...: runs sqffd ARGS, checks the exit status and the text
+expect() {
+    want=$1 text=$2
+    shift 2
+    "$SQFFD" "$@" >"$TMP/out" 2>"$TMP/err"
+    got=$?
+    if [ "$got" != "$want" ]; then
+        bad "sqffd $*: exit $got, expected $want; stderr: $(head -c 300 "$TMP/err")"
+    elif [ -n "$text" ] && ! grep -qF -- "$text" "$TMP/out" "$TMP/err"; then
+        bad "sqffd $*: output lacks '$text': $(head -c 300 "$TMP/out" "$TMP/err")"
+    else
+        ok
+    fi
+}
+
+# check_ply FILE: the header's counts agree with the file's size (binary) or line count (ascii)
+check_ply() {
+    LC_ALL=C awk '/^end_header/ { exit } { print }' "$1" >"$TMP/header"
+    nv=$(awk '$1 == "element" && $2 == "vertex" { print $3 }' "$TMP/header")
+    nf=$(awk '$1 == "element" && $2 == "face" { print $3 }' "$TMP/header")
+    np=$(awk '$1 == "element" && $2 == "vertex" { v = 1; next } $1 == "element" { v = 0 } v && $1 == "property" { n++ } END { print n + 0 }' "$TMP/header")
+    nf=${nf:-0}
+    if [ -z "$nv" ] || [ "$nv" -le 0 ]; then bad "$1: no vertex count in the header"; return; fi
+    if grep -q '^format ascii 1.0' "$TMP/header"; then
+        lines=$(($(wc -l <"$1") - $(wc -l <"$TMP/header") - 1))
+        [ "$lines" -eq $((nv + nf)) ] && ok || bad "$1: $lines data lines, header says $nv vertices + $nf faces"
+    else
+        hsize=$(($(wc -c <"$TMP/header") + 11)) # + "end_header\n"
+        want=$((hsize + nv * 4 * np + nf * 13))
+        size=$(wc -c <"$1")
+        [ "$size" -eq "$want" ] && ok || bad "$1: $size bytes, header says $nv vertices of $np floats + $nf triangles = $want"
+    fi
+}
+
+if [ ! -x "$SQFFD" ]; then echo "cli_test: no executable $SQFFD (run make first)"; exit 1; fi
+
+# usage and help
+expect 2 "usage: sqffd COMMAND"
+expect 0 "usage: sqffd COMMAND" --help
+expect 0 "sqffd 0." --version
+expect 0 "usage: sqffd fit" help fit
+expect 0 "--lattice N|LxMxN" fit --help
+expect 2 "unknown command 'fitt'" fitt
+expect 2 "no output file" fit "$DATA"
+expect 2 "no INPUT" fit -o "$TMP/x.ply"
+expect 2 "a second" fit "$DATA" "$DATA" -o "$TMP/x.ply"
+expect 2 "needs a value" fit "$DATA" -o
+expect 2 "unknown option '--lattic'" fit "$DATA" -o "$TMP/x.ply" --lattic 5
+expect 2 "takes no value" fit "$DATA" -o "$TMP/x.ply" --robust=1
+expect 2 "unknown option" fit "$DATA" -o "$TMP/x.ply" --alpa=1
+for v in 1 9 0x5 5x5 5x5x5x5 5x1x5 -5 " 5" 5.0 abc ""; do
+    expect 2 "--lattice takes" fit "$DATA" -o "$TMP/x.ply" --lattice "$v"
+done
+for v in -1 nan inf 1e400 "" 0.1x; do
+    expect 2 "--alpha takes" fit "$DATA" -o "$TMP/x.ply" --alpha "$v"
+done
+for v in 0 10001 2.5 30x -3 ""; do
+    expect 2 "--iterations takes" fit "$DATA" -o "$TMP/x.ply" --iterations "$v"
+done
+expect 2 "--mesh takes" fit "$DATA" -o "$TMP/x.ply" --mesh 3
+
+# bad input: exit 1 and "FILE: what is wrong"
+expect 1 "$TMP/missing.ply: cannot open" fit "$TMP/missing.ply" -o "$TMP/x.ply"
+printf 'ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nend_header\n1 2\n3 4\n' >"$TMP/noz.ply"
+expect 1 "$TMP/noz.ply: vertex element has no 'z' property" fit "$TMP/noz.ply" -o "$TMP/x.ply"
+printf '1 2 3\n4 5\n' >"$TMP/short.xyz"
+expect 1 "$TMP/short.xyz: line 2: expected 3 numbers" fit "$TMP/short.xyz" -o "$TMP/x.ply"
+: >"$TMP/empty.xyz"
+expect 1 "$TMP/empty.xyz: file is empty" fit "$TMP/empty.xyz" -o "$TMP/x.ply"
+printf '1 2 3\n4 5 6\n' >"$TMP/two.xyz"
+expect 1 "$TMP/two.xyz: fit failed: " fit "$TMP/two.xyz" -o "$TMP/x.ply"
+expect 1 "$TMP/no/dir/out.ply: cannot create" fit "$DATA" -o "$TMP/no/dir/out.ply" --iterations 2 --mesh 8
+[ ! -e "$TMP/x.ply" ] && ok || bad "a failed run left an output file"
+
+# a real fit: the report, and PLY files consistent with their headers
+expect 0 "points read      1839" fit "$DATA" -o "$TMP/bunny.ply" --points "$TMP/points.ply"
+for word in "superquadric" "after FFD" "iterations" "time"; do
+    grep -q "$word" "$TMP/out" && ok || bad "report lacks '$word'"
+done
+check_ply "$TMP/bunny.ply"
+check_ply "$TMP/points.ply"
+grep -q '^element vertex 1839$' "$TMP/points.ply" && ok || bad "points.ply does not hold the 1839 points"
+expect 0 "" fit "$DATA" -o "$TMP/bunny_ascii.ply" --ascii --quiet --lattice 4x5x6 --alpha=0.01 --iterations 5 --mesh 16x32
+[ ! -s "$TMP/out" ] && ok || bad "--quiet printed: $(head -c 200 "$TMP/out")"
+check_ply "$TMP/bunny_ascii.ply"
+grep -q '^property float error$' "$TMP/bunny_ascii.ply" && ok || bad "no per-vertex error property"
+# the written mesh reads back through sqffd's own reader as a point file
+expect 0 "points read      " fit "$TMP/bunny.ply" -o "$TMP/again.ply" --iterations 2 --mesh 8
+
+echo "cli: $passed passed, $failed failed"
+[ "$failed" -eq 0 ]
