@@ -21,7 +21,7 @@ void peer_nanoflann_knn(void *handle, const double *queries, size_t nq, size_t k
 #endif
 
 #define RUNS 7
-#define QUERIES 200000
+#define QUERIES 100000
 #define K 8
 
 static unsigned long long rng_state = 12345;

@@ -18,14 +18,25 @@
    median instead, so degenerate spacing (e.g. exponential) keeps O(log n)
    depth. Every node stores the gap around its cut (the low child's largest
    and the high child's smallest coordinate on the cut axis). Queries walk the
-   tree without recursion, nearest side first, pruning with the exact squared
-   distance from the query to each child's slab (incremental per-axis offsets).
+   tree without recursion (a stack of SQFFD_KDTREE_MAX_DEPTH entries), nearest
+   side first, and skip a subtree when the sum of the squared per-axis offsets
+   from the query to the gaps crossed on the way there (incremental distance)
+   exceeds the current answer; that sum is added in the same order as a
+   point's distance, so it never exceeds the computed distance of any point
+   in the subtree and no point is missed by rounding.
+
+       size_t size = sqffd_kdtree_workspace_size(n);
+       void *memory = malloc(size);
+       sqffd_kdtree tree;
+       if (sqffd_kdtree_build(&tree, points, n, memory, size) == SQFFD_OK)
+           nearest = sqffd_kdtree_nearest(&tree, query, &dist2);
 
    Query contract shared by nearest / knn / radius:
    - distances are squared Euclidean, computed in double (points farther apart
      than ~1e154 overflow to +inf; results stay defined);
-   - a query with a NaN or infinite coordinate finds nothing: nearest returns
-     0 with *dist2 = NaN, knn and radius return 0;
+   - a query with a NaN or infinite coordinate (or a NULL or zeroed tree)
+     finds nothing: nearest returns 0 with *dist2 = NaN, knn and radius
+     return 0;
    - equal distances are ordered arbitrarily but deterministically (the same
      tree and query always give the same answer). */
 
@@ -49,7 +60,7 @@ typedef struct sqffd_kdtree {
     size_t count;            /* number of points */
     uint32_t *index;         /* permutation of 0..count-1; every leaf's points are one range */
     sqffd_kdtree_node *nodes;/* node 0 is the root */
-    size_t node_count;
+    size_t node_count;       /* nodes used: 1 if count <= 10, else at most 2 (count / 5) - 1 */
     double bbox[2][3];       /* bounding box of all points: [0] = min corner, [1] = max corner */
 } sqffd_kdtree;
 

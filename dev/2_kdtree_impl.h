@@ -148,7 +148,7 @@ SQFFD_DEF sqffd_result sqffd_kdtree_build(sqffd_kdtree *tree, const double *poin
     if (workspace_size < sqffd_kdtree_workspace_size(n)) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
     sqffd__arena_init(&a, workspace, workspace_size);
     sqffd__kd_layout(&a, n, &index, &nodes);
-    if (a.overflow) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
+    SQFFD_ASSERT(!a.overflow); /* the size check above covers the layout */
 
     sqffd__kd_empty_box(stack[0].box);
     for (i = 0; i < n; i++) {
@@ -281,7 +281,7 @@ static void sqffd__kd_scan_leaf(const sqffd_kdtree *tree, const sqffd_kdtree_nod
     }
 }
 
-/* Depth-first walk, nearest child first. sq[] holds the squared per-axis
+/* Depth-first walk, nearest child first. sq0..sq2 hold the squared per-axis
    distances from the query to the region known to hold a subtree's points;
    their sum (added in the same order as a point's distance, so it never
    exceeds any of those points' computed distances) prunes the far child. */
@@ -314,7 +314,7 @@ static void sqffd__kd_search(const sqffd_kdtree *tree, const double q[3], sqffd_
             stack[top].bound = stack[top].sq[0] + stack[top].sq[1] + stack[top].sq[2];
             stack[top].node = go_high ? node + 1 : n->high_child;
             node = go_high ? n->high_child : node + 1;
-            top += stack[top].bound <= r->reach;
+            top += (size_t)(stack[top].bound <= r->reach);
             continue;
         }
         sqffd__kd_scan_leaf(tree, n, q, r);

@@ -26,7 +26,7 @@ static double sqffd__sq_logsum(double a, double b, double frac[2])
     double s = 1.0 + t;
     frac[0] = a > b ? 1.0 / s : t / s;
     frac[1] = a > b ? t / s : 1.0 / s;
-    return hi + log1p(t);
+    return hi + log(s);
 }
 
 static double sqffd__sq_log_abs(double v)
@@ -187,73 +187,112 @@ SQFFD_DEF sqffd_result sqffd_sq_sample_grid(const sqffd_superquadric *sq, int n_
 /* ---- near-equal-distance sampling ----
    Pilu & Fisher step the parameter by spacing / |dP/dt|; near the points
    where the signed powers are singular (|dP/dt| infinite for e < 1) that
-   formula needs special cases, so each step here instead solves for the
-   parameter increment whose chord is `spacing` (bisection on the logarithm
-   of the increment: the increments span many orders of magnitude when e is
-   small). Rows of constant eta are spaced by the largest chord over eight
-   meridians, then each row is walked in omega, one quadrant at a time (a
-   quadrant is a convex arc, so its chord grows monotonically). */
+   formula needs special cases, so each step here instead searches for the
+   parameter increment whose chord is `spacing`. Rows of constant eta are
+   spaced by the largest chord over eight meridians, then each row is walked
+   in omega, one quadrant at a time (a quadrant is a convex arc, so its chord
+   grows monotonically). Tapered local coordinates: the rigid motion does not
+   change lengths. */
+#define SQFFD__SQ_MERIDIANS 8
 
-/* Chord between parameters t0 and t1: along omega at eta = fixed, or along
-   eta as the largest over eight meridians (fixed unused). Tapered local
-   coordinates: the rigid motion does not change lengths. */
-static double sqffd__sq_chord(const sqffd_superquadric *sq, int along_omega, double fixed, double t0, double t1)
+/* An arc being walked: along omega at eta = fixed (one curve), or along eta
+   (eight meridians at once); start holds the curve points at the current
+   parameter. */
+typedef struct sqffd__sq_arc {
+    const sqffd_superquadric *sq;
+    int along_omega;
+    double fixed;
+    double start[SQFFD__SQ_MERIDIANS][3];
+    double end[SQFFD__SQ_MERIDIANS][3]; /* the curve points at t_end */
+} sqffd__sq_arc;
+
+static int sqffd__sq_arc_curves(const sqffd__sq_arc *arc)
 {
-    double p0[3], p1[3], best = 0.0;
+    return arc->along_omega ? 1 : SQFFD__SQ_MERIDIANS;
+}
+
+static void sqffd__sq_arc_point(const sqffd__sq_arc *arc, int curve, double t, double p[3])
+{
+    if (arc->along_omega) sqffd__sq_local_point(arc->sq, arc->fixed, t, p);
+    else sqffd__sq_local_point(arc->sq, t, -SQFFD__SQ_PI + 2.0 * SQFFD__SQ_PI * curve / SQFFD__SQ_MERIDIANS, p);
+    sqffd__sq_taper(arc->sq, p);
+}
+
+/* Longest chord from the start points to parameter t (to the end points
+   when to_end). */
+static double sqffd__sq_arc_chord(const sqffd__sq_arc *arc, double t, int to_end)
+{
+    double best = 0.0, p[3];
     int k;
-    if (along_omega) {
-        sqffd__sq_local_point(sq, fixed, t0, p0); sqffd__sq_taper(sq, p0);
-        sqffd__sq_local_point(sq, fixed, t1, p1); sqffd__sq_taper(sq, p1);
-        return sqrt(sqffd__dist2_3(p0, p1));
-    }
-    for (k = 0; k < 8; k++) {
-        double omega = -SQFFD__SQ_PI + 0.25 * SQFFD__SQ_PI * (double)k, d;
-        sqffd__sq_local_point(sq, t0, omega, p0); sqffd__sq_taper(sq, p0);
-        sqffd__sq_local_point(sq, t1, omega, p1); sqffd__sq_taper(sq, p1);
-        d = sqffd__dist2_3(p0, p1);
+    for (k = 0; k < sqffd__sq_arc_curves(arc); k++) {
+        double d;
+        if (to_end) memcpy(p, arc->end[k], sizeof p);
+        else sqffd__sq_arc_point(arc, k, t, p);
+        d = sqffd__dist2_3(arc->start[k], p);
         if (d > best) best = d;
     }
     return sqrt(best);
 }
 
-/* Next parameter after t on the arc towards t_end (t < t_end): a chord of
-   about `spacing`; the last two steps share the remainder evenly; t_end when
-   the remainder is at most one spacing. */
-static double sqffd__sq_next(const sqffd_superquadric *sq, int along_omega, double fixed, double t, double t_end,
-                             double spacing)
+/* Begin walking the arc towards t_end. */
+static void sqffd__sq_arc_begin(sqffd__sq_arc *arc, double t_end)
 {
-    double rest = sqffd__sq_chord(sq, along_omega, fixed, t, t_end), target = spacing;
-    double lo, hi = t_end - t, next;
-    int it;
+    int k;
+    for (k = 0; k < sqffd__sq_arc_curves(arc); k++) sqffd__sq_arc_point(arc, k, t_end, arc->end[k]);
+}
+
+/* Next parameter after t on the arc towards t_end (t < t_end): a chord of
+   `spacing` within 10%; the last two steps share the remainder evenly;
+   t_end when the remainder is at most one spacing. *guess carries the
+   previous increment: a safeguarded secant search from it (near the
+   singular points the increments span many orders of magnitude when e is
+   small, so the bracket shrinks geometrically when the secant step fails). */
+static double sqffd__sq_next(sqffd__sq_arc *arc, double t, double t_end, double spacing, double *guess)
+{
+    double rest, target = spacing, lo = 0.0, hi = t_end - t, d = *guess;
+    int it, k;
+    for (k = 0; k < sqffd__sq_arc_curves(arc); k++) sqffd__sq_arc_point(arc, k, t, arc->start[k]);
+    rest = sqffd__sq_arc_chord(arc, t_end, 1);
     if (rest <= spacing) return t_end;
     if (rest < 2.0 * spacing) target = 0.5 * rest;
-    lo = hi * 1e-18;
-    for (it = 0; it < 40; it++) { /* geometric bisection: chord(lo) < target <= chord(hi) */
-        double mid = sqrt(lo * hi), c = sqffd__sq_chord(sq, along_omega, fixed, t, t + mid);
-        if (c < target) lo = mid; else hi = mid;
-        if (hi < lo * 1.0001) break;
+    if (!(d > 0.0 && d < hi)) d = 0.5 * hi;
+    for (it = 0; it < 100; it++) { /* chord(lo) < target < chord(hi) */
+        double c = sqffd__sq_arc_chord(arc, t + d, 0), next;
+        if (fabs(c - target) <= 0.1 * target && t + d > t) break;
+        if (c < target) lo = d; else hi = d;
+        next = c > 0.0 ? d * target / c : 4.0 * d; /* secant through the origin */
+        if (!(next > lo && next < hi)) next = lo > 0.0 ? sqrt(lo * hi) : 0.125 * hi;
+        d = next;
     }
-    next = t + hi;
-    return next > t ? next : t_end; /* no representable progress: finish the arc */
+    if (it == 100) d = hi;
+    *guess = d;
+    return t + d > t ? t + d : t_end; /* no representable progress: finish the arc */
 }
 
 /* Emit the samples of one row (constant eta). Returns the new count. */
 static size_t sqffd__sq_sample_row(const sqffd_superquadric *sq, double eta, double spacing, double *points,
                                    size_t capacity, size_t count)
 {
-    double ring = 0.0;
+    sqffd__sq_arc arc;
+    double ring = 0.0, p[3];
     int quadrant;
-    for (quadrant = 0; quadrant < 4; quadrant++) {
-        double t0 = -SQFFD__SQ_PI + 0.5 * SQFFD__SQ_PI * (double)quadrant;
-        ring += sqffd__sq_chord(sq, 1, eta, t0, t0 + 0.5 * SQFFD__SQ_PI);
+    arc.sq = sq;
+    arc.along_omega = 1;
+    arc.fixed = eta;
+    sqffd__sq_arc_point(&arc, 0, -SQFFD__SQ_PI, arc.start[0]);
+    for (quadrant = 1; quadrant <= 4; quadrant++) { /* the ring's perimeter, roughly */
+        sqffd__sq_arc_point(&arc, 0, -SQFFD__SQ_PI + 0.5 * SQFFD__SQ_PI * quadrant, p);
+        ring += sqrt(sqffd__dist2_3(arc.start[0], p));
+        memcpy(arc.start[0], p, sizeof p);
     }
     for (quadrant = 0; quadrant < 4; quadrant++) {
-        double t = -SQFFD__SQ_PI + 0.5 * SQFFD__SQ_PI * (double)quadrant, t_end = t + 0.5 * SQFFD__SQ_PI;
+        double t = -SQFFD__SQ_PI + 0.5 * SQFFD__SQ_PI * quadrant, t_end = t + 0.5 * SQFFD__SQ_PI, guess = 0.0;
+        sqffd__sq_arc_begin(&arc, t_end);
         while (t < t_end) {
             if (count < capacity) sqffd_sq_point(sq, eta, t, points + 3 * count, NULL);
             count++;
             if (ring < spacing) return count; /* a ring smaller than the spacing (a pole): one point */
-            t = sqffd__sq_next(sq, 1, eta, t, t_end, spacing);
+            t = sqffd__sq_next(&arc, t, t_end, spacing, &guess);
         }
     }
     return count;
@@ -281,17 +320,22 @@ static int sqffd__sq_valid(const sqffd_superquadric *sq)
 
 SQFFD_DEF size_t sqffd_sq_sample_uniform(const sqffd_superquadric *sq, double spacing, double *points, size_t capacity)
 {
+    sqffd__sq_arc arc;
     size_t count = 0;
     int half;
+    arc.sq = sq;
+    arc.along_omega = 0;
+    arc.fixed = 0.0;
     if (!sq || !sqffd__sq_valid(sq) || !(spacing > 0.0) || !isfinite(spacing)) return 0;
     if (!points) capacity = 0;
     /* refuse samplings beyond ~1e8 points rather than run for hours */
     if (sqffd__sq_box_area(sq) / (spacing * spacing) > 1e8) return 0;
     for (half = 0; half < 2; half++) { /* eta in [-pi/2, 0), then [0, pi/2) */
-        double t = -0.5 * SQFFD__SQ_PI + 0.5 * SQFFD__SQ_PI * (double)half, t_end = t + 0.5 * SQFFD__SQ_PI;
+        double t = -0.5 * SQFFD__SQ_PI + 0.5 * SQFFD__SQ_PI * half, t_end = t + 0.5 * SQFFD__SQ_PI, guess = 0.0;
+        sqffd__sq_arc_begin(&arc, t_end);
         while (t < t_end) {
             count = sqffd__sq_sample_row(sq, t, spacing, points, capacity, count);
-            t = sqffd__sq_next(sq, 0, 0.0, t, t_end, spacing);
+            t = sqffd__sq_next(&arc, t, t_end, spacing, &guess);
         }
     }
     return sqffd__sq_sample_row(sq, 0.5 * SQFFD__SQ_PI, spacing, points, capacity, count);
@@ -402,7 +446,7 @@ SQFFD_DEF double sqffd_sq_iou(const sqffd_superquadric *a, const sqffd_superquad
 #define SQFFD__SQ_POLISH 384   /* subsample the best starts converge on */
 #endif
 #ifndef SQFFD__SQ_START_ITERATIONS
-#define SQFFD__SQ_START_ITERATIONS 6
+#define SQFFD__SQ_START_ITERATIONS 4
 #endif
 #ifndef SQFFD__SQ_KEEP
 #define SQFFD__SQ_KEEP 2
@@ -415,6 +459,7 @@ SQFFD_DEF double sqffd_sq_iou(const sqffd_superquadric *a, const sqffd_superquad
 #define SQFFD__SQ_BOX_MARGIN 1.25 /* the fit stays within the data's box enlarged this much */
 #define SQFFD__SQ_MIN_STEP 1e-10   /* parameter steps below this (normalised units) end the iteration */
 #define SQFFD__SQ_EXACT 1e-24      /* mean squared residual counted as an exact fit */
+#define SQFFD__SQ_CLEAR_WIN 1e-2   /* screened starts this much costlier than the best are not polished */
 #define SQFFD__SQ_FLAT_RATIO 1e-10 /* covariance eigenvalue ratio below which data are flat */
 
 /* Per-evaluation constants of the residual. */
@@ -511,11 +556,14 @@ typedef struct sqffd__sq_fit {
     double box_half[3];
     double size_min;
     int iterations;       /* optimiser iterations so far */
+    void *ncg_work;       /* CG optimiser scratch */
+    size_t ncg_size;
     sqffd_result status;  /* SQFFD_ERROR_CANCELLED once the callback asked */
 } sqffd__sq_fit;
 
-/* Weighted cost sum w r^2 over m points (weights NULL = 1); with jtj (npar x
-   npar, upper triangle) and jtr also the Gauss-Newton normal equations. */
+/* Weighted cost sum w r^2 over m points (weights NULL = 1); with jtr also
+   J^T W r, and with jtj too the upper triangle of J^T W J (the Gauss-Newton
+   normal equations; row stride SQFFD__SQ_NPAR). */
 static double sqffd__sq_accumulate(const sqffd__sq_fit *fit, const sqffd_superquadric *sq, const double *pts,
                                    const double *weights, size_t m, double *jtj, double *jtr)
 {
@@ -524,20 +572,22 @@ static double sqffd__sq_accumulate(const sqffd__sq_fit *fit, const sqffd_superqu
     int np = fit->npar, i, j;
     size_t k;
     sqffd__sq_eval_init(&ev, sq, fit->cost);
-    if (jtj) {
-        memset(jtj, 0, sizeof(double) * SQFFD__SQ_NPAR * SQFFD__SQ_NPAR);
-        memset(jtr, 0, sizeof(double) * SQFFD__SQ_NPAR);
-    }
+#ifdef SQFFD__SQ_COUNT
+    SQFFD__SQ_COUNT(m, jtj != NULL);
+#endif
+    if (jtj) memset(jtj, 0, sizeof(double) * SQFFD__SQ_NPAR * SQFFD__SQ_NPAR);
+    if (jtr) memset(jtr, 0, sizeof(double) * SQFFD__SQ_NPAR);
     for (k = 0; k < m; k++) {
         double w = weights ? weights[k] : 1.0, r;
         if (w <= 0.0) continue;
-        r = sqffd__sq_residual(&ev, pts + 3 * k, jtj ? g : NULL);
+        r = sqffd__sq_residual(&ev, pts + 3 * k, jtr ? g : NULL);
         cost += w * r * r;
-        if (!jtj) continue;
+        if (!jtr) continue;
         for (i = 0; i < np; i++) {
             double wg = w * g[i];
             jtr[i] += wg * r;
-            for (j = i; j < np; j++) jtj[i * SQFFD__SQ_NPAR + j] += wg * g[j];
+            if (jtj)
+                for (j = i; j < np; j++) jtj[i * SQFFD__SQ_NPAR + j] += wg * g[j];
         }
     }
     return cost;
@@ -672,12 +722,131 @@ static int sqffd__sq_lm(sqffd__sq_fit *fit, sqffd_superquadric *sq, const double
     return 0;
 }
 
+/* ---- the paper's optimiser, nonlinear conjugate gradients ----
+   Parameters x = (w, centre, log sizes, e1, e2, Kx, Ky) with R = R0 exp([w]x).
+   The gradient is 2 J^T r from the same analytic Jacobian as the LM; its
+   rotation part (taken at the current R) maps to w through the transposed
+   right Jacobian of the exponential map,
+   J_r(w)^T g = g + a w x g + b w x (w x g), a = (1 - cos t)/t^2, b = (t - sin t)/t^3. */
+typedef struct sqffd__sq_cg {
+    sqffd__sq_fit *fit;
+    const sqffd_superquadric *base; /* R0 */
+    const double *pts, *weights;
+    size_t m;
+} sqffd__sq_cg;
+
+static void sqffd__sq_cg_model(const sqffd__sq_cg *cg, const double *x, sqffd_superquadric *sq)
+{
+    int k;
+    *sq = *cg->base;
+    sqffd__sq_rotate(sq->rotation, x + SQFFD__SQ_P_ROT);
+    for (k = 0; k < 3; k++) {
+        sq->center[k] = x[SQFFD__SQ_P_CENTER + k];
+        sq->size[k] = exp(x[SQFFD__SQ_P_LOGSIZE + k]);
+    }
+    sq->shape[0] = x[SQFFD__SQ_P_E1];
+    sq->shape[1] = x[SQFFD__SQ_P_E2];
+    if (cg->fit->npar == SQFFD__SQ_NPAR) {
+        sq->taper[0] = x[SQFFD__SQ_P_TAPER];
+        sq->taper[1] = x[SQFFD__SQ_P_TAPER + 1];
+    }
+}
+
+/* The non-rotation parameters of sq into x (x[0..2] untouched). */
+static void sqffd__sq_cg_params(const sqffd__sq_fit *fit, const sqffd_superquadric *sq, double *x)
+{
+    int k;
+    for (k = 0; k < 3; k++) {
+        x[SQFFD__SQ_P_CENTER + k] = sq->center[k];
+        x[SQFFD__SQ_P_LOGSIZE + k] = log(sq->size[k]);
+    }
+    x[SQFFD__SQ_P_E1] = sq->shape[0];
+    x[SQFFD__SQ_P_E2] = sq->shape[1];
+    if (fit->npar == SQFFD__SQ_NPAR) {
+        x[SQFFD__SQ_P_TAPER] = sq->taper[0];
+        x[SQFFD__SQ_P_TAPER + 1] = sq->taper[1];
+    }
+}
+
+static double sqffd__sq_cg_objective(void *user, const double *x, double *gradient)
+{
+    const sqffd__sq_cg *cg = (const sqffd__sq_cg *)user;
+    sqffd_superquadric sq;
+    double jtr[SQFFD__SQ_NPAR], g[3], wg[3], wwg[3], cost, t2, a, b;
+    int k;
+    sqffd__sq_cg_model(cg, x, &sq);
+    cost = sqffd__sq_accumulate(cg->fit, &sq, cg->pts, cg->weights, cg->m, NULL, jtr);
+    for (k = 0; k < cg->fit->npar; k++) gradient[k] = 2.0 * jtr[k];
+    t2 = sqffd__dot3(x, x);
+    if (t2 < 1e-8) { a = 0.5 - t2 / 24.0; b = 1.0 / 6.0 - t2 / 120.0; }
+    else {
+        double t = sqrt(t2);
+        a = (1.0 - cos(t)) / t2;
+        b = (t - sin(t)) / (t2 * t);
+    }
+    memcpy(g, gradient + SQFFD__SQ_P_ROT, sizeof g);
+    sqffd__cross3(x, g, wg);
+    sqffd__cross3(x, wg, wwg);
+    for (k = 0; k < 3; k++) gradient[SQFFD__SQ_P_ROT + k] = g[k] + a * wg[k] + b * wwg[k];
+    return cost;
+}
+
+static void sqffd__sq_cg_project(void *user, double *x)
+{
+    const sqffd__sq_cg *cg = (const sqffd__sq_cg *)user;
+    sqffd_superquadric sq;
+    sqffd__sq_cg_model(cg, x, &sq);
+    sqffd__sq_project(cg->fit, &sq);
+    sqffd__sq_cg_params(cg->fit, &sq, x);
+}
+
+static int sqffd__sq_cg_progress(void *user, int stage, int iteration, double error)
+{
+    (void)stage;
+    (void)iteration;
+    return !sqffd__sq_tick((sqffd__sq_fit *)user, error);
+}
+
+static int sqffd__sq_cg_minimize(sqffd__sq_fit *fit, sqffd_superquadric *sq, const double *pts, const double *weights,
+                                 size_t m, int max_iterations, double *cost)
+{
+    sqffd__sq_cg cg;
+    sqffd_superquadric base = *sq;
+    double x[SQFFD__SQ_NPAR], gradient[SQFFD__SQ_NPAR], f0;
+    sqffd_result r;
+    cg.fit = fit;
+    cg.base = &base;
+    cg.pts = pts;
+    cg.weights = weights;
+    cg.m = m;
+    x[0] = x[1] = x[2] = 0.0;
+    sqffd__sq_cg_params(fit, sq, x);
+    f0 = sqffd__sq_cg_objective(&cg, x, gradient);
+    r = sqffd_ncg_minimize(fit->npar, sqffd__sq_cg_objective, sqffd__sq_cg_project, &cg, x, max_iterations,
+                           fit->opt->tolerance * (f0 > 1.0 ? f0 : 1.0), NULL, cost, sqffd__sq_cg_progress, fit,
+                           fit->ncg_work, fit->ncg_size);
+    sqffd__sq_cg_model(&cg, x, sq);
+    if (r == SQFFD_ERROR_CANCELLED) fit->status = SQFFD_ERROR_CANCELLED;
+    return r == SQFFD_OK;
+}
+
+/* The configured optimiser; the CG needs more, cheaper iterations. */
+#define SQFFD__SQ_CG_FACTOR 4
+static int sqffd__sq_optimize(sqffd__sq_fit *fit, sqffd_superquadric *sq, const double *pts, const double *weights,
+                              size_t m, int max_iterations, double *cost)
+{
+    if (fit->opt->optimizer == SQFFD_SQ_OPTIMIZER_CG)
+        return sqffd__sq_cg_minimize(fit, sq, pts, weights, m, SQFFD__SQ_CG_FACTOR * max_iterations, cost);
+    return sqffd__sq_lm(fit, sq, pts, weights, m, max_iterations, cost);
+}
+
 /* Workspace blocks of one fit. */
 typedef struct sqffd__sq_work {
     double *points;  /* 3n normalised points */
     double *weights; /* n robust weights (robust mode only) */
     double *screen;  /* 3 * min(n, SQFFD__SQ_SCREEN) subsample */
     double *polish;  /* 3 * min(n, SQFFD__SQ_POLISH) subsample */
+    double *dense;   /* robust mode: the polish points that are not isolated */
     double *hist;    /* 3 * SQFFD__SQ_HISTOGRAM */
     void *ncg;       /* CG optimiser scratch */
     size_t ncg_size;
@@ -686,9 +855,11 @@ typedef struct sqffd__sq_work {
 static void sqffd__sq_fit_layout(sqffd__arena *a, size_t n, const sqffd_sq_fit_options *o, sqffd__sq_work *w)
 {
     w->points = (double *)sqffd__arena_take(a, n, 3 * sizeof(double));
-    w->weights = o->robust ? (double *)sqffd__arena_take(a, n, sizeof(double)) : NULL;
+    /* robust weights; also the 2 * min(n, SQFFD__SQ_POLISH) scratch of the density filter */
+    w->weights = o->robust ? (double *)sqffd__arena_take(a, n > 2 * SQFFD__SQ_POLISH ? n : 2 * SQFFD__SQ_POLISH, sizeof(double)) : NULL;
     w->screen = (double *)sqffd__arena_take(a, n < SQFFD__SQ_SCREEN ? n : SQFFD__SQ_SCREEN, 3 * sizeof(double));
     w->polish = (double *)sqffd__arena_take(a, n < SQFFD__SQ_POLISH ? n : SQFFD__SQ_POLISH, 3 * sizeof(double));
+    w->dense = o->robust ? (double *)sqffd__arena_take(a, n < SQFFD__SQ_POLISH ? n : SQFFD__SQ_POLISH, 3 * sizeof(double)) : NULL;
     w->hist = (double *)sqffd__arena_take(a, 3 * SQFFD__SQ_HISTOGRAM, sizeof(double));
     w->ncg_size = o->optimizer == SQFFD_SQ_OPTIMIZER_CG ? sqffd_ncg_workspace_size(SQFFD__SQ_NPAR) : 0;
     w->ncg = w->ncg_size ? sqffd__arena_take(a, w->ncg_size, 1) : NULL;
@@ -705,7 +876,7 @@ SQFFD_DEF sqffd_sq_fit_options sqffd_sq_fit_options_default(void)
     o.shape_max = 1.9;
     o.taper_max = 0.95;
     o.max_iterations = 100;
-    o.tolerance = 1e-7;
+    o.tolerance = 1e-5;
     o.robust = 0;
     o.robust_rounds = 6;
     o.progress = NULL;
@@ -833,24 +1004,27 @@ static int sqffd__sq_normalize(const double *points, size_t n, double *out, doub
     return 1;
 }
 
-/* Robust initial half-sizes along the columns of axes: the
+/* Robust initial half-sizes along the columns of axes, about centre: the
    SQFFD__SQ_SIZE_QUANTILE quantile of |projection| (a fixed histogram, no
    sort), divided by the quantile (exact for a sphere sampled evenly). */
-static void sqffd__sq_initial_sizes(const double *pts, size_t n, const double axes[9], double *hist, double size[3])
+static void sqffd__sq_initial_sizes(const double *pts, size_t n, const double centre[3], const double axes[9],
+                                    double *hist, double size[3])
 {
-    double top[3] = {0.0, 0.0, 0.0}, proj[3];
+    double top[3] = {0.0, 0.0, 0.0}, proj[3], d[3];
     size_t i;
     int k, b;
     memset(hist, 0, sizeof(double) * 3 * SQFFD__SQ_HISTOGRAM);
     for (i = 0; i < n; i++) {
-        sqffd__mat3t_vec(axes, pts + 3 * i, proj);
+        sqffd__sub3(pts + 3 * i, centre, d);
+        sqffd__mat3t_vec(axes, d, proj);
         for (k = 0; k < 3; k++)
             if (fabs(proj[k]) > top[k]) top[k] = fabs(proj[k]);
     }
     for (i = 0; i < n; i++) {
-        sqffd__mat3t_vec(axes, pts + 3 * i, proj);
+        sqffd__sub3(pts + 3 * i, centre, d);
+        sqffd__mat3t_vec(axes, d, proj);
         for (k = 0; k < 3; k++) {
-            b = (int)(fabs(proj[k]) / top[k] * SQFFD__SQ_HISTOGRAM);
+            b = top[k] > 0.0 ? (int)(fabs(proj[k]) / top[k] * SQFFD__SQ_HISTOGRAM) : 0;
             hist[k * SQFFD__SQ_HISTOGRAM + (b < SQFFD__SQ_HISTOGRAM ? b : SQFFD__SQ_HISTOGRAM - 1)] += 1.0;
         }
     }
@@ -865,6 +1039,76 @@ static void sqffd__sq_initial_sizes(const double *pts, size_t n, const double ax
     }
 }
 
+/* Centroid and covariance (row-major 3x3) of m points. */
+static void sqffd__sq_moments(const double *pts, size_t m, double centre[3], double cov[9])
+{
+    size_t i;
+    int k;
+    memset(cov, 0, 9 * sizeof(double));
+    centre[0] = centre[1] = centre[2] = 0.0;
+    for (i = 0; i < m; i++)
+        for (k = 0; k < 3; k++) centre[k] += pts[3 * i + (size_t)k] / (double)m;
+    for (i = 0; i < m; i++) {
+        double d[3];
+        sqffd__sub3(pts + 3 * i, centre, d);
+        for (k = 0; k < 9; k++) cov[k] += d[k / 3] * d[k % 3] / (double)m;
+    }
+}
+
+static void sqffd__sq_swap(double *a, size_t i, size_t j)
+{
+    double t = a[i];
+    a[i] = a[j];
+    a[j] = t;
+}
+
+/* The k-th smallest of a[0..n-1] (quickselect, median-of-three pivot,
+   Lomuto partition; reorders a). */
+static double sqffd__sq_select(double *a, size_t n, size_t k)
+{
+    size_t lo = 0, hi = n - 1;
+    while (hi > lo) {
+        size_t mid = lo + (hi - lo) / 2, store = lo, i;
+        if (a[mid] < a[lo]) sqffd__sq_swap(a, lo, mid);
+        if (a[hi] < a[lo]) sqffd__sq_swap(a, lo, hi);
+        if (a[mid] < a[hi]) sqffd__sq_swap(a, mid, hi); /* a[hi]: the median of the three */
+        for (i = lo; i < hi; i++)
+            if (a[i] < a[hi]) sqffd__sq_swap(a, i, store++);
+        sqffd__sq_swap(a, store, hi);
+        if (k == store) break;
+        if (k < store) hi = store - 1;
+        else lo = store + 1;
+    }
+    return a[k];
+}
+
+/* Robust mode's start set: the points whose SQFFD__SQ_NEIGHBOURS-th nearest
+   neighbour (brute force, m is a subsample) is at most twice the median such
+   distance. Outliers away from the surface are isolated and drop out.
+   dist: 2m doubles of scratch. Returns the count written to out. */
+#define SQFFD__SQ_NEIGHBOURS 6
+static size_t sqffd__sq_dense_points(const double *pts, size_t m, double *out, double *dist)
+{
+    size_t i, j, kept = 0;
+    double limit;
+    for (i = 0; i < m; i++) {
+        double nearest[SQFFD__SQ_NEIGHBOURS];
+        int k;
+        for (k = 0; k < SQFFD__SQ_NEIGHBOURS; k++) nearest[k] = HUGE_VAL;
+        for (j = 0; j < m; j++) {
+            double d2 = sqffd__dist2_3(pts + 3 * i, pts + 3 * j);
+            if (j == i || d2 >= nearest[SQFFD__SQ_NEIGHBOURS - 1]) continue;
+            for (k = SQFFD__SQ_NEIGHBOURS - 1; k > 0 && nearest[k - 1] > d2; k--) nearest[k] = nearest[k - 1];
+            nearest[k] = d2;
+        }
+        dist[i] = dist[m + i] = nearest[SQFFD__SQ_NEIGHBOURS - 1];
+    }
+    limit = 4.0 * sqffd__sq_select(dist + m, m, m / 2); /* squared distances: twice the median */
+    for (i = 0; i < m; i++)
+        if (dist[i] <= limit) memcpy(out + 3 * kept++, pts + 3 * i, 3 * sizeof(double));
+    return kept;
+}
+
 #ifndef SQFFD__SQ_ROBUST_COST
 #define SQFFD__SQ_ROBUST_COST SQFFD_SQ_COST_RADIAL
 #endif
@@ -874,52 +1118,132 @@ static void sqffd__sq_initial_sizes(const double *pts, size_t n, const double ax
 #ifndef SQFFD__SQ_ROUND_ITERATIONS
 #define SQFFD__SQ_ROUND_ITERATIONS 5
 #endif
-/* Refine a candidate on m points: plain LM to convergence, or in robust mode
-   `rounds` EM rounds (reweight, then a few weighted LM iterations of the
-   mixture's residual, the radial distance). Returns the score candidates
-   are compared by: the cost, or the mixture's negative log-likelihood. */
-static double sqffd__sq_refine(sqffd__sq_fit *fit, sqffd_superquadric *sq, const double *pts, size_t m,
-                               double *weights, sqffd__sq_mixture *mix, int rounds, int *converged)
+/* Robust variance of the radial distances of m points: (1.4826 median |d|)^2.
+   scratch: m doubles. */
+static double sqffd__sq_robust_d2(const sqffd_superquadric *sq, const double *pts, size_t m, double *scratch)
 {
-    double cost = 0.0, nll = 0.0;
-    int r;
-    if (!fit->opt->robust) {
-        *converged = sqffd__sq_lm(fit, sq, pts, NULL, m, fit->opt->max_iterations, &cost);
-        return cost;
-    }
-    fit->cost = SQFFD__SQ_ROBUST_COST;
-    for (r = 0; r < rounds && fit->status == SQFFD_OK; r++) {
-        nll = sqffd__sq_reweight(sq, pts, m, fit->box_volume, weights, mix);
-        *converged = sqffd__sq_lm(fit, sq, pts, weights, m, r + 1 < rounds ? SQFFD__SQ_ROUND_ITERATIONS : fit->opt->max_iterations, &cost);
-    }
-    nll = sqffd__sq_reweight(sq, pts, m, fit->box_volume, weights, mix);
-    fit->cost = (int)fit->opt->cost;
-    return nll;
+    double mad;
+    size_t k;
+    for (k = 0; k < m; k++) scratch[k] = sqffd_sq_radial_distance(sq, pts + 3 * k);
+    mad = 1.4826 * sqffd__sq_select(scratch, m, m / 2);
+    return mad * mad;
 }
 
-SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_sq_fit_options *options,
-                                    sqffd_superquadric *sq, sqffd_sq_fit_report *report,
-                                    void *workspace, size_t workspace_size)
+/* Robust mode: `rounds` EM rounds on m points (reweight, then a few
+   weighted LM iterations of the mixture's own residual, the radial
+   distance); the last round runs the LM to convergence. */
+static int sqffd__sq_em(sqffd__sq_fit *fit, sqffd_superquadric *sq, const double *pts, size_t m, double *weights,
+                        sqffd__sq_mixture *mix, int rounds)
+{
+    double cost;
+    int r, converged = 0;
+    fit->cost = SQFFD__SQ_ROBUST_COST;
+    for (r = 0; r < rounds && fit->status == SQFFD_OK; r++) {
+        sqffd__sq_reweight(sq, pts, m, fit->box_volume, weights, mix);
+        converged = sqffd__sq_optimize(fit, sq, pts, weights, m,
+                                 r + 1 < rounds ? SQFFD__SQ_ROUND_ITERATIONS : fit->opt->max_iterations, &cost);
+    }
+    sqffd__sq_reweight(sq, pts, m, fit->box_volume, weights, mix);
+    fit->cost = (int)fit->opt->cost;
+    return converged;
+}
+
+/* Keep the SQFFD__SQ_KEEP cheapest starts, sorted by cost. */
+typedef struct sqffd__sq_shortlist {
+    sqffd_superquadric sq[SQFFD__SQ_KEEP];
+    double cost[SQFFD__SQ_KEEP];
+    int id[SQFFD__SQ_KEEP];
+    int count;
+} sqffd__sq_shortlist;
+
+static void sqffd__sq_shortlist_add(sqffd__sq_shortlist *list, const sqffd_superquadric *sq, double cost, int id)
+{
+    int slot;
+    for (slot = list->count; slot > 0 && cost < list->cost[slot - 1]; slot--)
+        if (slot < SQFFD__SQ_KEEP) {
+            list->sq[slot] = list->sq[slot - 1];
+            list->cost[slot] = list->cost[slot - 1];
+            list->id[slot] = list->id[slot - 1];
+        }
+    if (slot >= SQFFD__SQ_KEEP) return;
+    list->sq[slot] = *sq;
+    list->cost[slot] = cost;
+    list->id[slot] = id;
+    if (list->count < SQFFD__SQ_KEEP) list->count++;
+}
+
+/* Starts: each principal axis of the start set as the local z, times the
+   shape seeds; when two eigenvalues are close their axes are arbitrary
+   within their plane, so that basis is also tried turned by 45 degrees in
+   it. Each start gets a few LM iterations on the screening subsample. */
+static void sqffd__sq_screen(sqffd__sq_fit *fit, const double *pts, size_t m, const double *screen, size_t m_screen,
+                             double *hist, sqffd__sq_shortlist *list)
 {
 #ifndef SQFFD__SQ_SEEDS
 #define SQFFD__SQ_SEEDS {1.0, 1.0}, {1.7, 0.3}, {0.3, 1.7}
 #endif
     static const double shape_seeds[][2] = {SQFFD__SQ_SEEDS};
     const int n_seeds = (int)(sizeof shape_seeds / sizeof shape_seeds[0]);
-    sqffd_superquadric kept[SQFFD__SQ_KEEP];
-    double kept_cost[SQFFD__SQ_KEEP];
-    sqffd__sq_mixture kept_mix[SQFFD__SQ_KEEP], mix;
-    int kept_id[SQFFD__SQ_KEEP], n_kept, basis;
-    size_t m_screen = n < SQFFD__SQ_SCREEN ? n : SQFFD__SQ_SCREEN, m_polish = n < SQFFD__SQ_POLISH ? n : SQFFD__SQ_POLISH;
+    double centre[3], cov[9], values[3], axes[9];
+    int basis, s, id = 0;
+    sqffd__sq_moments(pts, m, centre, cov);
+    sqffd_sym3_eigen(cov, values, axes);
+    list->count = 0;
+    for (basis = 0; basis < 3 && fit->status == SQFFD_OK; basis++) {
+        double b_axes[9], b_size[3];
+        memcpy(b_axes, axes, sizeof b_axes);
+        if (basis > 0) { /* basis 1: eigenvalues 0 and 1 close, turn about axis 2; basis 2: 1 and 2, about 0 */
+            double ratio = basis == 1 ? values[0] / values[1] : values[1] / values[2], turn[3] = {0.0, 0.0, 0.0};
+            if (!(ratio >= SQFFD__SQ_CLOSE_RATIO)) continue;
+            turn[basis == 1 ? 2 : 0] = 0.25 * SQFFD__SQ_PI;
+            sqffd__sq_rotate(b_axes, turn);
+        }
+        sqffd__sq_initial_sizes(pts, m, centre, b_axes, hist, b_size);
+#ifndef SQFFD__SQ_BASIS_SEEDS
+#define SQFFD__SQ_BASIS_SEEDS 1
+#endif
+        for (s = 0; s < 3 * (basis ? SQFFD__SQ_BASIS_SEEDS : n_seeds) && fit->status == SQFFD_OK; s++, id++) {
+            sqffd_superquadric cur;
+            double cost;
+            int j;
+            memset(&cur, 0, sizeof cur);
+            for (j = 0; j < 3; j++) { /* cyclic column permutation: still a rotation */
+                int col = (j + s) % 3;
+                cur.rotation[j] = b_axes[col];
+                cur.rotation[3 + j] = b_axes[3 + col];
+                cur.rotation[6 + j] = b_axes[6 + col];
+                cur.size[j] = b_size[col];
+                cur.center[j] = centre[j];
+            }
+            cur.shape[0] = shape_seeds[s / 3][0];
+            cur.shape[1] = shape_seeds[s / 3][1];
+            sqffd__sq_project(fit, &cur);
+            sqffd__sq_optimize(fit, &cur, screen, NULL, m_screen, SQFFD__SQ_START_ITERATIONS, &cost);
+#ifdef SQFFD__SQ_DEBUG
+            SQFFD__SQ_DEBUG(basis * 100 + s, &cur, cost);
+#endif
+            sqffd__sq_shortlist_add(list, &cur, cost, id);
+            if (cost < SQFFD__SQ_EXACT * (double)m_screen) return; /* exact: no start can do better */
+        }
+    }
+}
+
+SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_sq_fit_options *options,
+                                    sqffd_superquadric *sq, sqffd_sq_fit_report *report,
+                                    void *workspace, size_t workspace_size)
+{
     sqffd_sq_fit_options defaults = sqffd_sq_fit_options_default();
     const sqffd_sq_fit_options *o = options ? options : &defaults;
+    size_t m_polish = n < SQFFD__SQ_POLISH ? n : SQFFD__SQ_POLISH, m_start, m_screen, i;
+    sqffd__sq_shortlist list;
+    sqffd__sq_mixture mix;
     sqffd__arena arena;
     sqffd__sq_work w;
     sqffd__sq_fit fit;
-    sqffd_superquadric best, cur;
-    double centroid[3], scale, cov[9], values[3], axes[9], best_cost = 0.0, cost;
-    size_t i;
-    int k, s, best_start = 0, converged = 0;
+    sqffd_superquadric best;
+    double centroid[3], scale, centre[3], cov[9], values[3], axes[9], best_cost = 0.0;
+    const double *start_pts, *polish;
+    int k, best_start = 0, converged = 0;
     if (!points || !sq || !sqffd__sq_options_valid(o)) return SQFFD_ERROR_INVALID_ARGUMENT;
     if (n < SQFFD_SQ_FIT_MIN_POINTS) return SQFFD_ERROR_TOO_FEW_POINTS;
     if (!workspace) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
@@ -929,6 +1253,9 @@ SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_
     for (i = 0; i < n; i++)
         if (!sqffd__finite3(points + 3 * i)) return SQFFD_ERROR_NON_FINITE;
     if (!sqffd__sq_normalize(points, n, w.points, centroid, &scale)) return SQFFD_ERROR_DEGENERATE;
+    sqffd__sq_moments(w.points, n, centre, cov);
+    sqffd_sym3_eigen(cov, values, axes);
+    if (!(values[0] > SQFFD__SQ_FLAT_RATIO * values[2])) return SQFFD_ERROR_DEGENERATE; /* coplanar or collinear */
 
     memset(&fit, 0, sizeof fit);
     fit.opt = o;
@@ -936,89 +1263,63 @@ SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_
     fit.cost = (int)o->cost;
     fit.status = SQFFD_OK;
     fit.size_min = 1e-3;
-    memset(cov, 0, sizeof cov);
-    for (k = 0; k < 3; k++) fit.box_mid[k] = fit.box_half[k] = w.points[k];
-    for (i = 0; i < n; i++) {
-        const double *p = w.points + 3 * i;
-        for (k = 0; k < 9; k++) cov[k] += p[k / 3] * p[k % 3];
-        for (k = 0; k < 3; k++) { /* box_mid/box_half hold min/max for now */
-            if (p[k] < fit.box_mid[k]) fit.box_mid[k] = p[k];
-            if (p[k] > fit.box_half[k]) fit.box_half[k] = p[k];
-        }
-    }
+    fit.ncg_work = w.ncg;
+    fit.ncg_size = w.ncg_size;
     for (k = 0; k < 3; k++) {
-        double lo = fit.box_mid[k], hi = fit.box_half[k];
+        double lo = w.points[k], hi = w.points[k];
+        for (i = 1; i < n; i++) {
+            double v = w.points[3 * i + (size_t)k];
+            if (v < lo) lo = v;
+            if (v > hi) hi = v;
+        }
         fit.box_mid[k] = 0.5 * (lo + hi);
         fit.box_half[k] = 0.5 * (hi - lo);
     }
     fit.box_volume = 8.0 * fit.box_half[0] * fit.box_half[1] * fit.box_half[2];
-    sqffd_sym3_eigen(cov, values, axes);
-    if (!(values[0] > SQFFD__SQ_FLAT_RATIO * values[2])) return SQFFD_ERROR_DEGENERATE;
 
-    /* Starts: each principal axis as the local z, times the shape seeds;
-       when two eigenvalues are close their axes are arbitrary within their
-       plane, so that basis is also tried turned by 45 degrees in it. Every
-       start gets a few iterations on a small subsample (screen), the best
-       few run to convergence on a larger one (polish), and the winner on all
-       points. */
-    sqffd__sq_subsample(w.points, n, w.screen, m_screen);
+    /* The starts come from all points, or in robust mode from the polish
+       subsample without its isolated points. Every start is screened on a
+       small subsample, the best few run to convergence on a larger one
+       (polish), and the winner on all points. */
     sqffd__sq_subsample(w.points, n, w.polish, m_polish);
-    n_kept = 0;
-    for (basis = 0; basis < 3 && fit.status == SQFFD_OK; basis++) {
-        double b_axes[9], b_size[3];
-        memcpy(b_axes, axes, sizeof b_axes);
-        if (basis > 0) {
-            int fixed_axis = basis == 1 ? 2 : 0; /* basis 1: eigenvalues 0, 1 close; basis 2: 1, 2 close */
-            double ratio = basis == 1 ? values[0] / values[1] : values[1] / values[2], turn[3] = {0.0, 0.0, 0.0};
-            if (ratio < SQFFD__SQ_CLOSE_RATIO) continue;
-            turn[fixed_axis] = 0.25 * SQFFD__SQ_PI;
-            sqffd__sq_rotate(b_axes, turn);
-        }
-        sqffd__sq_initial_sizes(w.points, n, b_axes, w.hist, b_size);
-#ifndef SQFFD__SQ_BASIS_SEEDS
-#define SQFFD__SQ_BASIS_SEEDS 1
-#endif
-        for (s = 0; s < 3 * (basis ? SQFFD__SQ_BASIS_SEEDS : n_seeds) && fit.status == SQFFD_OK; s++) {
-            int perm = s % 3, j, slot;
-            memset(&cur, 0, sizeof cur);
-            for (j = 0; j < 3; j++) { /* cyclic column permutation: still a rotation */
-                int col = (j + perm) % 3;
-                cur.rotation[j] = b_axes[col];
-                cur.rotation[3 + j] = b_axes[3 + col];
-                cur.rotation[6 + j] = b_axes[6 + col];
-                cur.size[j] = b_size[col];
-            }
-            cur.shape[0] = shape_seeds[s / 3][0];
-            cur.shape[1] = shape_seeds[s / 3][1];
-            sqffd__sq_project(&fit, &cur);
-            sqffd__sq_lm(&fit, &cur, w.screen, NULL, m_screen, SQFFD__SQ_START_ITERATIONS, &cost);
-#ifdef SQFFD__SQ_DEBUG
-            SQFFD__SQ_DEBUG(basis * 100 + s, &cur, cost);
-#endif
-            /* keep the SQFFD__SQ_KEEP cheapest, sorted */
-            for (slot = n_kept; slot > 0 && cost < kept_cost[slot - 1]; slot--) {
-                if (slot < SQFFD__SQ_KEEP) { kept[slot] = kept[slot - 1]; kept_cost[slot] = kept_cost[slot - 1]; kept_id[slot] = kept_id[slot - 1]; }
-            }
-            if (slot < SQFFD__SQ_KEEP) {
-                kept[slot] = cur; kept_cost[slot] = cost; kept_id[slot] = basis * 3 * n_seeds + s;
-                if (n_kept < SQFFD__SQ_KEEP) n_kept++;
-            }
-        }
+    start_pts = w.points;
+    m_start = n;
+    if (o->robust) {
+        m_start = sqffd__sq_dense_points(w.polish, m_polish, w.dense, w.weights);
+        start_pts = w.dense;
+        if (m_start < SQFFD_SQ_FIT_MIN_POINTS) { start_pts = w.polish; m_start = m_polish; }
     }
-    for (k = 0; k < n_kept && fit.status == SQFFD_OK; k++) {
-        kept_mix[k].sigma2 = 0.0;
-        kept_mix[k].prior = 0.5;
-        if (m_polish > m_screen || o->robust)
-            kept_cost[k] = sqffd__sq_refine(&fit, &kept[k], w.polish, m_polish, w.weights, &kept_mix[k], o->robust_rounds, &converged);
-#ifdef SQFFD__SQ_DEBUG
-        SQFFD__SQ_DEBUG(1000 + fit.iterations, &kept[k], kept_cost[k]);
-#endif
-        if (k == 0 || kept_cost[k] < best_cost) { best = kept[k]; best_cost = kept_cost[k]; best_start = kept_id[k]; mix = kept_mix[k]; }
-    }
+    m_screen = m_start < SQFFD__SQ_SCREEN ? m_start : SQFFD__SQ_SCREEN;
+    sqffd__sq_subsample(start_pts, m_start, w.screen, m_screen);
+    sqffd__sq_screen(&fit, start_pts, m_start, w.screen, m_screen, w.hist, &list);
 
-    /* the winner on all points */
-    if (fit.status == SQFFD_OK && (m_polish < n || o->robust))
-        best_cost = sqffd__sq_refine(&fit, &best, w.points, n, w.weights, &mix, SQFFD__SQ_FULL_ROUNDS, &converged);
+    polish = o->robust ? start_pts : w.polish;
+    m_polish = o->robust ? m_start : m_polish;
+    for (k = 0; k < list.count && fit.status == SQFFD_OK; k++) {
+        if (k > 0 && list.cost[0] < SQFFD__SQ_CLEAR_WIN * list.cost[k]) break; /* the rest are far behind */
+        if (m_polish > m_screen)
+            converged = sqffd__sq_optimize(&fit, &list.sq[k], polish, NULL, m_polish, o->max_iterations, &list.cost[k]);
+#ifdef SQFFD__SQ_DEBUG
+        SQFFD__SQ_DEBUG(1000 + fit.iterations, &list.sq[k], list.cost[k]);
+#endif
+        if (k == 0 || list.cost[k] < best_cost) {
+            best = list.sq[k];
+            best_cost = list.cost[k];
+            best_start = list.id[k];
+        }
+    }
+    if (o->robust && fit.status == SQFFD_OK) {
+        /* the mixture starts from the dense set's spread and share; EM on
+           the polish subsample, then on all points */
+        mix.sigma2 = sqffd__sq_robust_d2(&best, start_pts, m_start, w.weights);
+        mix.prior = (double)m_start / (double)(n < SQFFD__SQ_POLISH ? n : SQFFD__SQ_POLISH);
+        if (n > SQFFD__SQ_POLISH)
+            sqffd__sq_em(&fit, &best, w.polish, SQFFD__SQ_POLISH, w.weights, &mix, o->robust_rounds);
+        converged = sqffd__sq_em(&fit, &best, w.points, n, w.weights, &mix,
+                                 n > SQFFD__SQ_POLISH ? SQFFD__SQ_FULL_ROUNDS : o->robust_rounds);
+    } else if (fit.status == SQFFD_OK && m_polish < n) {
+        converged = sqffd__sq_optimize(&fit, &best, w.points, NULL, n, o->max_iterations, &best_cost);
+    }
 #ifdef SQFFD__SQ_DEBUG
     SQFFD__SQ_DEBUG(2000 + fit.iterations, &best, best_cost);
 #endif

@@ -12,7 +12,8 @@
      sum_ijk B_i^{l-1}(s) B_j^{m-1}(t) B_k^{n-1}(u) P_ijk,
    B_i^d(s) = C(d, i) s^i (1 - s)^(d - i). Points outside the box (s, t, u
    outside [0, 1]) follow the same polynomial (no clamping), so the map is
-   smooth everywhere. The Bernstein weights are evaluated by de Casteljau's
+   smooth everywhere; far outside, rounding grows like (|s| + |1 - s|)^degree
+   (the weights alternate in sign). The weights come from de Casteljau's
    recurrence: on a face (s = 0 or 1) only that face's control points act,
    and a corner lands exactly on its corner control point. */
 typedef struct sqffd_ffd {

@@ -39,13 +39,14 @@ typedef struct sqffd_fit_options {
     int lattice[3];              /* control points per axis, 2..SQFFD_MAX_LATTICE (default 5 x 5 x 5) */
     double box_margin;           /* box = the tapered superquadric's local bounding box, axes along its axes, grown by this fraction per side (default 0.1) */
     int grid[2];                 /* model-point grid n_eta x n_omega (default 32 x 64: 2,050 model points) */
-    double alpha;                /* regularisation weight >= 0 (default 1e-4); the solver uses a = alpha M / L (M model points, L control points), i.e. alpha weighs the mean spring energy per control point against the mean squared residual per model point */
+    double alpha;                /* regularisation weight >= 0 (default 1e-5); the solver uses a = alpha M / L (M model points, L control points), i.e. alpha weighs the mean spring energy per control point against the mean squared residual per model point */
     sqffd_regularization regularization;
     sqffd_solver solver;
     int max_iterations;          /* two-step iterations (default 30) */
-    double tolerance;            /* stop when RMS ||X_{n+1} - X_n|| / diagonal <= this (default 1e-6; 0 = always max_iterations) */
+    double tolerance;            /* stop when RMS ||X_{n+1} - X_n|| / diagonal <= this (default 1e-4; 0 = always max_iterations) */
     int symmetric;               /* non-zero: also pull model points toward their closest data points (X^a halfway between step 1's target and the closest data point; builds a tree over the data) */
     size_t sq_max_points;        /* stage 1 runs on an even subsample of at most this many points (default 20,000; 0 = all) */
+    size_t ffd_max_points;       /* the FFD iterations run on an even subsample of at most this many points (default 200,000; 0 = all); report.error is always over all points */
     sqffd_progress_fn progress;  /* per FFD iteration k = 1, 2, ...: stage SQFFD_STAGE_FFD, error = relative RMS error after it */
     void *progress_user;
 } sqffd_fit_options;
@@ -65,17 +66,23 @@ typedef struct sqffd_fit_report {
     sqffd_distance_stats error;    /* data -> final model ("the error") */
     int iterations;                /* two-step iterations done */
     int converged;                 /* the tolerance was reached */
+    double step;                   /* RMS move of the model points in the last iteration / diagonal */
     int history_count;
-    double history[SQFFD_FIT_HISTORY]; /* relative RMS error after iteration 1, 2, ... */
+    double history[SQFFD_FIT_HISTORY]; /* relative RMS error after iteration 1, 2, ... (over the FFD subsample) */
 } sqffd_fit_report;
 
 SQFFD_DEF sqffd_fit_options sqffd_fit_options_default(void);
 SQFFD_DEF size_t sqffd_fit_workspace_size(size_t n, const sqffd_fit_options *options);
 /* Fit the model to n points (x y z each): the superquadric fit, a box around
    it with the regular lattice P0, model points X0 = B P0 on the grid, then the
-   two-step iteration: (1) each data point's closest model point (kd-tree),
-   displacements averaged per model point, unreached model points filled by
-   interpolation over the mesh; (2) control points minimising
+   two-step iteration: (1) each data point's closest point on the model
+   surface (the mesh of the model points: nearest model point by kd-tree, then
+   the triangles around it, as for the error); its displacement to the data
+   point is spread over that triangle's three model points with the
+   barycentric weights and averaged per model point; model points no data
+   point reached are filled by interpolation over the mesh (breadth-first from
+   the reached ones, then neighbour averaging; wraps in omega, the poles are
+   mesh vertices); X^a = X + displacement; (2) control points minimising
    ||B P - X^a||^2 + a ||D (P - P0)||^2 (or ||D P||^2), X = B P.
    report may be NULL. Results: INVALID_ARGUMENT (NULL, lattice out of range,
    grid too coarse to mesh, alpha < 0 or NaN, bad options), TOO_LARGE (grid),

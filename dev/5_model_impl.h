@@ -6,7 +6,11 @@
 #define SQFFD__FIT_MAX_GRID 65536     /* per grid axis */
 #define SQFFD__FIT_MIN_POINTS 4       /* sqffd_fit_ffd; sqffd_fit defers to the superquadric fit */
 #define SQFFD__FIT_FILL_SWEEPS 8      /* smoothing sweeps over the unreached model points */
+#define SQFFD__FIT_MAX_WALK 8         /* fan-to-fan moves of the closest-point search */
 #define SQFFD__FIT_SVD_RCOND 1e-10    /* singular values below this fraction of the largest are dropped */
+#define SQFFD__FIT_BLOCK 32           /* rows of B per block while forming B^T B */
+#define SQFFD__FIT_TILE 64            /* columns of B per tile while forming B^T B */
+#define SQFFD__FIT_PAD 8              /* the block's row stride is L + 8: a power-of-two L would map its rows onto one cache set */
 
 /* ---- the (eta, omega) grid and its closed mesh ----------------------------
    Vertex i * n_omega + j is (eta_i, omega_j) with eta_i = -pi/2 + (i + 1) pi /
@@ -61,7 +65,7 @@ static void sqffd__fit_ring_of(const int grid[2], size_t v, sqffd__fit_ring *r)
         r->count = ne;
         return;
     }
-    i = v / ne; j = v % ne; jp = (j + 1) % ne; jm = (j + ne - 1) % ne;
+    i = v / ne; j = v - i * ne; jp = j + 1 < ne ? j + 1 : 0; jm = j > 0 ? j - 1 : ne - 1;
     cand[0] = i * ne + jp;
     cand[1] = i + 1 < (size_t)grid[0] ? (i + 1) * ne + jp : north;
     cand[2] = i + 1 < (size_t)grid[0] ? (i + 1) * ne + j : north;
@@ -84,7 +88,7 @@ static size_t sqffd__fit_ring_at(const sqffd__fit_ring *r, size_t k)
    a, b; w[0] is exactly 0 on the edge ab and its ends), by the Voronoi
    regions of the vertices, edges and face (Ericson, Real-Time Collision
    Detection, 5.1.5), and its squared distance. A flat triangle falls back on
-   its nearest vertex. */
+   its nearest vertex, a zero-length edge on its end. */
 static double sqffd__fit_triangle(const double ap[3], const double ea[3], const double eb[3], double pa, double pb,
                                   double aa, double bb, double ab, double w[3])
 {
@@ -96,18 +100,19 @@ static double sqffd__fit_triangle(const double ap[3], const double ea[3], const 
     else if (d3 >= 0.0 && d4 <= d3) w[1] = 1.0;                           /* vertex a */
     else if (d6 >= 0.0 && d5 <= d6) w[2] = 1.0;                           /* vertex b */
     else if (vc <= 0.0 && pa >= 0.0 && d3 <= 0.0) {                       /* edge va */
-        w[1] = pa / (pa - d3); w[0] = 1.0 - w[1];
+        w[1] = aa > 0.0 ? pa / aa : 0.0; w[0] = 1.0 - w[1];
     } else if (vb <= 0.0 && pb >= 0.0 && d6 <= 0.0) {                     /* edge vb */
-        w[2] = pb / (pb - d6); w[0] = 1.0 - w[2];
+        w[2] = bb > 0.0 ? pb / bb : 0.0; w[0] = 1.0 - w[2];
     } else if (va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0) {           /* edge ab */
-        w[2] = (d4 - d3) / ((d4 - d3) + (d5 - d6)); w[1] = 1.0 - w[2];
+        double len2 = (d4 - d3) + (d5 - d6); /* |eb - ea|^2 */
+        w[2] = len2 > 0.0 ? (d4 - d3) / len2 : 0.0; w[1] = 1.0 - w[2];
     } else if ((sum = va + vb + vc) > 0.0) {                              /* face */
-        w[1] = vb / sum; w[2] = vc / sum; w[0] = va / sum;
+        double inv = 1.0 / sum;
+        w[1] = vb * inv; w[2] = vc * inv; w[0] = va * inv;
     } else {                                                              /* flat */
         double da = aa - 2.0 * pa, db = bb - 2.0 * pb; /* |p - a|^2 - |p - v|^2, same for b */
         w[da < 0.0 && da <= db ? 1 : db < 0.0 ? 2 : 0] = 1.0;
     }
-    if (!isfinite(w[0] + w[1] + w[2])) { w[0] = 1.0; w[1] = w[2] = 0.0; } /* 0/0 on a zero-length edge */
     for (k = 0; k < 3; ++k) r[k] = ap[k] - w[1] * ea[k] - w[2] * eb[k];
     return sqffd__dot3(r, r);
 }
@@ -131,7 +136,7 @@ static double sqffd__fit_fan_closest(const double *x, const int grid[2], size_t 
     pe[0] = first_pe; ee[0] = first_ee;
     for (k = 0; k < r.count; ++k) { /* triangle (v, ring k, ring k+1): e[k & 1] is ring k's edge */
         int c = (int)(k & 1), n = 1 - c;
-        size_t b = sqffd__fit_ring_at(&r, (k + 1) % r.count);
+        size_t b = sqffd__fit_ring_at(&r, k + 1 < r.count ? k + 1 : 0);
         double d;
         if (k + 1 < r.count) {
             sqffd__sub3(x + 3 * b, x + 3 * v, e[n]);
@@ -155,7 +160,6 @@ static double sqffd__fit_fan_closest(const double *x, const int grid[2], size_t 
    point on the fan around v; while that lies on the fan's outer rim (v's
    weight 0), the fan around the rim vertex nearer to it is searched too (at
    most SQFFD__FIT_MAX_WALK moves, never getting farther). */
-#define SQFFD__FIT_MAX_WALK 8
 static double sqffd__fit_mesh_closest(const double *x, const int grid[2], size_t v, const double q[3], size_t tri[3],
                                       double w[3])
 {
@@ -412,13 +416,14 @@ SQFFD_DEF sqffd_fit_options sqffd_fit_options_default(void)
     o.box_margin = 0.1;
     o.grid[0] = 32;
     o.grid[1] = 64;
-    o.alpha = 1e-4;
+    o.alpha = 1e-5;
     o.regularization = SQFFD_REG_DISPLACEMENT;
     o.solver = SQFFD_SOLVER_CHOLESKY;
     o.max_iterations = 30;
-    o.tolerance = 1e-6;
+    o.tolerance = 1e-4;
     o.symmetric = 0;
     o.sq_max_points = 20000;
+    o.ffd_max_points = 200000;
     o.progress = NULL;
     o.progress_user = NULL;
     return o;
@@ -440,6 +445,7 @@ static sqffd_result sqffd__fit_check_options(const sqffd_fit_options *o)
 
 SQFFD_DEF sqffd_result sqffd_model_init(sqffd_model *model, const sqffd_superquadric *sq, const sqffd_fit_options *options)
 {
+    sqffd_superquadric shape;
     double half[3], origin[3], edges[9], m;
     int a, r;
     sqffd_result res;
@@ -460,8 +466,9 @@ SQFFD_DEF sqffd_result sqffd_model_init(sqffd_model *model, const sqffd_superqua
             edges[3 * a + r] = 2.0 * half[a] * sq->rotation[3 * r + a];
             origin[r] -= half[a] * sq->rotation[3 * r + a];
         }
+    shape = *sq; /* sq may be model->sq */
     memset(model, 0, sizeof *model);
-    model->sq = *sq;
+    model->sq = shape;
     model->grid[0] = options->grid[0];
     model->grid[1] = options->grid[1];
     return sqffd_ffd_init(&model->ffd, options->lattice, origin, edges);
@@ -484,12 +491,12 @@ typedef struct sqffd__fit_system {
     double *matrix;      /* L x L: Cholesky factor, or V of the stacked system's SVD */
     double *inverse_s2;  /* SVD: 1 / s_k^2 for the kept singular values, 0 for the dropped */
     double *rhs0;        /* 3 x L: a D^T D P0 (displacement springs), zero for the paper's springs */
-    double *stacked;     /* SVD only, while preparing: [B; sqrt(a) D] */
+    double *stacked;     /* SVD, while preparing: [B; sqrt(a) D] */
     void *svd_ws;
     size_t svd_size;
 } sqffd__fit_system;
 
-/* The iteration's scratch, all model-sized except the optional data tree. */
+/* The iteration's scratch: model-sized, plus the optional subsample and data tree. */
 typedef struct sqffd__fit_work {
     double *x, *next;    /* M x 3: current and next model points */
     double *target;      /* M x 3: sums of data points, then displacements, then X^a */
@@ -498,11 +505,28 @@ typedef struct sqffd__fit_work {
     unsigned char *state;/* M */
     double *rhs;         /* 3 x L, then the new control points */
     double *scratch;     /* L */
+    double *block;       /* SQFFD__FIT_BLOCK rows of B, row stride L + SQFFD__FIT_PAD */
     void *tree_ws;       /* tree over the model points */
     size_t tree_size;
     void *data_ws;       /* tree over the data (symmetric option) */
     size_t data_size;
+    double *sample;      /* the FFD subsample (NULL: all points) */
+    size_t sample_count;
 } sqffd__fit_work;
+
+/* At most cap of n points (cap 0: all of them). */
+static size_t sqffd__fit_cap(size_t n, size_t cap)
+{
+    return cap && n > cap ? cap : n;
+}
+
+/* An even deterministic subsample of k of the n points: point i n / k,
+   computed without overflow. */
+static void sqffd__fit_subsample(const double *points, size_t n, size_t k, double *out)
+{
+    size_t i;
+    for (i = 0; i < k; ++i) memcpy(out + 3 * i, points + 3 * (i * (n / k) + i * (n % k) / k), 3 * sizeof(double));
+}
 
 static size_t sqffd__fit_spring_count(const int d[3])
 {
@@ -554,23 +578,60 @@ static void sqffd__fit_layout(sqffd__arena *a, size_t n, const int dims[3], cons
     w->state = (unsigned char *)sqffd__arena_take(a, m, 1);
     w->rhs = (double *)sqffd__arena_take(a, 3 * l, sizeof(double));
     w->scratch = (double *)sqffd__arena_take(a, l, sizeof(double));
+    w->block = (double *)sqffd__arena_take(a, SQFFD__FIT_BLOCK, (l + SQFFD__FIT_PAD) * sizeof(double));
     w->tree_size = sqffd_kdtree_workspace_size(m);
     w->tree_ws = sqffd__arena_take(a, w->tree_size, 1);
+    w->sample_count = sqffd__fit_cap(n, o->ffd_max_points);
+    if (w->sample_count < n) w->sample = (double *)sqffd__arena_take(a, w->sample_count, 3 * sizeof(double));
     if (o->symmetric) {
-        w->data_size = sqffd_kdtree_workspace_size(n);
+        w->data_size = sqffd_kdtree_workspace_size(w->sample_count);
         if (w->data_size == 0) a->overflow = 1;
         w->data_ws = sqffd__arena_take(a, w->data_size, 1);
     }
 }
 
+/* row[0..count) += sum_k w[k] block[k][0..count) over the rows of a block of
+   B (row stride ld): part of a row of B^T B (w = a column of the block) or of
+   B^T X (w = a coordinate of the block's points). Eight columns at a time in
+   registers, so the row is read and written once per block. */
+static void sqffd__fit_rank_update(double *row, size_t count, const double *block, size_t rows, size_t ld, const double *w)
+{
+    size_t c = 0, k;
+    for (; c + 8 <= count; c += 8) {
+        double a[8];
+        int j;
+        for (j = 0; j < 8; ++j) a[j] = row[c + (size_t)j];
+        for (k = 0; k < rows; ++k) {
+            const double *b = block + k * ld + c;
+            for (j = 0; j < 8; ++j) a[j] += w[k] * b[j];
+        }
+        for (j = 0; j < 8; ++j) row[c + (size_t)j] = a[j];
+    }
+    for (; c < count; ++c) {
+        double a = row[c];
+        for (k = 0; k < rows; ++k) a += w[k] * block[k * ld + c];
+        row[c] = a;
+    }
+}
+
+/* Rows v, v+1, ... of B (at most SQFFD__FIT_BLOCK, row stride L +
+   SQFFD__FIT_PAD) into block; returns how many. */
+static size_t sqffd__fit_block(const sqffd__fit_system *s, size_t v, double *block)
+{
+    size_t rows = s->count - v < SQFFD__FIT_BLOCK ? s->count - v : SQFFD__FIT_BLOCK, k;
+    for (k = 0; k < rows; ++k)
+        sqffd__ffd_expand(s->dims, s->weights + (v + k) * s->stride, block + k * (s->lattice + SQFFD__FIT_PAD));
+    return rows;
+}
+
 /* B's rows, the regularisation's right-hand side and the factor, from the
    model's superquadric, box and grid. */
-static sqffd_result sqffd__fit_prepare(const sqffd_model *model, const sqffd_fit_options *o, sqffd__fit_system *s)
+static sqffd_result sqffd__fit_prepare(const sqffd_model *model, const sqffd_fit_options *o, sqffd__fit_system *s,
+                                       double *block)
 {
     sqffd_ffd regular; /* P0 */
-    double full[SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE];
     double alpha, root;
-    size_t l = s->lattice, m = s->count, v, p, q, r, c;
+    size_t l = s->lattice, m = s->count, ld = l + SQFFD__FIT_PAD, v, p, q, r, c, k;
     int axis;
     sqffd_result res = sqffd_ffd_init(&regular, model->ffd.dims, model->ffd.origin, model->ffd.edges);
     if (res != SQFFD_OK) return res;
@@ -598,13 +659,15 @@ static sqffd_result sqffd__fit_prepare(const sqffd_model *model, const sqffd_fit
                     }
     if (s->solver == SQFFD_SOLVER_CHOLESKY) {
         memset(s->matrix, 0, l * l * sizeof(double));
-        for (v = 0; v < m; ++v) { /* lower triangle of B^T B, one row of B at a time */
-            sqffd__ffd_expand(s->dims, s->weights + v * s->stride, full);
-            for (r = 0; r < l; ++r) {
-                double wr = full[r], *row = s->matrix + r * l;
-                if (wr == 0.0) continue;
-                for (c = 0; c <= r; ++c) row[c] += wr * full[c];
-            }
+        for (v = 0; v < m; v += SQFFD__FIT_BLOCK) { /* lower triangle of B^T B, a block of B's rows at a time */
+            size_t rows = sqffd__fit_block(s, v, block);
+            for (c = 0; c < l; c += SQFFD__FIT_TILE) /* column tiles of the block stay in the L1 cache */
+                for (r = c; r < l; ++r) {
+                    double w[SQFFD__FIT_BLOCK];
+                    size_t end = r + 1 < c + SQFFD__FIT_TILE ? r + 1 : c + SQFFD__FIT_TILE;
+                    for (k = 0; k < rows; ++k) w[k] = block[k * ld + r];
+                    sqffd__fit_rank_update(s->matrix + r * l + c, end - c, block + c, rows, ld, w);
+                }
         }
         for (p = 0; p < l; ++p) /* + alpha D^T D: the springs' graph Laplacian */
             for (axis = 0; axis < 3; ++axis)
@@ -682,24 +745,18 @@ static void sqffd__fit_fill(const int grid[2], size_t m, const double *weights, 
         }
 }
 
-/* rhs (3 x L) = B^T x + rhs0. */
-static void sqffd__fit_project(const sqffd__fit_system *s, const double *x, double *rhs)
+/* rhs (3 x L) = B^T x + rhs0, a block of B's rows at a time. */
+static void sqffd__fit_project(const sqffd__fit_system *s, const double *x, double *block, double *rhs)
 {
-    size_t l = s->lattice, v;
-    int i, j, k, d1 = s->dims[1], d2 = s->dims[2];
+    size_t l = s->lattice, v, k, c;
     memcpy(rhs, s->rhs0, 3 * l * sizeof(double));
-    for (v = 0; v < s->count; ++v) {
-        const double *ws = s->weights + v * s->stride, *wt = ws + s->dims[0], *wu = wt + d1, *p = x + 3 * v;
-        for (i = 0; i < s->dims[0]; ++i)
-            for (j = 0; j < d1; ++j) {
-                double wij = ws[i] * wt[j];
-                double *r0 = rhs + (size_t)(i * d1 + j) * (size_t)d2, *r1 = r0 + l, *r2 = r1 + l;
-                if (wij == 0.0) continue;
-                for (k = 0; k < d2; ++k) {
-                    double c = wij * wu[k];
-                    r0[k] += c * p[0]; r1[k] += c * p[1]; r2[k] += c * p[2];
-                }
-            }
+    for (v = 0; v < s->count; v += SQFFD__FIT_BLOCK) {
+        size_t rows = sqffd__fit_block(s, v, block);
+        for (c = 0; c < 3; ++c) {
+            double w[SQFFD__FIT_BLOCK];
+            for (k = 0; k < rows; ++k) w[k] = x[3 * (v + k) + c];
+            sqffd__fit_rank_update(rhs + c * l, l, block, rows, l + SQFFD__FIT_PAD, w);
+        }
     }
 }
 
@@ -768,7 +825,9 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
                 return SQFFD_ERROR_CANCELLED;
         }
         if (it == o->max_iterations || rep->converged) break;
-        /* step 1: X^a = X + mean displacement, interpolated where no data point came */
+        /* step 1: X^a = X + each model point's weighted mean displacement (each data
+           point pulls the three corners of its closest mesh triangle by their
+           barycentric weights), interpolated where no data point pulled */
         for (v = 0; v < m; ++v)
             if (w->weights[v] > 0.0)
                 for (p = 0; p < 3; ++p) t[3 * v + p] /= w->weights[v];
@@ -780,7 +839,7 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
                 for (p = 0; p < 3; ++p) t[3 * v + p] = 0.5 * (t[3 * v + p] + q[p]);
             }
         /* step 2: P = argmin ||B P - X^a||^2 + alpha ||D (P - P0)||^2 (or ||D P||^2) */
-        sqffd__fit_project(s, t, w->rhs);
+        sqffd__fit_project(s, t, w->block, w->rhs);
         sqffd__fit_solve(s, w->rhs, w->scratch);
         for (p = 0; p < l; ++p) {
             model->ffd.control[p][0] = w->rhs[p];
@@ -792,23 +851,18 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
         for (v = 0; v < 3 * m; ++v) step2 += (next[v] - x[v]) * (next[v] - x[v]);
         t = x; x = next; next = t; t = w->target;
         rep->iterations = it + 1;
-        rep->converged = sqrt(step2 / (double)m) <= o->tolerance * diagonal;
+        rep->step = sqrt(step2 / (double)m) / diagonal;
+        rep->converged = rep->step <= o->tolerance;
     }
     return SQFFD_OK;
 }
 
 /* ---- public entry points ------------------------------------------------- */
 
-/* Stage 1's points: all of them, or an even deterministic subsample. */
-static size_t sqffd__fit_sq_count(size_t n, const sqffd_fit_options *o)
-{
-    return o->sq_max_points && n > o->sq_max_points ? o->sq_max_points : n;
-}
-
 static void sqffd__fit_whole_layout(sqffd__arena *a, size_t n, const sqffd_fit_options *o, double **sample, void **sq_ws,
                                     size_t *sq_size, sqffd__fit_system *s, sqffd__fit_work *w)
 {
-    size_t k = sqffd__fit_sq_count(n, o);
+    size_t k = sqffd__fit_cap(n, o->sq_max_points);
     *sample = k < n ? (double *)sqffd__arena_take(a, k, 3 * sizeof(double)) : NULL;
     *sq_size = sqffd_sq_fit_workspace_size(k, &o->sq);
     if (*sq_size == 0) a->overflow = 1;
@@ -842,19 +896,43 @@ SQFFD_DEF size_t sqffd_fit_ffd_workspace_size(size_t n, const sqffd_model *model
     return sqffd__arena_required(&a);
 }
 
-/* Stage 2 on laid-out memory: prepare the system, build the data tree when
-   symmetric, iterate. */
-static sqffd_result sqffd__fit_refine(const double *points, size_t n, double diagonal, const sqffd_fit_options *o,
-                                      sqffd__fit_system *s, sqffd__fit_work *w, sqffd_model *model, sqffd_fit_report *rep)
+/* The error of the model over all n points (the iterations may run on a
+   subsample). */
+static sqffd_result sqffd__fit_error(const double *points, size_t n, double diagonal, const sqffd__fit_system *s,
+                                     const sqffd__fit_work *w, const sqffd_model *model, sqffd_distance_stats *stats)
+{
+    sqffd_kdtree tree;
+    sqffd_result res;
+    sqffd__fit_evaluate(s, &model->ffd, w->x);
+    res = sqffd_kdtree_build(&tree, w->x, s->count, w->tree_ws, w->tree_size);
+    if (res == SQFFD_OK) sqffd__fit_pass(points, n, w->x, s->grid, &tree, diagonal, NULL, NULL, NULL, stats);
+    return res;
+}
+
+/* Stage 2 with the system prepared (tracking prepares once for frame 0's
+   superquadric, box and grid, then runs this per frame from the previous
+   frame's control points): take the subsample, build the data tree when
+   symmetric, iterate; the start and final errors over all points. */
+static sqffd_result sqffd__fit_run(const double *points, size_t n, double diagonal, const sqffd_fit_options *o,
+                                   const sqffd__fit_system *s, sqffd__fit_work *w, sqffd_model *model,
+                                   sqffd_fit_report *rep)
 {
     sqffd_kdtree data_tree;
-    sqffd_result res = sqffd__fit_prepare(model, o, s);
-    if (res != SQFFD_OK) return res;
-    if (o->symmetric) {
-        res = sqffd_kdtree_build(&data_tree, points, n, w->data_ws, w->data_size);
-        if (res != SQFFD_OK) return res;
+    sqffd_distance_stats start;
+    const double *data = w->sample ? w->sample : points;
+    sqffd_result res = SQFFD_OK;
+    if (w->sample) {
+        sqffd__fit_subsample(points, n, w->sample_count, w->sample);
+        res = sqffd__fit_error(points, n, diagonal, s, w, model, &start);
     }
-    return sqffd__fit_iterate(points, n, diagonal, o, s, o->symmetric ? &data_tree : NULL, w, model, rep);
+    if (res == SQFFD_OK && o->symmetric) res = sqffd_kdtree_build(&data_tree, data, w->sample_count, w->data_ws, w->data_size);
+    if (res == SQFFD_OK)
+        res = sqffd__fit_iterate(data, w->sample_count, diagonal, o, s, o->symmetric ? &data_tree : NULL, w, model, rep);
+    if (res == SQFFD_OK && w->sample) {
+        rep->sq_error = start;
+        res = sqffd__fit_error(points, n, diagonal, s, w, model, &rep->error);
+    }
+    return res;
 }
 
 SQFFD_DEF sqffd_result sqffd_fit_ffd(const double *points, size_t n, const sqffd_fit_options *options, sqffd_model *model,
@@ -877,7 +955,8 @@ SQFFD_DEF sqffd_result sqffd_fit_ffd(const double *points, size_t n, const sqffd
     sqffd__fit_layout(&a, n, model->ffd.dims, model->grid, options, &s, &w);
     if (a.overflow) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
     memset(&local, 0, sizeof local);
-    res = sqffd__fit_refine(points, n, diagonal, options, &s, &w, model, &local);
+    res = sqffd__fit_prepare(model, options, &s, w.block);
+    if (res == SQFFD_OK) res = sqffd__fit_run(points, n, diagonal, options, &s, &w, model, &local);
     if (report) *report = local;
     return res;
 }
@@ -894,7 +973,7 @@ SQFFD_DEF sqffd_result sqffd_fit(const double *points, size_t n, const sqffd_fit
     sqffd_superquadric sq;
     double *sample, diagonal;
     void *sq_ws;
-    size_t sq_size, k, i;
+    size_t sq_size, k;
     sqffd_result res;
     if (!points || !options || !model || !workspace || !sqffd__ffd_dims_valid(options->lattice))
         return SQFFD_ERROR_INVALID_ARGUMENT;
@@ -911,10 +990,8 @@ SQFFD_DEF sqffd_result sqffd_fit(const double *points, size_t n, const sqffd_fit
     if (a.overflow) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
     memset(&local, 0, sizeof local);
     /* stage 1: the superquadric */
-    k = sqffd__fit_sq_count(n, options);
-    if (sample) /* point i * n / k, computed without overflow */
-        for (i = 0; i < k; ++i)
-            memcpy(sample + 3 * i, points + 3 * (i * (n / k) + i * (n % k) / k), 3 * sizeof(double));
+    k = sqffd__fit_cap(n, options->sq_max_points);
+    if (sample) sqffd__fit_subsample(points, n, k, sample);
     sq_options = options->sq;
     if (!sq_options.progress) {
         sq_options.progress = options->progress;
@@ -923,7 +1000,8 @@ SQFFD_DEF sqffd_result sqffd_fit(const double *points, size_t n, const sqffd_fit
     res = sqffd_sq_fit(sample ? sample : points, k, &sq_options, &sq, &local.sq, sq_ws, sq_size);
     if (res == SQFFD_OK) res = sqffd_model_init(model, &sq, options);
     /* stage 2: the FFD */
-    if (res == SQFFD_OK) res = sqffd__fit_refine(points, n, diagonal, options, &s, &w, model, &local);
+    if (res == SQFFD_OK) res = sqffd__fit_prepare(model, options, &s, w.block);
+    if (res == SQFFD_OK) res = sqffd__fit_run(points, n, diagonal, options, &s, &w, model, &local);
     if (report) *report = local;
     return res;
 }

@@ -268,7 +268,8 @@ static void fit_report(const fit_args *a, size_t n, const sqffd_model *model, co
     printf("  %-16s e1 %.4g  e2 %.4g\n", "    shape", sq->shape[0], sq->shape[1]);
     printf("  %-16s Kx %.4g  Ky %.4g\n", "    taper", sq->taper[0], sq->taper[1]);
     print_vec3("    centre", sq->center);
-    print_vec3("    rotation", sq->rotation);
+    printf("  %-16s (row-major; its columns are the local x, y, z axes)\n", "    rotation");
+    print_vec3("", sq->rotation);
     print_vec3("", sq->rotation + 3);
     print_vec3("", sq->rotation + 6);
     printf("  error            relative RMS data-to-model distance (bounding-box diagonal %.6g)\n",

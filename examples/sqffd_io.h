@@ -12,12 +12,13 @@
         in err (NAME is the file name the caller passed, for messages only).
    A file that holds no points is an error; so are NaN and infinite
    coordinates. Element indices in messages count from 0 (like PLY face
-   indices), line numbers from 1.
+   indices), line numbers from 1. Coordinates keep the precision of their
+   source: a PLY float property gives a float's value, in ascii files too.
 
    Writing: PLY (binary little endian, or ascii) of a point set or a triangle
-   mesh, float x y z plus any number of per-vertex float scalars, faces as
-   `property list uchar int vertex_indices` - what MeshLab, ParaView and
-   CloudCompare read. */
+   mesh, float x y z plus up to SQFFD_IO_MAX_SCALARS per-vertex float
+   scalars, faces as `property list uchar int vertex_indices` (the PLY
+   spec's classic type names, read by VTK/ParaView, MeshLab, CloudCompare). */
 #ifndef SQFFD_IO_H
 #define SQFFD_IO_H
 
@@ -32,6 +33,8 @@
 
 /* sqffd_io_read_file refuses larger files. */
 #define SQFFD_IO_MAX_FILE_SIZE ((size_t)1 << 31)
+/* The writer's limit on per-vertex scalars. */
+#define SQFFD_IO_MAX_SCALARS 16
 
 typedef enum sqffd_io_format {
     SQFFD_IO_XYZ = 0,
@@ -599,7 +602,85 @@ static inline uint64_t sqffd_io__ply_min_record(const sqffd_io__ply *h, const sq
     return bytes;
 }
 
-/* Reads (vertex element) or skips every element of a PLY body. */
+/* One property of instance i of element el in an ascii body: *value gets
+   its number when it is x, y or z; a list's items are skipped. 0 on success. */
+static inline int sqffd_io__ply_ascii_property(sqffd_io__text *t, const sqffd_io__ply_property *pr,
+                                               const sqffd_io__ply_element *el, uint64_t i, double *value,
+                                               const char *name, char *err, size_t err_size)
+{
+    const char *tok;
+    size_t len;
+    uint64_t n, j;
+    char q[32];
+    int r;
+    if (!sqffd_io__token(t, &tok, &len))
+        return sqffd_io__fail(err, err_size, name, "%s %llu: file ends inside it", el->name, (unsigned long long)i);
+    if (pr->count_type < 0 && !pr->role) return 0; /* a skipped scalar */
+    r = sqffd_io__parse_double(tok, len, value);
+    /* a float property holds a float, as in the binary formats */
+    if (r == SQFFD_IO__NUMBER && pr->count_type < 0 && pr->type == SQFFD_IO__F32) {
+        *value = (double)sqffd_io__to_float(*value);
+        if (!isfinite(*value)) r = SQFFD_IO__NOT_FINITE;
+    }
+    if (r == SQFFD_IO__NOT_FINITE)
+        return sqffd_io__fail(err, err_size, name, "%s %llu (line %llu): %s is not a finite number", el->name,
+                              (unsigned long long)i, t->line, sqffd_io__quote(tok, len, q));
+    if (r != SQFFD_IO__NUMBER)
+        return sqffd_io__fail(err, err_size, name, "%s %llu (line %llu): expected a number, found %s", el->name,
+                              (unsigned long long)i, t->line, sqffd_io__quote(tok, len, q));
+    if (pr->count_type < 0) return 0;
+    if (*value < 0.0 || *value != floor(*value))
+        return sqffd_io__fail(err, err_size, name, "%s %llu (line %llu): list count %s is not a count", el->name,
+                              (unsigned long long)i, t->line, sqffd_io__quote(tok, len, q));
+    if (*value > (double)(t->end - t->p)) /* each item takes at least a byte */
+        return sqffd_io__fail(err, err_size, name, "%s %llu (line %llu): list of %s values, file holds %llu more bytes",
+                              el->name, (unsigned long long)i, t->line, sqffd_io__quote(tok, len, q),
+                              (unsigned long long)(t->end - t->p));
+    n = (uint64_t)*value;
+    for (j = 0; j < n; j++)
+        if (!sqffd_io__token(t, &tok, &len))
+            return sqffd_io__fail(err, err_size, name, "%s %llu: file ends inside its list", el->name,
+                                  (unsigned long long)i);
+    return 0;
+}
+
+/* The same for a binary body, the next byte being bytes[*at]. */
+static inline int sqffd_io__ply_binary_property(const unsigned char *bytes, size_t size, size_t *at, int big_endian,
+                                                const sqffd_io__ply_property *pr, const sqffd_io__ply_element *el,
+                                                uint64_t i, double *value, const char *name, char *err,
+                                                size_t err_size)
+{
+    size_t first = sqffd_io__type_size(pr->count_type >= 0 ? pr->count_type : pr->type);
+    double n;
+    size_t item;
+    if (size - *at < first)
+        return sqffd_io__fail(err, err_size, name, "%s %llu: file ends inside it", el->name, (unsigned long long)i);
+    if (pr->count_type < 0) {
+        if (pr->role) {
+            *value = sqffd_io__ply_load(bytes + *at, pr->type, big_endian);
+            if (!isfinite(*value))
+                return sqffd_io__fail(err, err_size, name, "%s %llu: %c is not finite (%g)", el->name,
+                                      (unsigned long long)i, 'x' + pr->role - 1, *value);
+        }
+        *at += first;
+        return 0;
+    }
+    n = sqffd_io__ply_load(bytes + *at, pr->count_type, big_endian);
+    *at += first;
+    item = sqffd_io__type_size(pr->type);
+    if (n < 0.0)
+        return sqffd_io__fail(err, err_size, name, "%s %llu: negative list count %.0f", el->name,
+                              (unsigned long long)i, n);
+    if (n > (double)((size - *at) / item))
+        return sqffd_io__fail(err, err_size, name, "%s %llu: list of %.0f values of %llu bytes, file holds %llu more bytes",
+                              el->name, (unsigned long long)i, n, (unsigned long long)item,
+                              (unsigned long long)(size - *at));
+    *at += (size_t)n * item;
+    return 0;
+}
+
+/* Reads the vertex element's x y z into pts and skips every other element,
+   checking the whole body against its size. */
 static inline int sqffd_io__ply_body(const char *text, size_t size, const sqffd_io__ply *h, sqffd_io__points *pts,
                                      const char *name, char *err, size_t err_size)
 {
@@ -607,14 +688,12 @@ static inline int sqffd_io__ply_body(const char *text, size_t size, const sqffd_
     size_t at = h->data_offset; /* binary: the next byte to read */
     sqffd_io__text t;           /* ascii: the token cursor */
     int big = h->format == SQFFD_IO__PLY_BE, ascii = h->format == SQFFD_IO__PLY_ASCII, e;
-    char q[32];
     t.p = text + h->data_offset;
     t.end = text + size;
-    t.line = 0;
-    if (ascii) { /* line numbers of the body continue the header's */
+    t.line = 1; /* line numbers of an ascii body continue the header's */
+    if (ascii) {
         const char *c;
         for (c = text; c < t.p; c++) t.line += *c == '\n';
-        t.line++;
     }
     for (e = 0; e < h->elements; e++) {
         const sqffd_io__ply_element *el = &h->element[e];
@@ -622,7 +701,7 @@ static inline int sqffd_io__ply_body(const char *text, size_t size, const sqffd_
         size_t remaining = ascii ? (size_t)(t.end - t.p) : size - at;
         int is_vertex = e == h->vertex;
         if (el->properties == 0) continue; /* instances of nothing take no room */
-        /* ascii: a token is at least one byte plus a separator */
+        /* ascii: a value is at least one byte plus a separator */
         if (el->count > (ascii ? (uint64_t)(remaining + 1) / (2 * min_record) : (uint64_t)remaining / min_record))
             return sqffd_io__fail(err, err_size, name,
                                   "header says %llu %s%s%s of at least %llu %s each, file holds %llu bytes of data%s",
@@ -633,78 +712,17 @@ static inline int sqffd_io__ply_body(const char *text, size_t size, const sqffd_
         if (is_vertex && sqffd_io__reserve(pts, (size_t)el->count))
             return sqffd_io__fail(err, err_size, name, "out of memory for %llu vertices", (unsigned long long)el->count);
         for (i = 0; i < el->count; i++) {
-            double xyz[3] = {0.0, 0.0, 0.0};
+            double xyz[4] = {0.0, 0.0, 0.0, 0.0}; /* [0] takes the values of skipped properties */
             int k;
             for (k = el->first; k < el->first + el->properties; k++) {
                 const sqffd_io__ply_property *pr = &h->property[k];
-                double value = 0.0;
-                if (ascii) {
-                    const char *tok;
-                    size_t len;
-                    int r;
-                    if (!sqffd_io__token(&t, &tok, &len))
-                        return sqffd_io__fail(err, err_size, name, "%s %llu: file ends inside it", el->name,
-                                              (unsigned long long)i);
-                    if (pr->count_type >= 0 || pr->role) {
-                        r = sqffd_io__parse_double(tok, len, &value);
-                        /* a float property holds a float, as in the binary formats */
-                        if (r == SQFFD_IO__NUMBER && pr->count_type < 0 && pr->type == SQFFD_IO__F32) {
-                            value = (double)sqffd_io__to_float(value);
-                            if (!isfinite(value)) r = SQFFD_IO__NOT_FINITE;
-                        }
-                        if (r == SQFFD_IO__NOT_FINITE)
-                            return sqffd_io__fail(err, err_size, name, "%s %llu (line %llu): %s is not a finite number",
-                                                  el->name, (unsigned long long)i, t.line, sqffd_io__quote(tok, len, q));
-                        if (r != SQFFD_IO__NUMBER)
-                            return sqffd_io__fail(err, err_size, name, "%s %llu (line %llu): expected a number, found %s",
-                                                  el->name, (unsigned long long)i, t.line, sqffd_io__quote(tok, len, q));
-                    }
-                    if (pr->count_type >= 0) {
-                        uint64_t n, j;
-                        if (value < 0.0 || value != floor(value))
-                            return sqffd_io__fail(err, err_size, name, "%s %llu (line %llu): list count %s is not a count",
-                                                  el->name, (unsigned long long)i, t.line, sqffd_io__quote(tok, len, q));
-                        if (value > (double)(t.end - t.p))
-                            return sqffd_io__fail(err, err_size, name, "%s %llu (line %llu): list of %s values, "
-                                                  "file holds %llu more bytes", el->name, (unsigned long long)i, t.line,
-                                                  sqffd_io__quote(tok, len, q), (unsigned long long)(t.end - t.p));
-                        n = (uint64_t)value;
-                        for (j = 0; j < n; j++)
-                            if (!sqffd_io__token(&t, &tok, &len))
-                                return sqffd_io__fail(err, err_size, name, "%s %llu: file ends inside its list",
-                                                      el->name, (unsigned long long)i);
-                    }
-                } else if (pr->count_type >= 0) {
-                    size_t csize = sqffd_io__type_size(pr->count_type), isize = sqffd_io__type_size(pr->type);
-                    double n;
-                    if (size - at < csize)
-                        return sqffd_io__fail(err, err_size, name, "%s %llu: file ends inside it", el->name,
-                                              (unsigned long long)i);
-                    n = sqffd_io__ply_load(bytes + at, pr->count_type, big);
-                    at += csize;
-                    if (n < 0.0)
-                        return sqffd_io__fail(err, err_size, name, "%s %llu: negative list count %.0f", el->name,
-                                              (unsigned long long)i, n);
-                    if (n > (double)((size - at) / isize))
-                        return sqffd_io__fail(err, err_size, name, "%s %llu: list of %.0f values of %llu bytes, "
-                                              "file holds %llu more bytes", el->name, (unsigned long long)i, n,
-                                              (unsigned long long)isize, (unsigned long long)(size - at));
-                    at += (size_t)n * isize;
-                } else {
-                    size_t vsize = sqffd_io__type_size(pr->type);
-                    if (size - at < vsize)
-                        return sqffd_io__fail(err, err_size, name, "%s %llu: file ends inside it", el->name,
-                                              (unsigned long long)i);
-                    if (pr->role) value = sqffd_io__ply_load(bytes + at, pr->type, big);
-                    at += vsize;
-                    if (pr->role && !isfinite(value))
-                        return sqffd_io__fail(err, err_size, name, "%s %llu: %c is not finite (%g)", el->name,
-                                              (unsigned long long)i, 'x' + pr->role - 1, value);
-                }
-                if (pr->role) xyz[pr->role - 1] = value;
+                double *value = &xyz[pr->role];
+                if (ascii ? sqffd_io__ply_ascii_property(&t, pr, el, i, value, name, err, err_size)
+                          : sqffd_io__ply_binary_property(bytes, size, &at, big, pr, el, i, value, name, err, err_size))
+                    return 1;
             }
             if (is_vertex) {
-                memcpy(pts->xyz + 3 * pts->count, xyz, sizeof xyz);
+                memcpy(pts->xyz + 3 * pts->count, xyz + 1, 3 * sizeof(double));
                 pts->count++;
             }
         }
@@ -889,8 +907,6 @@ static inline void sqffd_io__put_float(unsigned char *out, double value)
     memcpy(&bits, &f, sizeof bits);
     sqffd_io__put_le32(out, bits);
 }
-
-#define SQFFD_IO_MAX_SCALARS 16
 
 /* Writes a PLY of vertex_count vertices (x y z as float, then each scalar as
    a float property) and triangle_count triangles (three vertex indices each;

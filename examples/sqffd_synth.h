@@ -135,21 +135,24 @@ static inline void synth_choose(synth_rng *r, double *points, size_t n, size_t k
 static inline size_t synth_sq_surface(synth_rng *r, const sqffd_superquadric *sq, size_t n, double noise,
                                       double *out)
 {
-    double spacing = synth_mean_size(sq) * sqrt(4.0 * SYNTH_PI / (double)(n ? n : 1));
+    /* area of the ellipsoid with the same sizes (Thomsen's formula) sets the
+       first spacing; aim for 2-8 times n candidates so the choice is even */
+    double p = 1.6075, x = pow(sq->size[0], p), y = pow(sq->size[1], p), z = pow(sq->size[2], p);
+    double area = 4.0 * SYNTH_PI * pow((x * y + y * z + z * x) / 3.0, 1.0 / p);
+    double spacing = sqrt(area / (4.0 * (double)(n ? n : 1)));
     double sigma = noise * synth_mean_size(sq);
-    size_t count = 0, i, tries;
+    size_t capacity = 8 * n, count = 0, i;
+    int tries;
     double *all;
     if (n == 0) return 0;
-    /* aim for 2-4 times n candidates so the random choice is even */
-    for (tries = 0; tries < 40; tries++) {
-        count = sqffd_sq_sample_uniform(sq, spacing, NULL, 0);
-        if (count >= 2 * n && count <= 4 * n) break;
-        spacing *= count ? sqrt((double)count / (3.0 * (double)n)) : 0.5;
-    }
-    if (count < n) return 0;
-    all = (double *)malloc(3 * count * sizeof *all);
+    all = (double *)malloc(3 * capacity * sizeof *all);
     if (!all) return 0;
-    count = sqffd_sq_sample_uniform(sq, spacing, all, count);
+    for (tries = 0; tries < 20; tries++) {
+        count = sqffd_sq_sample_uniform(sq, spacing, all, capacity);
+        if (count >= 2 * n && count <= capacity) break;
+        spacing *= count ? sqrt((double)count / (4.0 * (double)n)) : 0.5;
+    }
+    if (count < n || count > capacity) { free(all); return 0; }
     synth_choose(r, all, count, n);
     for (i = 0; i < 3 * n; i++) out[i] = all[i] + (sigma > 0 ? sigma * synth_gaussian(r) : 0.0);
     free(all);

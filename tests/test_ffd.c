@@ -557,8 +557,10 @@ static void test_fit_bunny(void)
     CHECK_MSG(2.0 * r5.error.rms_relative <= r5.sq_error.rms_relative, "5x5x5: error %g, superquadric alone %g",
               r5.error.rms_relative, r5.sq_error.rms_relative);
     CHECK_MSG(rev < 0.05, "model -> data RMS %g of the diagonal", rev);
-    o.lattice[0] = o.lattice[1] = o.lattice[2] = 8;
-    CHECK_RESULT(run_fit(pts, n, &o, &m, &r8), SQFFD_OK);
+    o.lattice[0] = o.lattice[1] = o.lattice[2] = 8; /* same superquadric, finer lattice */
+    CHECK_RESULT(sqffd_model_init(&m, &m.sq, &o), SQFFD_OK);
+    CHECK_RESULT(run_fit_ffd(pts, n, &o, &m, &r8), SQFFD_OK);
+    CHECK_NEAR(r8.sq_error.rms_relative, r5.sq_error.rms_relative, 1e-12);
     CHECK_MSG(r8.error.rms_relative < r5.error.rms_relative, "8x8x8: error %g, 5x5x5 %g", r8.error.rms_relative,
               r5.error.rms_relative);
     CHECK(reverse_rms(&m, pts, n) < 0.05);
@@ -608,8 +610,9 @@ static void test_fit_symmetric(void)
     phantom_lv_sample(&ph, 0.0, N, pts);
     CHECK_RESULT(run_fit(pts, N, &o, &m, &plain), SQFFD_OK);
     rev_plain = reverse_rms(&m, pts, N);
-    o.symmetric = 1;
-    CHECK_RESULT(run_fit(pts, N, &o, &m, &sym), SQFFD_OK);
+    o.symmetric = 1; /* from the same superquadric */
+    CHECK_RESULT(sqffd_model_init(&m, &m.sq, &o), SQFFD_OK);
+    CHECK_RESULT(run_fit_ffd(pts, N, &o, &m, &sym), SQFFD_OK);
     rev_sym = reverse_rms(&m, pts, N);
     CHECK_MSG(rev_sym < rev_plain, "model -> data RMS %g symmetric, %g plain", rev_sym, rev_plain);
     CHECK(sym.error.rms_relative < sym.sq_error.rms_relative);
@@ -677,21 +680,35 @@ static void test_fit_progress_and_cancel(void)
     free(pts);
 }
 
-/* Stage 1 on a subsample: the fit still works and stays close. */
-static void test_fit_subsampled_stage1(void)
+/* Stage 1 and the FFD iterations on subsamples: the fit stays close, and the
+   reported errors are still over all points: they match
+   sqffd_model_distances on the fitted model (one definition of the error). */
+static void test_fit_subsamples(void)
 {
     enum { N = 6000 };
     phantom_lv ph = phantom_lv_default();
     sqffd_fit_options o = sqffd_fit_options_default();
     sqffd_fit_report all, some;
     sqffd_model m;
+    sqffd_distance_stats s;
     double *pts = (double *)malloc(3 * N * sizeof *pts);
+    size_t size;
+    void *ws;
     phantom_lv_sample(&ph, 0.0, N, pts);
     CHECK_RESULT(run_fit(pts, N, &o, &m, &all), SQFFD_OK);
+    size = sqffd_model_distances_workspace_size(N, &m);
+    ws = malloc(size);
+    CHECK_RESULT(sqffd_model_distances(&m, pts, N, NULL, &s, ws, size), SQFFD_OK);
+    CHECK_NEAR(s.rms_relative, all.error.rms_relative, 1e-9 * s.rms_relative);
+    CHECK_NEAR(s.max_relative, all.error.max_relative, 1e-9 * s.max_relative);
     o.sq_max_points = 1000;
-    CHECK(sqffd_fit_workspace_size(N, &o) < sqffd_fit_workspace_size(N, &o) + 1);
+    o.ffd_max_points = 1500;
     CHECK_RESULT(run_fit(pts, N, &o, &m, &some), SQFFD_OK);
-    CHECK(some.error.rms_relative <= 1.5 * all.error.rms_relative);
+    CHECK_RESULT(sqffd_model_distances(&m, pts, N, NULL, &s, ws, size), SQFFD_OK);
+    CHECK_NEAR(s.rms_relative, some.error.rms_relative, 1e-9 * s.rms_relative);
+    CHECK_MSG(some.error.rms_relative <= 1.3 * all.error.rms_relative, "subsampled error %g, all points %g",
+              some.error.rms_relative, all.error.rms_relative);
+    free(ws);
     free(pts);
 }
 
@@ -776,8 +793,10 @@ static void test_fit_workspace_canary(void)
     phantom_lv_sample(&ph, 0.0, N, pts);
     o.max_iterations = 3;
     for (k = 0; k < 2; k++) {
-        o.symmetric = (int)k;
+        o.symmetric = (int)k; /* second round: every optional block of the layout */
         o.solver = k ? SQFFD_SOLVER_SVD : SQFFD_SOLVER_CHOLESKY;
+        o.sq_max_points = k ? 300 : 0;
+        o.ffd_max_points = k ? 400 : 0;
         size = sqffd_fit_workspace_size(N, &o);
         CHECK(size > 0);
         block = (unsigned char *)malloc(size + GUARD + 1);
@@ -818,7 +837,7 @@ void suite_ffd(void)
     RUN_TEST(test_fit_symmetric);
     RUN_TEST(test_fit_deterministic_and_restartable);
     RUN_TEST(test_fit_progress_and_cancel);
-    RUN_TEST(test_fit_subsampled_stage1);
+    RUN_TEST(test_fit_subsamples);
     RUN_TEST(test_fit_bad_input);
     RUN_TEST(test_fit_workspace_canary);
 }

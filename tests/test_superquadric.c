@@ -2,6 +2,7 @@
    the fit against ground truth (random superquadrics, volumetric IoU). */
 #include "test.h"
 #include "../examples/sqffd_synth.h"
+#include "../examples/sqffd_io.h"
 #include <stdlib.h>
 #include <string.h>
 
@@ -137,7 +138,7 @@ static void test_sq_volume_closed_form(void)
     cases[4] = sq_make(1, 1, 1, 1.0, 1.0, 0.8, -0.3);
     for (i = 0; i < 5; i++) {
         double exact = sqffd_sq_volume(&cases[i]), grid = volume_by_grid(&cases[i], 80);
-        printf("    vol %.5f\n", grid/exact-1); CHECK_MSG(fabs(grid / exact - 1.0) < 0.005, "case %d: volume %.6f, grid %.6f", i, exact, grid);
+        CHECK_MSG(fabs(grid / exact - 1.0) < 0.005, "case %d: volume %.6f, grid %.6f", i, exact, grid);
     }
     /* tapering with Kx Ky < 0 shrinks, > 0 grows */
     CHECK(sqffd_sq_volume(&cases[4]) < sqffd_sq_volume(&sphere) / 8.0);
@@ -250,7 +251,7 @@ static void test_sq_uniform_sampling_even(void)
         grid = (double *)malloc(3 * m * sizeof *grid);
         CHECK_RESULT(sqffd_sq_sample_grid(&shapes[s], side, 2 * side, grid, NULL), SQFFD_OK);
         cv_grid = nn_spread(grid + 3 * (size_t)(2 * side), m - (size_t)(4 * side), NULL); /* without the pole rows */
-        printf("    spread %.3f vs %.3f\n", cv_uniform, cv_grid); CHECK_MSG(cv_uniform < 0.6 * cv_grid, "shape %d: NN-distance spread %.3f (uniform) vs %.3f (grid)", s, cv_uniform,
+        CHECK_MSG(cv_uniform < 0.6 * cv_grid, "shape %d: NN-distance spread %.3f (uniform) vs %.3f (grid)", s, cv_uniform,
                   cv_grid);
         free(pts);
         free(grid);
@@ -279,6 +280,400 @@ static void test_sq_iou(void)
     CHECK(sqffd_sq_iou(&b, &c, 0) < 0.0);
 }
 
+/* ---- fit -------------------------------------------------------------------- */
+
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+static sqffd_result fit_points(const double *pts, size_t n, const sqffd_sq_fit_options *o, sqffd_superquadric *sq,
+                               sqffd_sq_fit_report *report)
+{
+    size_t size = sqffd_sq_fit_workspace_size(n, o);
+    void *work = malloc(size);
+    sqffd_result r = sqffd_sq_fit(pts, n, o, sq, report, work, size);
+    free(work);
+    return r;
+}
+
+/* The kinds of test data of issue 3. */
+enum { DATA_CLEAN, DATA_NOISE, DATA_CUT, DATA_OUTLIERS };
+
+/* Random superquadric and n surface points of the given kind (pts holds
+   1.25 n points). Returns the number of points. */
+static size_t make_case(synth_rng *rng, int kind, size_t n, sqffd_superquadric *truth, double *pts)
+{
+    synth_sq_ranges ranges = synth_sq_ranges_default();
+    size_t m;
+    synth_superquadric(rng, &ranges, truth);
+    m = synth_sq_surface(rng, truth, n, kind == DATA_NOISE ? 0.02 : 0.0, pts);
+    if (kind == DATA_CUT) m = synth_cut_plane(rng, pts, m, 0.4);
+    if (kind == DATA_OUTLIERS) {
+        synth_outliers(rng, pts, m, m / 4, 1.5, pts + 3 * m); /* 20% of all points */
+        m += m / 4;
+    }
+    return m;
+}
+
+/* Fits `cases` random cases of one kind; returns the IoUs sorted ascending. */
+static void fit_statistics(int kind, int cases, size_t n, int robust, int resolution, double *iou, uint64_t seed)
+{
+    synth_rng rng = synth_rng_seed(seed);
+    sqffd_sq_fit_options o = sqffd_sq_fit_options_default();
+    double *pts = (double *)malloc(3 * (n + n / 4 + 1) * sizeof *pts);
+    size_t size = sqffd_sq_fit_workspace_size(n + n / 4 + 1, &o);
+    void *work;
+    int c;
+    o.robust = robust;
+    size = sqffd_sq_fit_workspace_size(n + n / 4 + 1, &o);
+    work = malloc(size);
+    for (c = 0; c < cases; c++) {
+        sqffd_superquadric truth, fit;
+        size_t m = make_case(&rng, kind, n, &truth, pts);
+        sqffd_result r = sqffd_sq_fit(pts, m, &o, &fit, NULL, work, size);
+        CHECK_MSG(r == SQFFD_OK, "case %d: %s", c, sqffd_result_string(r));
+        iou[c] = r == SQFFD_OK ? sqffd_sq_iou(&truth, &fit, resolution) : 0.0;
+    }
+    qsort(iou, (size_t)cases, sizeof *iou, cmp_double);
+    free(work);
+    free(pts);
+}
+
+static void test_sq_fit_clean(void)
+{
+    enum { CASES = 200 };
+    double iou[CASES];
+    int c, good = 0;
+    fit_statistics(DATA_CLEAN, CASES, 1000, 0, 48, iou, 100);
+    for (c = 0; c < CASES; c++) good += iou[c] >= 0.995;
+    printf("    clean: IoU >= 0.995 in %d of %d cases (%.1f%%), median %.4f, worst %.4f\n", good, CASES,
+           100.0 * good / CASES, iou[CASES / 2], iou[0]);
+    CHECK_MSG(good >= CASES * 98 / 100, "clean: IoU >= 0.995 in only %d of %d cases", good, CASES);
+}
+
+static void test_sq_fit_noise(void)
+{
+    enum { CASES = 60 };
+    double iou[CASES];
+    fit_statistics(DATA_NOISE, CASES, 1000, 0, 40, iou, 200);
+    printf("    2%% noise: median IoU %.4f (10th percentile %.4f)\n", iou[CASES / 2], iou[CASES / 10]);
+    CHECK_MSG(iou[CASES / 2] >= 0.98, "2%% noise: median IoU %.4f", iou[CASES / 2]);
+}
+
+static void test_sq_fit_cut(void)
+{
+    enum { CASES = 60 };
+    double iou[CASES];
+    fit_statistics(DATA_CUT, CASES, 1000, 0, 40, iou, 300);
+    printf("    40%% cut away: median IoU %.4f (10th percentile %.4f)\n", iou[CASES / 2], iou[CASES / 10]);
+    CHECK_MSG(iou[CASES / 2] >= 0.95, "40%% cut: median IoU %.4f", iou[CASES / 2]);
+}
+
+static void test_sq_fit_outliers_robust(void)
+{
+    enum { CASES = 60 };
+    double iou[CASES];
+    fit_statistics(DATA_OUTLIERS, CASES, 1000, 1, 40, iou, 400);
+    printf("    20%% outliers, robust: median IoU %.4f (10th percentile %.4f)\n", iou[CASES / 2], iou[CASES / 10]);
+    CHECK_MSG(iou[CASES / 2] >= 0.98, "outliers: median IoU %.4f", iou[CASES / 2]);
+}
+
+/* The robust mode reports the inlier share and ignores the outliers. */
+static void test_sq_fit_robust_report(void)
+{
+    synth_rng rng = synth_rng_seed(5);
+    sqffd_sq_fit_options o = sqffd_sq_fit_options_default();
+    sqffd_superquadric truth, fit;
+    sqffd_sq_fit_report rep;
+    double pts[3 * 1250];
+    size_t m = make_case(&rng, DATA_OUTLIERS, 1000, &truth, pts);
+    o.robust = 1;
+    CHECK_RESULT(fit_points(pts, m, &o, &fit, &rep), SQFFD_OK);
+    CHECK_MSG(rep.inlier_fraction > 0.75 && rep.inlier_fraction < 0.85, "inlier fraction %.3f of 0.8",
+              rep.inlier_fraction);
+    CHECK(rep.rms_radial < 0.01 * synth_mean_size(&truth));
+    CHECK(sqffd_sq_iou(&truth, &fit, 40) > 0.98);
+}
+
+/* Untapered model: K stays 0; exact on an untapered shape; radial cost too. */
+static void test_sq_fit_options_variants(void)
+{
+    synth_rng rng = synth_rng_seed(6);
+    synth_sq_ranges ranges = synth_sq_ranges_default();
+    sqffd_sq_fit_options o = sqffd_sq_fit_options_default();
+    sqffd_superquadric truth, fit;
+    sqffd_sq_fit_report rep;
+    double pts[3 * 800];
+    int c;
+    ranges.taper_max = 0.0;
+    for (c = 0; c < 5; c++) {
+        synth_superquadric(&rng, &ranges, &truth);
+        CHECK(synth_sq_surface(&rng, &truth, 800, 0.0, pts) == 800);
+        o = sqffd_sq_fit_options_default();
+        o.taper = 0;
+        CHECK_RESULT(fit_points(pts, 800, &o, &fit, &rep), SQFFD_OK);
+        CHECK(fit.taper[0] == 0.0 && fit.taper[1] == 0.0);
+        CHECK_MSG(sqffd_sq_iou(&truth, &fit, 40) > 0.995, "11 parameters: IoU %.4f", sqffd_sq_iou(&truth, &fit, 40));
+        CHECK(rep.converged);
+        CHECK(rep.rms_radial < 1e-6 * synth_mean_size(&truth));
+        CHECK(rep.iterations > 0);
+        o = sqffd_sq_fit_options_default();
+        o.cost = SQFFD_SQ_COST_RADIAL;
+        CHECK_RESULT(fit_points(pts, 800, &o, &fit, &rep), SQFFD_OK);
+        CHECK_MSG(sqffd_sq_iou(&truth, &fit, 40) > 0.99, "radial cost: IoU %.4f", sqffd_sq_iou(&truth, &fit, 40));
+    }
+}
+
+/* The paper's conjugate-gradient descent reaches the same shapes. */
+static void test_sq_fit_cg(void)
+{
+    synth_rng rng = synth_rng_seed(7);
+    sqffd_sq_fit_options o = sqffd_sq_fit_options_default();
+    sqffd_superquadric truth, fit;
+    double pts[3 * 1250];
+    int c;
+    o.optimizer = SQFFD_SQ_OPTIMIZER_CG;
+    for (c = 0; c < 3; c++) {
+        size_t m = make_case(&rng, DATA_CLEAN, 500, &truth, pts);
+        CHECK_RESULT(fit_points(pts, m, &o, &fit, NULL), SQFFD_OK);
+        CHECK_MSG(sqffd_sq_iou(&truth, &fit, 40) > 0.98, "CG: IoU %.4f", sqffd_sq_iou(&truth, &fit, 40));
+    }
+}
+
+static void test_sq_fit_deterministic(void)
+{
+    synth_rng rng = synth_rng_seed(8);
+    sqffd_sq_fit_options o = sqffd_sq_fit_options_default();
+    sqffd_superquadric truth, a, b;
+    double pts[3 * 1250];
+    size_t m = make_case(&rng, DATA_OUTLIERS, 1000, &truth, pts);
+    o.robust = 1;
+    CHECK_RESULT(fit_points(pts, m, &o, &a, NULL), SQFFD_OK);
+    CHECK_RESULT(fit_points(pts, m, &o, &b, NULL), SQFFD_OK);
+    CHECK(memcmp(&a, &b, sizeof a) == 0);
+}
+
+/* Translation, rotation and scale of the data move the fit along. */
+static void test_sq_fit_similarity(void)
+{
+    synth_rng rng = synth_rng_seed(9);
+    sqffd_superquadric truth, fit;
+    double pts[3 * 1000];
+    size_t i;
+    make_case(&rng, DATA_CLEAN, 1000, &truth, pts);
+    for (i = 0; i < 3 * 1000; i++) pts[i] = 1e6 + 1e3 * pts[i]; /* far away and large */
+    truth.center[0] = 1e6 + 1e3 * truth.center[0];
+    truth.center[1] = 1e6 + 1e3 * truth.center[1];
+    truth.center[2] = 1e6 + 1e3 * truth.center[2];
+    for (i = 0; i < 3; i++) truth.size[i] *= 1e3;
+    CHECK_RESULT(fit_points(pts, 1000, NULL, &fit, NULL), SQFFD_OK);
+    CHECK_MSG(sqffd_sq_iou(&truth, &fit, 40) > 0.995, "IoU %.4f", sqffd_sq_iou(&truth, &fit, 40));
+}
+
+static int cancel_after_three(void *user, int stage, int iteration, double error)
+{
+    int *calls = (int *)user;
+    CHECK(stage == SQFFD_STAGE_SUPERQUADRIC);
+    CHECK(isfinite(error) && error >= 0.0);
+    CHECK(iteration == *calls + 1);
+    (*calls)++;
+    return *calls >= 3;
+}
+
+static void test_sq_fit_progress_cancel(void)
+{
+    synth_rng rng = synth_rng_seed(10);
+    sqffd_sq_fit_options o = sqffd_sq_fit_options_default();
+    sqffd_superquadric truth, fit;
+    double pts[3 * 500];
+    int calls = 0;
+    make_case(&rng, DATA_NOISE, 500, &truth, pts);
+    o.progress = cancel_after_three;
+    o.progress_user = &calls;
+    CHECK_RESULT(fit_points(pts, 500, &o, &fit, NULL), SQFFD_ERROR_CANCELLED);
+    CHECK(calls == 3);
+    calls = 0;
+    o.optimizer = SQFFD_SQ_OPTIMIZER_CG;
+    CHECK_RESULT(fit_points(pts, 500, &o, &fit, NULL), SQFFD_ERROR_CANCELLED);
+    CHECK(calls == 3);
+}
+
+/* Tight box around a superquadric, from a dense grid of surface points. */
+static void sq_box(const sqffd_superquadric *sq, double lo[3], double hi[3])
+{
+    static double pts[3 * 65 * 128];
+    CHECK_RESULT(sqffd_sq_sample_grid(sq, 65, 128, pts, NULL), SQFFD_OK);
+    synth_bounds(pts, 65 * 128, lo, hi);
+}
+
+/* The fit of data that are no superquadric stays within the data's box
+   enlarged by 25% (scaled by 1.25 about its centre). */
+static void check_stays_in_box(const char *name, const double *pts, size_t n, int robust)
+{
+    sqffd_sq_fit_options o = sqffd_sq_fit_options_default();
+    sqffd_superquadric fit;
+    sqffd_sq_fit_report rep;
+    double lo[3], hi[3], flo[3], fhi[3];
+    int k;
+    o.robust = robust;
+    CHECK_RESULT(fit_points(pts, n, &o, &fit, &rep), SQFFD_OK);
+    synth_bounds(pts, n, lo, hi);
+    sq_box(&fit, flo, fhi);
+    for (k = 0; k < 3; k++) {
+        double mid = 0.5 * (lo[k] + hi[k]), half = 0.625 * (hi[k] - lo[k]);
+        CHECK_MSG(flo[k] >= mid - half && fhi[k] <= mid + half,
+                  "%s%s axis %d: fit spans [%.3g, %.3g], data [%.3g, %.3g] (sizes %.3g %.3g %.3g, e %.2f %.2f, K %.2f %.2f)",
+                  name, robust ? " (robust)" : "", k, flo[k], fhi[k], lo[k], hi[k], fit.size[0], fit.size[1], fit.size[2],
+                  fit.shape[0], fit.shape[1], fit.taper[0], fit.taper[1]);
+    }
+}
+
+static void test_sq_fit_no_runaway(void)
+{
+    synth_rng rng = synth_rng_seed(11);
+    double *pts = NULL, *shape = (double *)malloc(3 * 2000 * sizeof *shape);
+    size_t n = 0, i;
+    char err[256];
+    int robust;
+    if (sqffd_io_read_file("tests/data/bunny.ply", &pts, &n, err, sizeof err) != 0) {
+        CHECK_MSG(0, "%s (run the tests from the repository root)", err);
+    } else {
+        for (robust = 0; robust < 2; robust++) check_stays_in_box("bunny", pts, n, robust);
+    }
+    free(pts);
+    /* a torus: major radius 3, minor 1 */
+    for (i = 0; i < 2000; i++) {
+        double u = synth_range(&rng, 0, 2 * SYNTH_PI), v = synth_range(&rng, 0, 2 * SYNTH_PI);
+        shape[3 * i] = (3 + cos(v)) * cos(u);
+        shape[3 * i + 1] = (3 + cos(v)) * sin(u);
+        shape[3 * i + 2] = sin(v);
+    }
+    for (robust = 0; robust < 2; robust++) check_stays_in_box("torus", shape, 2000, robust);
+    /* an L: two boxes' surfaces, 4 x 1 x 1 and 1 x 3 x 1 */
+    for (i = 0; i < 2000; i++) {
+        double p[3];
+        int face = (int)synth_index(&rng, 6), k;
+        double ext[3] = {4, 1, 1};
+        if (i % 2) { ext[0] = 1; ext[1] = 3; }
+        for (k = 0; k < 3; k++) p[k] = synth_range(&rng, 0, ext[k]);
+        p[face / 2] = face % 2 ? ext[face / 2] : 0.0;
+        memcpy(shape + 3 * i, p, sizeof p);
+    }
+    for (robust = 0; robust < 2; robust++) check_stays_in_box("L-shape", shape, 2000, robust);
+    /* a flat disc with a spike (a point far above it) */
+    for (i = 0; i < 2000; i++) {
+        double r = sqrt(synth_uniform(&rng)) * 5, a = synth_range(&rng, 0, 2 * SYNTH_PI);
+        shape[3 * i] = r * cos(a);
+        shape[3 * i + 1] = r * sin(a);
+        shape[3 * i + 2] = synth_range(&rng, -0.05, 0.05);
+    }
+    shape[2] = 10.0;
+    for (robust = 0; robust < 2; robust++) check_stays_in_box("disc with a spike", shape, 2000, robust);
+    free(shape);
+}
+
+/* ---- bad input ---------------------------------------------------------------- */
+
+static void test_sq_fit_bad_input(void)
+{
+    synth_rng rng = synth_rng_seed(12);
+    sqffd_sq_fit_options o = sqffd_sq_fit_options_default();
+    sqffd_superquadric truth, fit, untouched;
+    double pts[3 * 200], bad[3 * 200];
+    size_t size = sqffd_sq_fit_workspace_size(200, NULL), i;
+    unsigned char *work = (unsigned char *)malloc(size + 64);
+    make_case(&rng, DATA_CLEAN, 200, &truth, pts);
+    memset(&untouched, 0x5a, sizeof untouched);
+    fit = untouched;
+    /* too few points */
+    CHECK_RESULT(sqffd_sq_fit(pts, SQFFD_SQ_FIT_MIN_POINTS - 1, NULL, &fit, NULL, work, size), SQFFD_ERROR_TOO_FEW_POINTS);
+    CHECK_RESULT(sqffd_sq_fit(pts, 0, NULL, &fit, NULL, work, size), SQFFD_ERROR_TOO_FEW_POINTS);
+    CHECK_RESULT(sqffd_sq_fit(pts, SQFFD_SQ_FIT_MIN_POINTS, NULL, &fit, NULL, work, size), SQFFD_OK);
+    fit = untouched;
+    /* NaN and Inf */
+    memcpy(bad, pts, sizeof bad);
+    bad[3 * 57 + 1] = NAN;
+    CHECK_RESULT(sqffd_sq_fit(bad, 200, NULL, &fit, NULL, work, size), SQFFD_ERROR_NON_FINITE);
+    bad[3 * 57 + 1] = -INFINITY;
+    CHECK_RESULT(sqffd_sq_fit(bad, 200, NULL, &fit, NULL, work, size), SQFFD_ERROR_NON_FINITE);
+    /* coincident, collinear, coplanar */
+    for (i = 0; i < 200; i++) { bad[3 * i] = 1.5; bad[3 * i + 1] = -2.0; bad[3 * i + 2] = 7.0; }
+    CHECK_RESULT(sqffd_sq_fit(bad, 200, NULL, &fit, NULL, work, size), SQFFD_ERROR_DEGENERATE);
+    for (i = 0; i < 200; i++) { double t = synth_gaussian(&rng); bad[3 * i] = 1 + t; bad[3 * i + 1] = 2 - 3 * t; bad[3 * i + 2] = 0.5 * t; }
+    CHECK_RESULT(sqffd_sq_fit(bad, 200, NULL, &fit, NULL, work, size), SQFFD_ERROR_DEGENERATE);
+    for (i = 0; i < 200; i++) {
+        double s = synth_gaussian(&rng), t = synth_gaussian(&rng);
+        bad[3 * i] = s + t; bad[3 * i + 1] = 2 * s - t; bad[3 * i + 2] = 3 * s; /* the plane 2x + y - 3z... spanned by two vectors */
+    }
+    CHECK_RESULT(sqffd_sq_fit(bad, 200, NULL, &fit, NULL, work, size), SQFFD_ERROR_DEGENERATE);
+    CHECK(memcmp(&fit, &untouched, sizeof fit) == 0); /* nothing written on failure */
+    /* two clusters 1e12 apart: no overflow, a finite answer or DEGENERATE */
+    memcpy(bad, pts, sizeof bad);
+    for (i = 100; i < 200; i++) bad[3 * i] += 1e12;
+    {
+        sqffd_result r = sqffd_sq_fit(bad, 200, NULL, &fit, NULL, work, size);
+        CHECK(r == SQFFD_OK || r == SQFFD_ERROR_DEGENERATE);
+        if (r == SQFFD_OK) CHECK(isfinite(fit.size[0]) && isfinite(fit.center[0]) && isfinite(fit.shape[0]));
+    }
+    /* huge coordinates of a proper shape */
+    for (i = 0; i < 3 * 200; i++) bad[i] = 1e150 * pts[i];
+    CHECK_RESULT(sqffd_sq_fit(bad, 200, NULL, &fit, NULL, work, size), SQFFD_OK);
+    CHECK(isfinite(fit.size[0]) && isfinite(fit.size[1]) && isfinite(fit.size[2]));
+    CHECK_NEAR(fit.size[0] * fit.size[1] * fit.size[2] / (truth.size[0] * truth.size[1] * truth.size[2]) * 1e-450, 1.0, 0.05);
+    /* NULL pointers and bad options */
+    CHECK_RESULT(sqffd_sq_fit(NULL, 200, NULL, &fit, NULL, work, size), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(sqffd_sq_fit(pts, 200, NULL, NULL, NULL, work, size), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(sqffd_sq_fit(pts, 200, NULL, &fit, NULL, NULL, size), SQFFD_ERROR_WORKSPACE_TOO_SMALL);
+    o.shape_min = 1.5; o.shape_max = 1.0;
+    CHECK_RESULT(sqffd_sq_fit(pts, 200, &o, &fit, NULL, work, size), SQFFD_ERROR_INVALID_ARGUMENT);
+    o = sqffd_sq_fit_options_default(); o.taper_max = 1.0;
+    CHECK_RESULT(sqffd_sq_fit(pts, 200, &o, &fit, NULL, work, size), SQFFD_ERROR_INVALID_ARGUMENT);
+    o = sqffd_sq_fit_options_default(); o.max_iterations = 0;
+    CHECK_RESULT(sqffd_sq_fit(pts, 200, &o, &fit, NULL, work, size), SQFFD_ERROR_INVALID_ARGUMENT);
+    o = sqffd_sq_fit_options_default(); o.tolerance = NAN;
+    CHECK_RESULT(sqffd_sq_fit(pts, 200, &o, &fit, NULL, work, size), SQFFD_ERROR_INVALID_ARGUMENT);
+    o = sqffd_sq_fit_options_default(); o.robust = 1; o.robust_rounds = 0;
+    CHECK_RESULT(sqffd_sq_fit(pts, 200, &o, &fit, NULL, work, size), SQFFD_ERROR_INVALID_ARGUMENT);
+    o = sqffd_sq_fit_options_default(); o.cost = (sqffd_sq_cost)7;
+    CHECK_RESULT(sqffd_sq_fit(pts, 200, &o, &fit, NULL, work, size), SQFFD_ERROR_INVALID_ARGUMENT);
+    o = sqffd_sq_fit_options_default(); o.shape_min = 0.0;
+    CHECK_RESULT(sqffd_sq_fit(pts, 200, &o, &fit, NULL, work, size), SQFFD_ERROR_INVALID_ARGUMENT);
+    free(work);
+}
+
+/* Too small a workspace is refused; the exact size is enough and nothing
+   beyond it is touched (canary bytes), also at an odd alignment. */
+static void test_sq_fit_workspace(void)
+{
+    synth_rng rng = synth_rng_seed(13);
+    sqffd_superquadric truth, fit;
+    double pts[3 * 1250];
+    int variant;
+    size_t m = make_case(&rng, DATA_OUTLIERS, 1000, &truth, pts);
+    CHECK(sqffd_sq_fit_workspace_size((size_t)-1 / 2, NULL) == 0); /* not representable */
+    for (variant = 0; variant < 3; variant++) {
+        sqffd_sq_fit_options o = sqffd_sq_fit_options_default();
+        size_t size, k;
+        unsigned char *block;
+        o.robust = variant == 1;
+        o.optimizer = variant == 2 ? SQFFD_SQ_OPTIMIZER_CG : SQFFD_SQ_OPTIMIZER_LM;
+        if (variant == 2) m = 300; /* keep the CG quick */
+        size = sqffd_sq_fit_workspace_size(m, &o);
+        CHECK(size > 0);
+        block = (unsigned char *)malloc(size + 64 + 1);
+        memset(block, 0xab, size + 64 + 1);
+        CHECK_RESULT(sqffd_sq_fit(pts, m, &o, &fit, NULL, block + 1, size - 1), SQFFD_ERROR_WORKSPACE_TOO_SMALL);
+        CHECK_RESULT(sqffd_sq_fit(pts, m, &o, &fit, NULL, block + 1, size / 2), SQFFD_ERROR_WORKSPACE_TOO_SMALL);
+        memset(block, 0xab, size + 64 + 1);
+        CHECK_RESULT(sqffd_sq_fit(pts, m, &o, &fit, NULL, block + 1, size), SQFFD_OK);
+        for (k = size + 1; k < size + 64 + 1; k++) CHECK_MSG(block[k] == 0xab, "canary byte %zu overwritten", k - size - 1);
+        CHECK(block[0] == 0xab);
+        free(block);
+    }
+}
+
 void suite_superquadric(void)
 {
     RUN_TEST(test_sq_surface_points_have_f_one);
@@ -290,4 +685,17 @@ void suite_superquadric(void)
     RUN_TEST(test_sq_grid_layout);
     RUN_TEST(test_sq_uniform_sampling_even);
     RUN_TEST(test_sq_iou);
+    RUN_TEST(test_sq_fit_clean);
+    RUN_TEST(test_sq_fit_noise);
+    RUN_TEST(test_sq_fit_cut);
+    RUN_TEST(test_sq_fit_outliers_robust);
+    RUN_TEST(test_sq_fit_robust_report);
+    RUN_TEST(test_sq_fit_options_variants);
+    RUN_TEST(test_sq_fit_cg);
+    RUN_TEST(test_sq_fit_deterministic);
+    RUN_TEST(test_sq_fit_similarity);
+    RUN_TEST(test_sq_fit_progress_cancel);
+    RUN_TEST(test_sq_fit_no_runaway);
+    RUN_TEST(test_sq_fit_bad_input);
+    RUN_TEST(test_sq_fit_workspace);
 }
