@@ -11,7 +11,7 @@ TEST_DEP = sqffd.h $(wildcard dev/*.h) $(wildcard tests/*.h) $(wildcard examples
 FUZZ_TARGETS = $(patsubst fuzz/%.c,%,$(wildcard fuzz/fuzz_*.c))
 BENCHES = $(patsubst bench/%.c,%,$(wildcard bench/bench_*.c))
 
-.PHONY: all test check-header check-symbols unit unit-asan fuzz-replay demo bench fuzz install clean
+.PHONY: all test check-header check-symbols cli-test unit unit-asan fuzz-replay demo bench fuzz install clean
 
 all: $(BUILD)/sqffd
 
@@ -22,7 +22,7 @@ $(BUILD)/sqffd: examples/sqffd_cli.c $(TEST_DEP) | $(BUILD)
 	$(CC) $(CFLAGS) -std=c99 -Wall -Wextra -o $@ examples/sqffd_cli.c -lm
 
 # ---- make test: header checks, symbol check, fuzz corpus replay, unit tests twice
-test: check-header check-symbols fuzz-replay unit unit-asan
+test: check-header check-symbols fuzz-replay cli-test unit unit-asan
 
 # The header as C99/C11 (gcc, and clang when present) and C++ (g++, clang++),
 # strict warnings as errors; two translation units; an SQFFD_STATIC build.
@@ -52,6 +52,10 @@ $(BUILD)/sqffd_tests: $(TEST_SRC) tests/test_main.c tests/test_impl.c $(TEST_DEP
 
 $(BUILD)/sqffd_tests_asan: $(TEST_SRC) tests/test_main.c tests/test_impl.c $(TEST_DEP) | $(BUILD)
 	$(CC) $(SAN) -std=c99 -Wall -Wextra -o $@ tests/test_main.c tests/test_impl.c $(TEST_SRC) -lm
+
+# End-to-end checks of the command-line tool (exit codes, messages, output files).
+cli-test: $(BUILD)/sqffd
+	@sh tests/cli_test.sh $(BUILD)/sqffd
 
 unit: $(BUILD)/sqffd_tests
 	@echo "== unit tests (-O2)"

@@ -440,7 +440,7 @@ SQFFD_DEF double sqffd_sq_iou(const sqffd_superquadric *a, const sqffd_superquad
 #define SQFFD__SQ_NPAR 13
 /* TEMP knobs */
 #ifndef SQFFD__SQ_SCREEN
-#define SQFFD__SQ_SCREEN 64   /* subsample every start is screened on */
+#define SQFFD__SQ_SCREEN 48   /* subsample every start is screened on */
 #endif
 #ifndef SQFFD__SQ_POLISH
 #define SQFFD__SQ_POLISH 384   /* subsample the best starts converge on */
@@ -460,6 +460,7 @@ SQFFD_DEF double sqffd_sq_iou(const sqffd_superquadric *a, const sqffd_superquad
 #define SQFFD__SQ_MIN_STEP 1e-10   /* parameter steps below this (normalised units) end the iteration */
 #define SQFFD__SQ_EXACT 1e-24      /* mean squared residual counted as an exact fit */
 #define SQFFD__SQ_CLEAR_WIN 1e-2   /* screened starts this much costlier than the best are not polished */
+#define SQFFD__SQ_CLOSE_FIT 0.05   /* RMS radial distance / mean size of a fit allowed past the data's box */
 #define SQFFD__SQ_FLAT_RATIO 1e-10 /* covariance eigenvalue ratio below which data are flat */
 
 /* Per-evaluation constants of the residual. */
@@ -613,9 +614,9 @@ static void sqffd__sq_rotate(double rot[9], const double w[3])
 }
 
 /* Clamp into the feasible set: e and K within their bounds, the centre in
-   the data's box, each size at most the margin times the box's half-extent
-   along that local axis (this is what stops the runaway on non-superquadric
-   data). */
+   the data's box, each size at most SQFFD__SQ_BOX_MARGIN times the box's
+   half-extent along that local axis (this stops the runaway of the F-based
+   cost on data that are no superquadric; sqffd__sq_contain finishes the job). */
 static void sqffd__sq_project(const sqffd__sq_fit *fit, sqffd_superquadric *sq)
 {
     const sqffd_sq_fit_options *o = fit->opt;
@@ -638,6 +639,56 @@ static void sqffd__sq_project(const sqffd__sq_fit *fit, sqffd_superquadric *sq)
         if (sq->size[k] > reach) sq->size[k] = reach;
         if (sq->size[k] < fit->size_min) sq->size[k] = fit->size_min;
     }
+}
+
+/* ||(x, y)||_q for x, y >= 0, scaled so that a large q cannot overflow. */
+static double sqffd__sq_qnorm(double x, double y, double q)
+{
+    double m = x > y ? x : y;
+    if (m <= 0.0) return 0.0;
+    return m * pow(pow(x / m, q) + pow(y / m, q), 1.0 / q);
+}
+
+/* How far the shape reaches from its centre along +dir (a world unit
+   vector). Each cross-section at height z = a3 S^e1 (S = sin eta, signed
+   power) is a superellipse with half-axes fx a1 C^e1, fy a2 C^e1, whose
+   support is the dual norm with q = 2/(2 - e2) (e2 > 2 shapes lie inside
+   the e2 = 2 ones); the reach is the largest over SQFFD__SQ_REACH_ROWS
+   heights. */
+#define SQFFD__SQ_REACH_ROWS 256
+static double sqffd__sq_reach(const sqffd_superquadric *sq, const double dir[3])
+{
+    double v[3], best = -HUGE_VAL, q = 2.0 / (2.0 - (sq->shape[1] < 1.99 ? sq->shape[1] : 1.99));
+    int i;
+    sqffd__mat3t_vec(sq->rotation, dir, v);
+    for (i = 0; i <= SQFFD__SQ_REACH_ROWS; i++) {
+        double eta = -0.5 * SQFFD__SQ_PI + SQFFD__SQ_PI * i / SQFFD__SQ_REACH_ROWS, f[2], h;
+        double c = sqffd__sq_spow(cos(eta), sq->shape[0]), z = sq->size[2] * sqffd__sq_spow(sin(eta), sq->shape[0]);
+        sqffd__sq_taper_factors(sq, z, f);
+        h = c * sqffd__sq_qnorm(f[0] * sq->size[0] * fabs(v[0]), f[1] * sq->size[1] * fabs(v[1]), q) + v[2] * z;
+        if (h > best) best = h;
+    }
+    return best;
+}
+
+/* The last guard against a runaway: when the fitted shape reaches out of
+   the data's box enlarged by SQFFD__SQ_BOX_MARGIN, shrink it about its
+   centre (all sizes by one factor: the shape scales, K is scale-free) until
+   it fits. The per-size bounds of the projection leave a rotated or
+   off-centre shape room to stick out; this closes it. */
+static void sqffd__sq_contain(const sqffd__sq_fit *fit, sqffd_superquadric *sq)
+{
+    double shrink = 1.0;
+    int k, side;
+    for (k = 0; k < 3; k++)
+        for (side = -1; side <= 1; side += 2) {
+            double dir[3] = {0.0, 0.0, 0.0}, reach, room;
+            dir[k] = (double)side;
+            reach = 1.001 * sqffd__sq_reach(sq, dir); /* the rows sample the reach from below */
+            room = SQFFD__SQ_BOX_MARGIN * fit->box_half[k] - side * (sq->center[k] - fit->box_mid[k]);
+            if (reach > 0.0 && reach * shrink > room) shrink = room / reach;
+        }
+    for (k = 0; k < 3; k++) sq->size[k] *= shrink;
 }
 
 /* sq <- project(sq + delta) */
@@ -961,9 +1012,11 @@ static double sqffd__sq_reweight(const sqffd_superquadric *sq, const double *pts
 static double sqffd__sq_mean_d2(const sqffd_superquadric *sq, const double *pts, const double *weights, size_t m)
 {
     double sum = 0.0, sum_w = 0.0;
+    sqffd__sq_eval ev;
     size_t k;
+    sqffd__sq_eval_init(&ev, sq, SQFFD_SQ_COST_RADIAL);
     for (k = 0; k < m; k++) {
-        double w = weights ? weights[k] : 1.0, d = sqffd_sq_radial_distance(sq, pts + 3 * k);
+        double w = weights ? weights[k] : 1.0, d = sqffd__sq_residual(&ev, pts + 3 * k, NULL);
         sum += w * d * d;
         sum_w += w;
     }
@@ -1124,28 +1177,30 @@ static double sqffd__sq_robust_d2(const sqffd_superquadric *sq, const double *pt
 {
     double mad;
     size_t k;
-    for (k = 0; k < m; k++) scratch[k] = sqffd_sq_radial_distance(sq, pts + 3 * k);
+    sqffd__sq_eval ev;
+    sqffd__sq_eval_init(&ev, sq, SQFFD_SQ_COST_RADIAL);
+    for (k = 0; k < m; k++) scratch[k] = fabs(sqffd__sq_residual(&ev, pts + 3 * k, NULL));
     mad = 1.4826 * sqffd__sq_select(scratch, m, m / 2);
     return mad * mad;
 }
 
 /* Robust mode: `rounds` EM rounds on m points (reweight, then a few
    weighted LM iterations of the mixture's own residual, the radial
-   distance); the last round runs the LM to convergence. */
-static int sqffd__sq_em(sqffd__sq_fit *fit, sqffd_superquadric *sq, const double *pts, size_t m, double *weights,
-                        sqffd__sq_mixture *mix, int rounds)
+   distance); the last round runs the LM to convergence. Returns the
+   mixture's negative log-likelihood of the points at the result. */
+static double sqffd__sq_em(sqffd__sq_fit *fit, sqffd_superquadric *sq, const double *pts, size_t m, double *weights,
+                           sqffd__sq_mixture *mix, int rounds, int *converged)
 {
     double cost;
-    int r, converged = 0;
+    int r;
     fit->cost = SQFFD__SQ_ROBUST_COST;
     for (r = 0; r < rounds && fit->status == SQFFD_OK; r++) {
         sqffd__sq_reweight(sq, pts, m, fit->box_volume, weights, mix);
-        converged = sqffd__sq_optimize(fit, sq, pts, weights, m,
-                                 r + 1 < rounds ? SQFFD__SQ_ROUND_ITERATIONS : fit->opt->max_iterations, &cost);
+        *converged = sqffd__sq_optimize(fit, sq, pts, weights, m,
+                                        r + 1 < rounds ? SQFFD__SQ_ROUND_ITERATIONS : fit->opt->max_iterations, &cost);
     }
-    sqffd__sq_reweight(sq, pts, m, fit->box_volume, weights, mix);
     fit->cost = (int)fit->opt->cost;
-    return converged;
+    return sqffd__sq_reweight(sq, pts, m, fit->box_volume, weights, mix);
 }
 
 /* Keep the SQFFD__SQ_KEEP cheapest starts, sorted by cost. */
@@ -1180,7 +1235,7 @@ static void sqffd__sq_screen(sqffd__sq_fit *fit, const double *pts, size_t m, co
                              double *hist, sqffd__sq_shortlist *list)
 {
 #ifndef SQFFD__SQ_SEEDS
-#define SQFFD__SQ_SEEDS {1.0, 1.0}, {1.7, 0.3}, {0.3, 1.7}
+#define SQFFD__SQ_SEEDS {1.0, 1.0}, {1.7, 0.3}, {0.3, 1.7}, {1.7, 1.7}
 #endif
     static const double shape_seeds[][2] = {SQFFD__SQ_SEEDS};
     const int n_seeds = (int)(sizeof shape_seeds / sizeof shape_seeds[0]);
@@ -1200,7 +1255,7 @@ static void sqffd__sq_screen(sqffd__sq_fit *fit, const double *pts, size_t m, co
         }
         sqffd__sq_initial_sizes(pts, m, centre, b_axes, hist, b_size);
 #ifndef SQFFD__SQ_BASIS_SEEDS
-#define SQFFD__SQ_BASIS_SEEDS 1
+#define SQFFD__SQ_BASIS_SEEDS 3
 #endif
         for (s = 0; s < 3 * (basis ? SQFFD__SQ_BASIS_SEEDS : n_seeds) && fit->status == SQFFD_OK; s++, id++) {
             sqffd_superquadric cur;
@@ -1228,6 +1283,52 @@ static void sqffd__sq_screen(sqffd__sq_fit *fit, const double *pts, size_t m, co
     }
 }
 
+/* The twin of a fit whose a1 and a2 are close: turned 45 degrees about its
+   z, with e2 -> 2 - e2 (a square cross-section and a diamond are the same
+   shape turned, and the LM cannot get from one to the other). Sizes scale
+   by 2^((1 - e2)/2): sqrt 2 from square to diamond, 1 for a circle.
+   Returns 0 when a1 and a2 differ too much for a twin. */
+static int sqffd__sq_twin(const sqffd__sq_fit *fit, const sqffd_superquadric *sq, sqffd_superquadric *twin)
+{
+    double lo = sq->size[0] < sq->size[1] ? sq->size[0] : sq->size[1];
+    double hi = sq->size[0] < sq->size[1] ? sq->size[1] : sq->size[0];
+    double turn[3] = {0.0, 0.0, 0.25 * SQFFD__SQ_PI};
+    if (lo < SQFFD__SQ_CLOSE_RATIO * hi) return 0;
+    *twin = *sq;
+    sqffd__sq_rotate(twin->rotation, turn);
+    twin->size[0] = twin->size[1] = 0.5 * (lo + hi) * pow(2.0, 0.5 * (1.0 - sq->shape[1]));
+    twin->shape[1] = 2.0 - sq->shape[1];
+    twin->taper[0] = twin->taper[1] = 0.5 * (sq->taper[0] + sq->taper[1]);
+    sqffd__sq_project(fit, twin);
+    return 1;
+}
+
+/* Point sets of one fit. */
+typedef struct sqffd__sq_sets {
+    const double *polish;  /* an even subsample of all points */
+    size_t m_polish;
+    const double *start;   /* the points the starts came from (robust mode: the dense polish points) */
+    size_t m_start;
+    double *weights;       /* robust weights, n (and at least 2 m_polish) */
+} sqffd__sq_sets;
+
+/* Run a candidate to convergence on the polish subsample. Returns its
+   score: the cost, or in robust mode the mixture's negative
+   log-likelihood after EM rounds that start from the candidate's robust
+   spread on the start set (mix receives the mixture). */
+static double sqffd__sq_polish(sqffd__sq_fit *fit, sqffd_superquadric *sq, const sqffd__sq_sets *sets,
+                               sqffd__sq_mixture *mix, int *converged)
+{
+    double cost;
+    if (!fit->opt->robust) {
+        *converged = sqffd__sq_optimize(fit, sq, sets->polish, NULL, sets->m_polish, fit->opt->max_iterations, &cost);
+        return cost;
+    }
+    mix->sigma2 = sqffd__sq_robust_d2(sq, sets->start, sets->m_start, sets->weights);
+    mix->prior = (double)sets->m_start / (double)sets->m_polish;
+    return sqffd__sq_em(fit, sq, sets->polish, sets->m_polish, sets->weights, mix, fit->opt->robust_rounds, converged);
+}
+
 SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_sq_fit_options *options,
                                     sqffd_superquadric *sq, sqffd_sq_fit_report *report,
                                     void *workspace, size_t workspace_size)
@@ -1237,12 +1338,14 @@ SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_
     size_t m_polish = n < SQFFD__SQ_POLISH ? n : SQFFD__SQ_POLISH, m_start, m_screen, i;
     sqffd__sq_shortlist list;
     sqffd__sq_mixture mix;
+    sqffd__sq_sets sets;
     sqffd__arena arena;
     sqffd__sq_work w;
     sqffd__sq_fit fit;
-    sqffd_superquadric best;
-    double centroid[3], scale, centre[3], cov[9], values[3], axes[9], best_cost = 0.0;
-    const double *start_pts, *polish;
+    sqffd_superquadric best, twin;
+    double centroid[3], scale, centre[3], cov[9], values[3], axes[9], best_score = 0.0;
+    const double *start_pts, *weights;
+    double rms;
     int k, best_start = 0, converged = 0;
     if (!points || !sq || !sqffd__sq_options_valid(o)) return SQFFD_ERROR_INVALID_ARGUMENT;
     if (n < SQFFD_SQ_FIT_MIN_POINTS) return SQFFD_ERROR_TOO_FEW_POINTS;
@@ -1293,45 +1396,66 @@ SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_
     sqffd__sq_subsample(start_pts, m_start, w.screen, m_screen);
     sqffd__sq_screen(&fit, start_pts, m_start, w.screen, m_screen, w.hist, &list);
 
-    polish = o->robust ? start_pts : w.polish;
-    m_polish = o->robust ? m_start : m_polish;
+    sets.polish = w.polish;
+    sets.m_polish = m_polish;
+    sets.start = start_pts;
+    sets.m_start = m_start;
+    sets.weights = w.weights;
     for (k = 0; k < list.count && fit.status == SQFFD_OK; k++) {
+        sqffd__sq_mixture cand_mix;
+        double score;
         if (k > 0 && list.cost[0] < SQFFD__SQ_CLEAR_WIN * list.cost[k]) break; /* the rest are far behind */
-        if (m_polish > m_screen)
-            converged = sqffd__sq_optimize(&fit, &list.sq[k], polish, NULL, m_polish, o->max_iterations, &list.cost[k]);
+        score = m_polish > m_screen || o->robust ? sqffd__sq_polish(&fit, &list.sq[k], &sets, &cand_mix, &converged)
+                                                 : list.cost[k];
 #ifdef SQFFD__SQ_DEBUG
-        SQFFD__SQ_DEBUG(1000 + fit.iterations, &list.sq[k], list.cost[k]);
+        SQFFD__SQ_DEBUG(1000 + fit.iterations, &list.sq[k], score);
 #endif
-        if (k == 0 || list.cost[k] < best_cost) {
+        if (k == 0 || score < best_score) {
             best = list.sq[k];
-            best_cost = list.cost[k];
+            best_score = score;
             best_start = list.id[k];
+            mix = cand_mix;
         }
     }
-    if (o->robust && fit.status == SQFFD_OK) {
-        /* the mixture starts from the dense set's spread and share; EM on
-           the polish subsample, then on all points */
-        mix.sigma2 = sqffd__sq_robust_d2(&best, start_pts, m_start, w.weights);
-        mix.prior = (double)m_start / (double)(n < SQFFD__SQ_POLISH ? n : SQFFD__SQ_POLISH);
-        if (n > SQFFD__SQ_POLISH)
-            sqffd__sq_em(&fit, &best, w.polish, SQFFD__SQ_POLISH, w.weights, &mix, o->robust_rounds);
-        converged = sqffd__sq_em(&fit, &best, w.points, n, w.weights, &mix,
-                                 n > SQFFD__SQ_POLISH ? SQFFD__SQ_FULL_ROUNDS : o->robust_rounds);
-    } else if (fit.status == SQFFD_OK && m_polish < n) {
-        converged = sqffd__sq_optimize(&fit, &best, w.points, NULL, n, o->max_iterations, &best_cost);
+    if (fit.status == SQFFD_OK && sqffd__sq_twin(&fit, &best, &twin)) {
+        sqffd__sq_mixture twin_mix;
+        int twin_converged;
+        double score = sqffd__sq_polish(&fit, &twin, &sets, &twin_mix, &twin_converged);
+#ifdef SQFFD__SQ_DEBUG
+        SQFFD__SQ_DEBUG(4000 + fit.iterations, &twin, score);
+#endif
+        if (score < best_score) {
+            best = twin;
+            best_score = score;
+            mix = twin_mix;
+            converged = twin_converged;
+        }
+    }
+    /* the winner on all points */
+    if (fit.status == SQFFD_OK && m_polish < n) {
+        if (o->robust) best_score = sqffd__sq_em(&fit, &best, w.points, n, w.weights, &mix, SQFFD__SQ_FULL_ROUNDS, &converged);
+        else converged = sqffd__sq_optimize(&fit, &best, w.points, NULL, n, o->max_iterations, &best_score);
     }
 #ifdef SQFFD__SQ_DEBUG
-    SQFFD__SQ_DEBUG(2000 + fit.iterations, &best, best_cost);
+    SQFFD__SQ_DEBUG(2000 + fit.iterations, &best, best_score);
 #endif
     if (fit.status != SQFFD_OK) return fit.status;
 
+    /* A fit that describes the data closely may reach past their box (a
+       partial view: the data show part of the shape); any other is kept
+       within the box enlarged by the margin. */
+    weights = o->robust ? w.weights : NULL;
+    rms = sqrt(sqffd__sq_mean_d2(&best, w.points, weights, n));
+    if (rms > SQFFD__SQ_CLOSE_FIT * (best.size[0] + best.size[1] + best.size[2]) / 3.0) {
+        sqffd__sq_contain(&fit, &best);
+        rms = sqrt(sqffd__sq_mean_d2(&best, w.points, weights, n));
+    }
     if (report) {
-        const double *weights = o->robust ? w.weights : NULL;
         double sum_w = 0.0, final = sqffd__sq_accumulate(&fit, &best, w.points, weights, n, NULL, NULL);
         for (i = 0; i < n; i++) sum_w += weights ? weights[i] : 1.0;
         report->iterations = fit.iterations;
         report->cost = final * (o->cost == SQFFD_SQ_COST_SOLINA ? scale * scale * scale : scale * scale);
-        report->rms_radial = scale * sqrt(sqffd__sq_mean_d2(&best, w.points, weights, n));
+        report->rms_radial = scale * rms;
         report->start = best_start;
         report->converged = converged;
         report->inlier_fraction = sum_w / (double)n;

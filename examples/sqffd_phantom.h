@@ -90,18 +90,26 @@ static inline double phantom_lv_beat(double phase)
     return 0.5 * (1.0 - cos(2.0 * PHANTOM_PI * phase));
 }
 
+/* Radial factor of the bumps at material point (u, theta). */
+static inline double phantom__bumps(const phantom_lv *p, double u, double theta)
+{
+    double f = 1.0;
+    int b;
+    for (b = 0; b < PHANTOM_BUMPS; b++)
+        f += p->bump_height * p->bump[b][2] * phantom__bell(p, u, theta, p->bump[b][0], p->bump[b][1], p->bump[b][3]);
+    return f;
+}
+
 /* Position of material point (u, theta) at a phase of the beat. */
 static inline void phantom_lv_point(const phantom_lv *p, double phase, double u, double theta, double out[3])
 {
-    double d[3], bump = 1.0, motion = phantom_lv_beat(phase) * phantom_lv_motion(p, u, theta);
-    int b;
+    double d[3], bump = phantom__bumps(p, u, theta), motion = phantom_lv_beat(phase) * phantom_lv_motion(p, u, theta);
+    double apex = -p->height * phantom__bumps(p, 0.0, 0.0), z;
     phantom__direction(p, u, theta, d);
-    for (b = 0; b < PHANTOM_BUMPS; b++)
-        bump += p->bump_height * p->bump[b][2] * phantom__bell(p, u, theta, p->bump[b][0], p->bump[b][1], p->bump[b][3]);
     out[0] = p->radius * d[0] * bump * (1.0 - p->contraction * motion);
     out[1] = p->radius * d[1] * bump * (1.0 - p->contraction * motion);
-    /* the apex (z = -height) stays, the rest moves toward it */
-    out[2] = -p->height + (p->height * d[2] * bump + p->height) * (1.0 - p->shortening * motion);
+    z = p->height * d[2] * bump; /* the apex stays, the rest moves toward it */
+    out[2] = apex + (z - apex) * (1.0 - p->shortening * motion);
 }
 
 /* n material points spread evenly over the undeformed cup (a Fibonacci

@@ -621,7 +621,7 @@ static void test_sq_fit_bad_input(void)
     for (i = 0; i < 3 * 200; i++) bad[i] = 1e150 * pts[i];
     CHECK_RESULT(sqffd_sq_fit(bad, 200, NULL, &fit, NULL, work, size), SQFFD_OK);
     CHECK(isfinite(fit.size[0]) && isfinite(fit.size[1]) && isfinite(fit.size[2]));
-    CHECK_NEAR(fit.size[0] * fit.size[1] * fit.size[2] / (truth.size[0] * truth.size[1] * truth.size[2]) * 1e-450, 1.0, 0.05);
+    CHECK_NEAR((fit.size[0] / truth.size[0] * 1e-150) * (fit.size[1] / truth.size[1] * 1e-150) * (fit.size[2] / truth.size[2] * 1e-150), 1.0, 0.05);
     /* NULL pointers and bad options */
     CHECK_RESULT(sqffd_sq_fit(NULL, 200, NULL, &fit, NULL, work, size), SQFFD_ERROR_INVALID_ARGUMENT);
     CHECK_RESULT(sqffd_sq_fit(pts, 200, NULL, NULL, NULL, work, size), SQFFD_ERROR_INVALID_ARGUMENT);
