@@ -929,7 +929,7 @@ SQFFD_DEF sqffd_sq_fit_options sqffd_sq_fit_options_default(void)
     o.max_iterations = 100;
     o.tolerance = 1e-5;
     o.robust = 0;
-    o.robust_rounds = 6;
+    o.robust_rounds = 4;
     o.progress = NULL;
     o.progress_user = NULL;
     return o;
@@ -1156,7 +1156,7 @@ static size_t sqffd__sq_dense_points(const double *pts, size_t m, double *out, d
         }
         dist[i] = dist[m + i] = nearest[SQFFD__SQ_NEIGHBOURS - 1];
     }
-    limit = 4.0 * sqffd__sq_select(dist + m, m, m / 2); /* squared distances: twice the median */
+    limit = 1.44 * sqffd__sq_select(dist + m, m, m / 2); /* squared distances: twice the median */
     for (i = 0; i < m; i++)
         if (dist[i] <= limit) memcpy(out + 3 * kept++, pts + 3 * i, 3 * sizeof(double));
     return kept;
@@ -1166,10 +1166,10 @@ static size_t sqffd__sq_dense_points(const double *pts, size_t m, double *out, d
 #define SQFFD__SQ_ROBUST_COST SQFFD_SQ_COST_RADIAL
 #endif
 #ifndef SQFFD__SQ_FULL_ROUNDS
-#define SQFFD__SQ_FULL_ROUNDS 2
+#define SQFFD__SQ_FULL_ROUNDS 1
 #endif
 #ifndef SQFFD__SQ_ROUND_ITERATIONS
-#define SQFFD__SQ_ROUND_ITERATIONS 5
+#define SQFFD__SQ_ROUND_ITERATIONS 3
 #endif
 /* Robust variance of the radial distances of m points: (1.4826 median |d|)^2.
    scratch: m doubles. */
@@ -1312,21 +1312,15 @@ typedef struct sqffd__sq_sets {
     double *weights;       /* robust weights, n (and at least 2 m_polish) */
 } sqffd__sq_sets;
 
-/* Run a candidate to convergence on the polish subsample. Returns its
-   score: the cost, or in robust mode the mixture's negative
-   log-likelihood after EM rounds that start from the candidate's robust
-   spread on the start set (mix receives the mixture). */
-static double sqffd__sq_polish(sqffd__sq_fit *fit, sqffd_superquadric *sq, const sqffd__sq_sets *sets,
-                               sqffd__sq_mixture *mix, int *converged)
+/* Run a candidate to convergence on the polish points (robust mode: on the
+   start set, the polish points without the isolated ones). Returns its cost. */
+static double sqffd__sq_polish(sqffd__sq_fit *fit, sqffd_superquadric *sq, const sqffd__sq_sets *sets, int *converged)
 {
     double cost;
-    if (!fit->opt->robust) {
-        *converged = sqffd__sq_optimize(fit, sq, sets->polish, NULL, sets->m_polish, fit->opt->max_iterations, &cost);
-        return cost;
-    }
-    mix->sigma2 = sqffd__sq_robust_d2(sq, sets->start, sets->m_start, sets->weights);
-    mix->prior = (double)sets->m_start / (double)sets->m_polish;
-    return sqffd__sq_em(fit, sq, sets->polish, sets->m_polish, sets->weights, mix, fit->opt->robust_rounds, converged);
+    const double *pts = fit->opt->robust ? sets->start : sets->polish;
+    size_t m = fit->opt->robust ? sets->m_start : sets->m_polish;
+    *converged = sqffd__sq_optimize(fit, sq, pts, NULL, m, fit->opt->max_iterations, &cost);
+    return cost;
 }
 
 SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_sq_fit_options *options,
@@ -1337,13 +1331,12 @@ SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_
     const sqffd_sq_fit_options *o = options ? options : &defaults;
     size_t m_polish = n < SQFFD__SQ_POLISH ? n : SQFFD__SQ_POLISH, m_start, m_screen, i;
     sqffd__sq_shortlist list;
-    sqffd__sq_mixture mix;
     sqffd__sq_sets sets;
     sqffd__arena arena;
     sqffd__sq_work w;
     sqffd__sq_fit fit;
     sqffd_superquadric best, twin;
-    double centroid[3], scale, centre[3], cov[9], values[3], axes[9], best_score = 0.0;
+    double centroid[3], scale, centre[3], cov[9], values[3], axes[9], best_cost = 0.0;
     const double *start_pts, *weights;
     double rms;
     int k, best_start = 0, converged = 0;
@@ -1402,42 +1395,44 @@ SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_
     sets.m_start = m_start;
     sets.weights = w.weights;
     for (k = 0; k < list.count && fit.status == SQFFD_OK; k++) {
-        sqffd__sq_mixture cand_mix;
-        double score;
-        if (k > 0 && list.cost[0] < SQFFD__SQ_CLEAR_WIN * list.cost[k]) break; /* the rest are far behind */
-        score = m_polish > m_screen || o->robust ? sqffd__sq_polish(&fit, &list.sq[k], &sets, &cand_mix, &converged)
-                                                 : list.cost[k];
+        double cost = list.cost[k];
+        if (k > 0 && (list.cost[0] < SQFFD__SQ_CLEAR_WIN * list.cost[k] || best_cost < SQFFD__SQ_EXACT * (double)m_polish))
+            break; /* the rest are far behind, or the best is exact */
+        if (m_polish > m_screen || o->robust) cost = sqffd__sq_polish(&fit, &list.sq[k], &sets, &converged);
 #ifdef SQFFD__SQ_DEBUG
-        SQFFD__SQ_DEBUG(1000 + fit.iterations, &list.sq[k], score);
+        SQFFD__SQ_DEBUG(1000 + fit.iterations, &list.sq[k], cost);
 #endif
-        if (k == 0 || score < best_score) {
+        if (k == 0 || cost < best_cost) {
             best = list.sq[k];
-            best_score = score;
+            best_cost = cost;
             best_start = list.id[k];
-            mix = cand_mix;
         }
     }
     if (fit.status == SQFFD_OK && sqffd__sq_twin(&fit, &best, &twin)) {
-        sqffd__sq_mixture twin_mix;
         int twin_converged;
-        double score = sqffd__sq_polish(&fit, &twin, &sets, &twin_mix, &twin_converged);
+        double cost = sqffd__sq_polish(&fit, &twin, &sets, &twin_converged);
 #ifdef SQFFD__SQ_DEBUG
-        SQFFD__SQ_DEBUG(4000 + fit.iterations, &twin, score);
+        SQFFD__SQ_DEBUG(4000 + fit.iterations, &twin, cost);
 #endif
-        if (score < best_score) {
+        if (cost < best_cost) {
             best = twin;
-            best_score = score;
-            mix = twin_mix;
+            best_cost = cost;
             converged = twin_converged;
         }
     }
-    /* the winner on all points */
-    if (fit.status == SQFFD_OK && m_polish < n) {
-        if (o->robust) best_score = sqffd__sq_em(&fit, &best, w.points, n, w.weights, &mix, SQFFD__SQ_FULL_ROUNDS, &converged);
-        else converged = sqffd__sq_optimize(&fit, &best, w.points, NULL, n, o->max_iterations, &best_score);
+    if (o->robust && fit.status == SQFFD_OK) {
+        /* EM from the fit's robust spread on the start set: on the polish
+           subsample, then on all points */
+        sqffd__sq_mixture mix;
+        mix.sigma2 = sqffd__sq_robust_d2(&best, start_pts, m_start, w.weights);
+        mix.prior = (double)m_start / (double)m_polish;
+        sqffd__sq_em(&fit, &best, w.polish, m_polish, w.weights, &mix, o->robust_rounds, &converged);
+        if (m_polish < n) sqffd__sq_em(&fit, &best, w.points, n, w.weights, &mix, SQFFD__SQ_FULL_ROUNDS, &converged);
+    } else if (fit.status == SQFFD_OK && m_polish < n) {
+        converged = sqffd__sq_optimize(&fit, &best, w.points, NULL, n, o->max_iterations, &best_cost);
     }
 #ifdef SQFFD__SQ_DEBUG
-    SQFFD__SQ_DEBUG(2000 + fit.iterations, &best, best_score);
+    SQFFD__SQ_DEBUG(2000 + fit.iterations, &best, best_cost);
 #endif
     if (fit.status != SQFFD_OK) return fit.status;
 

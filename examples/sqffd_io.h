@@ -246,14 +246,16 @@ static inline int sqffd_io__finish(sqffd_io__points *pts, double **points, size_
 
 /* ---- XYZ ----------------------------------------------------------------- */
 
-/* XYZ: one point per line, x y z first (blanks or commas between), extra
-   columns ignored, blank lines and '#' comments skipped. */
-static inline int sqffd_io_read_xyz(const void *data, size_t size, const char *name, double **points,
-                                    size_t *count, char *err, size_t err_size)
+/* Reads one point per line from the lines that carry one: every line for
+   XYZ, the "v" statements for OBJ (obj_vertices non-zero), whose x y z come
+   first after the keyword; blank lines and '#' comments are skipped. */
+static inline int sqffd_io__read_point_lines(const void *data, size_t size, int obj_vertices, const char *name,
+                                             double **points, size_t *count, char *err, size_t err_size)
 {
     sqffd_io__text t;
     sqffd_io__points pts = {NULL, 0, 0};
-    const char *s, *e;
+    const char *s, *e, *tok;
+    size_t len;
     *points = NULL;
     *count = 0;
     t.p = (const char *)data;
@@ -261,6 +263,7 @@ static inline int sqffd_io_read_xyz(const void *data, size_t size, const char *n
     t.line = 0;
     while (sqffd_io__next_line(&t, &s, &e)) {
         char what[48];
+        if (obj_vertices && (!sqffd_io__line_token(&s, e, &tok, &len) || len != 1 || tok[0] != 'v')) continue;
         if (pts.count == pts.capacity &&
             sqffd_io__reserve(&pts, pts.capacity ? 2 * pts.capacity : 1024)) {
             free(pts.xyz);
@@ -274,6 +277,14 @@ static inline int sqffd_io_read_xyz(const void *data, size_t size, const char *n
         pts.count++;
     }
     return sqffd_io__finish(&pts, points, count, name, err, err_size);
+}
+
+/* XYZ: one point per line, x y z first (blanks or commas between), extra
+   columns ignored, blank lines and '#' comments skipped. */
+static inline int sqffd_io_read_xyz(const void *data, size_t size, const char *name, double **points,
+                                    size_t *count, char *err, size_t err_size)
+{
+    return sqffd_io__read_point_lines(data, size, 0, name, points, count, err, err_size);
 }
 
 /* ---- OFF ----------------------------------------------------------------- */
@@ -369,31 +380,7 @@ static inline int sqffd_io__obj_keyword(const char *tok, size_t len)
 static inline int sqffd_io_read_obj(const void *data, size_t size, const char *name, double **points,
                                     size_t *count, char *err, size_t err_size)
 {
-    sqffd_io__text t;
-    sqffd_io__points pts = {NULL, 0, 0};
-    const char *s, *e, *tok;
-    size_t len;
-    *points = NULL;
-    *count = 0;
-    t.p = (const char *)data;
-    t.end = t.p + size;
-    t.line = 0;
-    while (sqffd_io__next_line(&t, &s, &e)) {
-        char what[48];
-        if (!sqffd_io__line_token(&s, e, &tok, &len) || len != 1 || tok[0] != 'v') continue;
-        if (pts.count == pts.capacity &&
-            sqffd_io__reserve(&pts, pts.capacity ? 2 * pts.capacity : 1024)) {
-            free(pts.xyz);
-            return sqffd_io__fail(err, err_size, name, "out of memory at line %llu", t.line);
-        }
-        snprintf(what, sizeof what, "line %llu", t.line);
-        if (sqffd_io__line_xyz(s, e, pts.xyz + 3 * pts.count, name, what, err, err_size)) {
-            free(pts.xyz);
-            return 1;
-        }
-        pts.count++;
-    }
-    return sqffd_io__finish(&pts, points, count, name, err, err_size);
+    return sqffd_io__read_point_lines(data, size, 1, name, points, count, err, err_size);
 }
 
 /* ---- PLY ----------------------------------------------------------------- */
