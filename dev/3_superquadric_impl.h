@@ -77,14 +77,27 @@ static void sqffd__sq_untapered(const sqffd_superquadric *sq, const double p[3],
 #define SQFFD__SQ_PART_FU 5    /* U / A (then V / A) */
 #define SQFFD__SQ_PART_FG 7    /* G / F (then H / F) */
 #define SQFFD__SQ_PARTS 9
-static double sqffd__sq_log_f(const double u[3], const double log_size[3], double e1, double e2, double *parts)
+typedef struct sqffd__sq_exponents {
+    double two_e1, two_e2, ratio; /* 2/e1, 2/e2, e2/e1 */
+} sqffd__sq_exponents;
+
+static sqffd__sq_exponents sqffd__sq_exponents_of(const sqffd_superquadric *sq)
 {
-    double lu = (2.0 / e2) * (sqffd__sq_log_abs(u[0]) - log_size[0]);
-    double lv = (2.0 / e2) * (sqffd__sq_log_abs(u[1]) - log_size[1]);
-    double lh = (2.0 / e1) * (sqffd__sq_log_abs(u[2]) - log_size[2]);
+    sqffd__sq_exponents x;
+    x.two_e1 = 2.0 / sq->shape[0];
+    x.two_e2 = 2.0 / sq->shape[1];
+    x.ratio = sq->shape[1] / sq->shape[0];
+    return x;
+}
+
+static double sqffd__sq_log_f(const double u[3], const double log_size[3], const sqffd__sq_exponents *x, double *parts)
+{
+    double lu = x->two_e2 * (sqffd__sq_log_abs(u[0]) - log_size[0]);
+    double lv = x->two_e2 * (sqffd__sq_log_abs(u[1]) - log_size[1]);
+    double lh = x->two_e1 * (sqffd__sq_log_abs(u[2]) - log_size[2]);
     double frac_u[2], frac_g[2], la, lg, lf;
     la = sqffd__sq_logsum(lu, lv, frac_u);
-    lg = (e2 / e1) * la;
+    lg = x->ratio * la;
     lf = sqffd__sq_logsum(lg, lh, frac_g);
     if (parts) {
         parts[SQFFD__SQ_PART_LU] = lu; parts[SQFFD__SQ_PART_LV] = lv; parts[SQFFD__SQ_PART_LA] = la;
@@ -98,8 +111,9 @@ static double sqffd__sq_log_f(const double u[3], const double log_size[3], doubl
 static double sqffd__sq_log_f_at(const sqffd_superquadric *sq, const double u[3])
 {
     double log_size[3];
+    sqffd__sq_exponents x = sqffd__sq_exponents_of(sq);
     log_size[0] = log(sq->size[0]); log_size[1] = log(sq->size[1]); log_size[2] = log(sq->size[2]);
-    return sqffd__sq_log_f(u, log_size, sq->shape[0], sq->shape[1], NULL);
+    return sqffd__sq_log_f(u, log_size, &x, NULL);
 }
 
 SQFFD_DEF double sqffd_sq_inside_outside(const sqffd_superquadric *sq, const double point[3])
@@ -438,36 +452,31 @@ SQFFD_DEF double sqffd_sq_iou(const sqffd_superquadric *a, const sqffd_superquad
 #define SQFFD__SQ_P_E2 10
 #define SQFFD__SQ_P_TAPER 11
 #define SQFFD__SQ_NPAR 13
-/* TEMP knobs */
-#ifndef SQFFD__SQ_SCREEN
-#define SQFFD__SQ_SCREEN 48   /* subsample every start is screened on */
-#endif
-#ifndef SQFFD__SQ_POLISH
-#define SQFFD__SQ_POLISH 384   /* subsample the best starts converge on */
-#endif
-#ifndef SQFFD__SQ_START_ITERATIONS
-#define SQFFD__SQ_START_ITERATIONS 4
-#endif
-#ifndef SQFFD__SQ_KEEP
-#define SQFFD__SQ_KEEP 2
-#endif
-#ifndef SQFFD__SQ_CLOSE_RATIO
-#define SQFFD__SQ_CLOSE_RATIO 0.7
-#endif
-#define SQFFD__SQ_HISTOGRAM 512   /* bins per axis for the robust initial sizes */
+/* The starts and how much work each gets (measured on issue 3's random
+   shapes: fewer or smaller cost accuracy, more cost time). */
+#define SQFFD__SQ_SCREEN 48            /* subsample every start is screened on */
+#define SQFFD__SQ_START_ITERATIONS 4   /* LM iterations per start on it */
+#define SQFFD__SQ_KEEP 2               /* best starts run to convergence ... */
+#define SQFFD__SQ_POLISH 384           /* ... on this subsample */
+#define SQFFD__SQ_CLEAR_WIN 1e-2       /* a start this much costlier than the best is not polished */
+#define SQFFD__SQ_CLOSE_RATIO 0.7      /* eigenvalues or sizes this close count as ambiguous axes */
+#define SQFFD__SQ_HISTOGRAM 512        /* bins per axis for the robust initial sizes */
 #define SQFFD__SQ_SIZE_QUANTILE 0.95
-#define SQFFD__SQ_BOX_MARGIN 1.25 /* the fit stays within the data's box enlarged this much */
-#define SQFFD__SQ_MIN_STEP 1e-10   /* parameter steps below this (normalised units) end the iteration */
-#define SQFFD__SQ_EXACT 1e-24      /* mean squared residual counted as an exact fit */
-#define SQFFD__SQ_CLEAR_WIN 1e-2   /* screened starts this much costlier than the best are not polished */
+#define SQFFD__SQ_BOX_MARGIN 1.25      /* the fit stays within the data's box enlarged this much */
+#define SQFFD__SQ_MIN_STEP 1e-10       /* parameter steps below this (normalised units) end the LM */
+#define SQFFD__SQ_EXACT 1e-24          /* mean squared residual counted as an exact fit */
+#define SQFFD__SQ_TURNED_SEEDS 3        /* shape seeds tried on a turned basis */
 #define SQFFD__SQ_CLOSE_FIT 0.05   /* RMS radial distance / mean size of a fit allowed past the data's box */
 #define SQFFD__SQ_FLAT_RATIO 1e-10 /* covariance eigenvalue ratio below which data are flat */
 
 /* Per-evaluation constants of the residual. */
 typedef struct sqffd__sq_eval {
     const sqffd_superquadric *sq;
+    sqffd__sq_exponents x;
     double log_size[3];
-    double volume_scale; /* sqrt(a1 a2 a3) */
+    double volume_scale;  /* sqrt(a1 a2 a3) */
+    double taper_over_a3[2]; /* Kx / a3, Ky / a3 */
+    double e1, inv_e1;
     int cost;
 } sqffd__sq_eval;
 
@@ -475,8 +484,13 @@ static void sqffd__sq_eval_init(sqffd__sq_eval *ev, const sqffd_superquadric *sq
 {
     int k;
     ev->sq = sq;
+    ev->x = sqffd__sq_exponents_of(sq);
     for (k = 0; k < 3; k++) ev->log_size[k] = log(sq->size[k]);
     ev->volume_scale = sqrt(sq->size[0] * sq->size[1] * sq->size[2]);
+    ev->taper_over_a3[0] = sq->taper[0] / sq->size[2];
+    ev->taper_over_a3[1] = sq->taper[1] / sq->size[2];
+    ev->e1 = sq->shape[0];
+    ev->inv_e1 = 1.0 / sq->shape[0];
     ev->cost = cost;
 }
 
@@ -486,18 +500,19 @@ static void sqffd__sq_eval_init(sqffd__sq_eval *ev, const sqffd_superquadric *sq
 static double sqffd__sq_residual(const sqffd__sq_eval *ev, const double p[3], double *grad)
 {
     const sqffd_superquadric *sq = ev->sq;
-    double e1 = sq->shape[0], e2 = sq->shape[1], a3 = sq->size[2];
-    double q[3], f[2], u[3], parts[SQFFD__SQ_PARTS], lf, r, kf, extra_e1, extra_size, t[3], gq[3], h[3];
+    double e1 = ev->e1;
+    double q[3], f[2], inv_f[2], u[3], parts[SQFFD__SQ_PARTS], lf, r, kf, extra_e1, extra_size, t[3], gq[3], h[3];
     int k, clamped[2];
     sqffd__sq_to_local(sq, p, q);
     for (k = 0; k < 2; k++) {
-        f[k] = 1.0 + sq->taper[k] * q[2] / a3;
+        f[k] = 1.0 + ev->taper_over_a3[k] * q[2];
         clamped[k] = f[k] < SQFFD__SQ_MIN_TAPER;
         if (clamped[k]) f[k] = SQFFD__SQ_MIN_TAPER;
-        u[k] = q[k] / f[k];
+        inv_f[k] = 1.0 / f[k];
+        u[k] = q[k] * inv_f[k];
     }
     u[2] = q[2];
-    lf = sqffd__sq_log_f(u, ev->log_size, e1, e2, grad ? parts : NULL);
+    lf = sqffd__sq_log_f(u, ev->log_size, &ev->x, grad ? parts : NULL);
     if (ev->cost == SQFFD_SQ_COST_SOLINA) { /* sqrt(a1 a2 a3) (F^e1 - 1) */
         double pw = exp(e1 * lf < 700.0 ? e1 * lf : 700.0);
         r = ev->volume_scale * (pw - 1.0);
@@ -507,31 +522,31 @@ static double sqffd__sq_residual(const sqffd__sq_eval *ev, const double p[3], do
         extra_size = 0.5 * r; /* from d sqrt(a1 a2 a3) / d ln a_i */
         t[0] = t[1] = t[2] = 0.0;
     } else { /* |u| (1 - F^(-e1/2)) */
-        double rho = sqrt(sqffd__dot3(u, u)), qm = exp(-0.5 * e1 * lf);
+        double rho = sqrt(sqffd__dot3(u, u)), qm = exp(-0.5 * e1 * lf), along = rho > 0.0 ? (1.0 - qm) / rho : 0.0;
         r = rho * (1.0 - qm);
         if (!grad) return r;
         kf = 0.5 * rho * qm * e1;
         extra_e1 = 0.5 * rho * qm * lf;
         extra_size = 0.0;
-        for (k = 0; k < 3; k++) t[k] = rho > 0.0 ? (1.0 - qm) * u[k] / rho : 0.0;
+        for (k = 0; k < 3; k++) t[k] = along * u[k];
     }
     /* h_k = d ln F / d ln|u_k| */
-    h[0] = (2.0 / e1) * parts[SQFFD__SQ_PART_FG] * parts[SQFFD__SQ_PART_FU];
-    h[1] = (2.0 / e1) * parts[SQFFD__SQ_PART_FG] * parts[SQFFD__SQ_PART_FU + 1];
-    h[2] = (2.0 / e1) * parts[SQFFD__SQ_PART_FG + 1];
+    h[0] = ev->x.two_e1 * parts[SQFFD__SQ_PART_FG] * parts[SQFFD__SQ_PART_FU];
+    h[1] = ev->x.two_e1 * parts[SQFFD__SQ_PART_FG] * parts[SQFFD__SQ_PART_FU + 1];
+    h[2] = ev->x.two_e1 * parts[SQFFD__SQ_PART_FG + 1];
     for (k = 0; k < 3; k++) /* t = d r / d u; h_k / u_k -> 0 as u_k -> 0 (exponents 2/e > 1) */
         t[k] += fabs(u[k]) > SQFFD__SQ_TINY ? kf * h[k] / u[k] : 0.0;
     /* through the tapering: dx/dX = 1/fx, dx/dZ = -x Kx / (a3 fx),
        dx/dKx = -x Z / (a3 fx), dx/d ln a3 = x Kx Z / (a3 fx) */
-    gq[0] = t[0] / f[0];
-    gq[1] = t[1] / f[1];
+    gq[0] = t[0] * inv_f[0];
+    gq[1] = t[1] * inv_f[1];
     gq[2] = t[2];
     grad[SQFFD__SQ_P_LOGSIZE] = grad[SQFFD__SQ_P_LOGSIZE + 1] = grad[SQFFD__SQ_P_LOGSIZE + 2] = 0.0;
     for (k = 0; k < 2; k++) {
-        double s = clamped[k] ? 0.0 : t[k] * u[k] / (a3 * f[k]);
-        gq[2] -= s * sq->taper[k];
-        grad[SQFFD__SQ_P_TAPER + k] = -s * q[2];
-        grad[SQFFD__SQ_P_LOGSIZE + 2] += s * sq->taper[k] * q[2];
+        double s = clamped[k] ? 0.0 : t[k] * u[k] * inv_f[k]; /* times 1/a3 below */
+        gq[2] -= s * ev->taper_over_a3[k];
+        grad[SQFFD__SQ_P_TAPER + k] = -s * q[2] / sq->size[2];
+        grad[SQFFD__SQ_P_LOGSIZE + 2] += s * ev->taper_over_a3[k] * q[2];
     }
     sqffd__cross3(gq, q, grad + SQFFD__SQ_P_ROT); /* dq/dw = [q]x */
     sqffd__mat3_vec(sq->rotation, gq, grad + SQFFD__SQ_P_CENTER);
@@ -539,9 +554,9 @@ static double sqffd__sq_residual(const sqffd__sq_eval *ev, const double p[3], do
         grad[SQFFD__SQ_P_CENTER + k] = -grad[SQFFD__SQ_P_CENTER + k];
         grad[SQFFD__SQ_P_LOGSIZE + k] += extra_size - kf * h[k];
     }
-    grad[SQFFD__SQ_P_E1] = extra_e1 - kf / e1 * (parts[SQFFD__SQ_PART_FG] * parts[SQFFD__SQ_PART_LG] +
-                                                  parts[SQFFD__SQ_PART_FG + 1] * parts[SQFFD__SQ_PART_LH]);
-    grad[SQFFD__SQ_P_E2] = kf / e1 * parts[SQFFD__SQ_PART_FG] *
+    grad[SQFFD__SQ_P_E1] = extra_e1 - kf * ev->inv_e1 * (parts[SQFFD__SQ_PART_FG] * parts[SQFFD__SQ_PART_LG] +
+                                                         parts[SQFFD__SQ_PART_FG + 1] * parts[SQFFD__SQ_PART_LH]);
+    grad[SQFFD__SQ_P_E2] = kf * ev->inv_e1 * parts[SQFFD__SQ_PART_FG] *
                            (parts[SQFFD__SQ_PART_LA] - parts[SQFFD__SQ_PART_FU] * parts[SQFFD__SQ_PART_LU] -
                             parts[SQFFD__SQ_PART_FU + 1] * parts[SQFFD__SQ_PART_LV]);
     return r;
@@ -573,9 +588,6 @@ static double sqffd__sq_accumulate(const sqffd__sq_fit *fit, const sqffd_superqu
     int np = fit->npar, i, j;
     size_t k;
     sqffd__sq_eval_init(&ev, sq, fit->cost);
-#ifdef SQFFD__SQ_COUNT
-    SQFFD__SQ_COUNT(m, jtj != NULL);
-#endif
     if (jtj) memset(jtj, 0, sizeof(double) * SQFFD__SQ_NPAR * SQFFD__SQ_NPAR);
     if (jtr) memset(jtr, 0, sizeof(double) * SQFFD__SQ_NPAR);
     for (k = 0; k < m; k++) {
@@ -731,6 +743,7 @@ static int sqffd__sq_lm(sqffd__sq_fit *fit, sqffd_superquadric *sq, const double
     double a[SQFFD__SQ_NPAR * SQFFD__SQ_NPAR], delta[SQFFD__SQ_NPAR], lambda = 1e-3, step;
     int np = fit->npar, it, i, j;
     double c0 = sqffd__sq_accumulate(fit, sq, pts, weights, m, jtj, jtr);
+    if (c0 < SQFFD__SQ_EXACT * (double)m) { *cost = c0; return 1; }
     for (it = 0; it < max_iterations; it++) {
         sqffd_superquadric trial = *sq;
         double c1;
@@ -1135,42 +1148,36 @@ static double sqffd__sq_select(double *a, size_t n, size_t k)
     return a[k];
 }
 
-/* Robust mode's start set: the points whose SQFFD__SQ_NEIGHBOURS-th nearest
-   neighbour (brute force, m is a subsample) is at most twice the median such
-   distance. Outliers away from the surface are isolated and drop out.
-   dist: 2m doubles of scratch. Returns the count written to out. */
+/* Robust mode's start set: of every other point, those whose
+   SQFFD__SQ_NEIGHBOURS-th nearest neighbour among all m (brute force: m is a
+   subsample) is at most 1.2 times the median such distance. Outliers away
+   from the surface are isolated and drop out; so do some surface points,
+   which the starts can spare. dist: m doubles of scratch. Returns the
+   count written to out. */
 #define SQFFD__SQ_NEIGHBOURS 6
 static size_t sqffd__sq_dense_points(const double *pts, size_t m, double *out, double *dist)
 {
-    size_t i, j, kept = 0;
+    size_t i, j, kept = 0, half = (m + 1) / 2;
     double limit;
-    for (i = 0; i < m; i++) {
+    for (i = 0; i < half; i++) {
+        const double *p = pts + 6 * i;
         double nearest[SQFFD__SQ_NEIGHBOURS];
         int k;
         for (k = 0; k < SQFFD__SQ_NEIGHBOURS; k++) nearest[k] = HUGE_VAL;
         for (j = 0; j < m; j++) {
-            double d2 = sqffd__dist2_3(pts + 3 * i, pts + 3 * j);
-            if (j == i || d2 >= nearest[SQFFD__SQ_NEIGHBOURS - 1]) continue;
+            double d2 = sqffd__dist2_3(p, pts + 3 * j);
+            if (j == 2 * i || d2 >= nearest[SQFFD__SQ_NEIGHBOURS - 1]) continue;
             for (k = SQFFD__SQ_NEIGHBOURS - 1; k > 0 && nearest[k - 1] > d2; k--) nearest[k] = nearest[k - 1];
             nearest[k] = d2;
         }
-        dist[i] = dist[m + i] = nearest[SQFFD__SQ_NEIGHBOURS - 1];
+        dist[i] = dist[half + i] = nearest[SQFFD__SQ_NEIGHBOURS - 1];
     }
-    limit = 1.44 * sqffd__sq_select(dist + m, m, m / 2); /* squared distances: twice the median */
-    for (i = 0; i < m; i++)
-        if (dist[i] <= limit) memcpy(out + 3 * kept++, pts + 3 * i, 3 * sizeof(double));
+    limit = 1.44 * sqffd__sq_select(dist + half, half, half / 2); /* squared: 1.2 times the median distance */
+    for (i = 0; i < half; i++)
+        if (dist[i] <= limit) memcpy(out + 3 * kept++, pts + 6 * i, 3 * sizeof(double));
     return kept;
 }
 
-#ifndef SQFFD__SQ_ROBUST_COST
-#define SQFFD__SQ_ROBUST_COST SQFFD_SQ_COST_RADIAL
-#endif
-#ifndef SQFFD__SQ_FULL_ROUNDS
-#define SQFFD__SQ_FULL_ROUNDS 1
-#endif
-#ifndef SQFFD__SQ_ROUND_ITERATIONS
-#define SQFFD__SQ_ROUND_ITERATIONS 3
-#endif
 /* Robust variance of the radial distances of m points: (1.4826 median |d|)^2.
    scratch: m doubles. */
 static double sqffd__sq_robust_d2(const sqffd_superquadric *sq, const double *pts, size_t m, double *scratch)
@@ -1184,6 +1191,9 @@ static double sqffd__sq_robust_d2(const sqffd_superquadric *sq, const double *pt
     return mad * mad;
 }
 
+#define SQFFD__SQ_ROBUST_COST SQFFD_SQ_COST_RADIAL /* the mixture's own residual */
+#define SQFFD__SQ_ROUND_ITERATIONS 3 /* LM iterations per EM round */
+#define SQFFD__SQ_FULL_ROUNDS 1      /* EM rounds on all points after the polish subsample */
 /* Robust mode: `rounds` EM rounds on m points (reweight, then a few
    weighted LM iterations of the mixture's own residual, the radial
    distance); the last round runs the LM to convergence. Returns the
@@ -1234,10 +1244,8 @@ static void sqffd__sq_shortlist_add(sqffd__sq_shortlist *list, const sqffd_super
 static void sqffd__sq_screen(sqffd__sq_fit *fit, const double *pts, size_t m, const double *screen, size_t m_screen,
                              double *hist, sqffd__sq_shortlist *list)
 {
-#ifndef SQFFD__SQ_SEEDS
-#define SQFFD__SQ_SEEDS {1.0, 1.0}, {1.7, 0.3}, {0.3, 1.7}, {1.7, 1.7}
-#endif
-    static const double shape_seeds[][2] = {SQFFD__SQ_SEEDS};
+    /* (e1, e2) seeds: round, then the pairs a start cannot get to from there */
+    static const double shape_seeds[][2] = {{1.0, 1.0}, {1.7, 0.3}, {0.3, 1.7}, {1.7, 1.7}};
     const int n_seeds = (int)(sizeof shape_seeds / sizeof shape_seeds[0]);
     double centre[3], cov[9], values[3], axes[9];
     int basis, s, id = 0;
@@ -1254,10 +1262,7 @@ static void sqffd__sq_screen(sqffd__sq_fit *fit, const double *pts, size_t m, co
             sqffd__sq_rotate(b_axes, turn);
         }
         sqffd__sq_initial_sizes(pts, m, centre, b_axes, hist, b_size);
-#ifndef SQFFD__SQ_BASIS_SEEDS
-#define SQFFD__SQ_BASIS_SEEDS 3
-#endif
-        for (s = 0; s < 3 * (basis ? SQFFD__SQ_BASIS_SEEDS : n_seeds) && fit->status == SQFFD_OK; s++, id++) {
+        for (s = 0; s < 3 * (basis ? SQFFD__SQ_TURNED_SEEDS : n_seeds) && fit->status == SQFFD_OK; s++, id++) {
             sqffd_superquadric cur;
             double cost;
             int j;
@@ -1274,9 +1279,6 @@ static void sqffd__sq_screen(sqffd__sq_fit *fit, const double *pts, size_t m, co
             cur.shape[1] = shape_seeds[s / 3][1];
             sqffd__sq_project(fit, &cur);
             sqffd__sq_optimize(fit, &cur, screen, NULL, m_screen, SQFFD__SQ_START_ITERATIONS, &cost);
-#ifdef SQFFD__SQ_DEBUG
-            SQFFD__SQ_DEBUG(basis * 100 + s, &cur, cost);
-#endif
             sqffd__sq_shortlist_add(list, &cur, cost, id);
             if (cost < SQFFD__SQ_EXACT * (double)m_screen) return; /* exact: no start can do better */
         }
@@ -1309,7 +1311,6 @@ typedef struct sqffd__sq_sets {
     size_t m_polish;
     const double *start;   /* the points the starts came from (robust mode: the dense polish points) */
     size_t m_start;
-    double *weights;       /* robust weights, n (and at least 2 m_polish) */
 } sqffd__sq_sets;
 
 /* Run a candidate to convergence on the polish points (robust mode: on the
@@ -1393,27 +1394,22 @@ SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_
     sets.m_polish = m_polish;
     sets.start = start_pts;
     sets.m_start = m_start;
-    sets.weights = w.weights;
     for (k = 0; k < list.count && fit.status == SQFFD_OK; k++) {
         double cost = list.cost[k];
+        int polished = 0;
         if (k > 0 && (list.cost[0] < SQFFD__SQ_CLEAR_WIN * list.cost[k] || best_cost < SQFFD__SQ_EXACT * (double)m_polish))
             break; /* the rest are far behind, or the best is exact */
-        if (m_polish > m_screen || o->robust) cost = sqffd__sq_polish(&fit, &list.sq[k], &sets, &converged);
-#ifdef SQFFD__SQ_DEBUG
-        SQFFD__SQ_DEBUG(1000 + fit.iterations, &list.sq[k], cost);
-#endif
+        if (m_polish > m_screen || o->robust) cost = sqffd__sq_polish(&fit, &list.sq[k], &sets, &polished);
         if (k == 0 || cost < best_cost) {
             best = list.sq[k];
             best_cost = cost;
             best_start = list.id[k];
+            converged = polished;
         }
     }
     if (fit.status == SQFFD_OK && sqffd__sq_twin(&fit, &best, &twin)) {
         int twin_converged;
         double cost = sqffd__sq_polish(&fit, &twin, &sets, &twin_converged);
-#ifdef SQFFD__SQ_DEBUG
-        SQFFD__SQ_DEBUG(4000 + fit.iterations, &twin, cost);
-#endif
         if (cost < best_cost) {
             best = twin;
             best_cost = cost;
@@ -1431,9 +1427,6 @@ SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_
     } else if (fit.status == SQFFD_OK && m_polish < n) {
         converged = sqffd__sq_optimize(&fit, &best, w.points, NULL, n, o->max_iterations, &best_cost);
     }
-#ifdef SQFFD__SQ_DEBUG
-    SQFFD__SQ_DEBUG(2000 + fit.iterations, &best, best_cost);
-#endif
     if (fit.status != SQFFD_OK) return fit.status;
 
     /* A fit that describes the data closely may reach past their box (a

@@ -28,27 +28,46 @@ static void sqffd__ffd_axis_weights(const int dims[3], const double stu[3], doub
     sqffd__ffd_bernstein(dims[2] - 1, stu[2], w + dims[0] + dims[1]);
 }
 
-/* sum_ijk ws_i wt_j wu_k P_ijk from the three 1-D weight vectors. */
-static void sqffd__ffd_apply(const int dims[3], const double (*control)[3], const double *w, double out[3])
+/* q_ij = sum_k wu_k P_ijk for every (i, j) (l*m entries): the first of the
+   sums in sum_ijk ws_i wt_j wu_k P_ijk. The model fit shares it between the
+   points with the same u. */
+static void sqffd__ffd_sum_u(const int dims[3], const double (*control)[3], const double *wu, double (*q)[3])
 {
-    const double *ws = w, *wt = w + dims[0], *wu = w + dims[0] + dims[1];
+    int ij, k;
+    for (ij = 0; ij < dims[0] * dims[1]; ++ij) {
+        const double (*p)[3] = control + (size_t)ij * (size_t)dims[2];
+        double x = 0.0, y = 0.0, z = 0.0;
+        for (k = 0; k < dims[2]; ++k) {
+            x += wu[k] * p[k][0];
+            y += wu[k] * p[k][1];
+            z += wu[k] * p[k][2];
+        }
+        q[ij][0] = x; q[ij][1] = y; q[ij][2] = z;
+    }
+}
+
+/* sum_ij ws_i wt_j q_ij: the rest of the sums. */
+static void sqffd__ffd_sum_st(const int dims[3], const double (*q)[3], const double *ws, const double *wt, double out[3])
+{
     double x = 0.0, y = 0.0, z = 0.0;
-    int i, j, k;
+    int i, j;
     for (i = 0; i < dims[0]; ++i) {
+        const double (*qi)[3] = q + i * dims[1];
         double xi = 0.0, yi = 0.0, zi = 0.0;
         for (j = 0; j < dims[1]; ++j) {
-            const double (*p)[3] = control + (size_t)(i * dims[1] + j) * (size_t)dims[2];
-            double xj = 0.0, yj = 0.0, zj = 0.0;
-            for (k = 0; k < dims[2]; ++k) {
-                xj += wu[k] * p[k][0];
-                yj += wu[k] * p[k][1];
-                zj += wu[k] * p[k][2];
-            }
-            xi += wt[j] * xj; yi += wt[j] * yj; zi += wt[j] * zj;
+            xi += wt[j] * qi[j][0]; yi += wt[j] * qi[j][1]; zi += wt[j] * qi[j][2];
         }
         x += ws[i] * xi; y += ws[i] * yi; z += ws[i] * zi;
     }
     out[0] = x; out[1] = y; out[2] = z;
+}
+
+/* sum_ijk ws_i wt_j wu_k P_ijk from the three 1-D weight vectors. */
+static void sqffd__ffd_apply(const int dims[3], const double (*control)[3], const double *w, double out[3])
+{
+    double q[SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE][3];
+    sqffd__ffd_sum_u(dims, control, w + dims[0] + dims[1], q);
+    sqffd__ffd_sum_st(dims, (const double (*)[3])q, w, w + dims[0], out);
 }
 
 static int sqffd__ffd_dims_valid(const int dims[3])

@@ -8,9 +8,7 @@
 #define SQFFD__FIT_FILL_SWEEPS 8      /* smoothing sweeps over the unreached model points */
 #define SQFFD__FIT_MAX_WALK 8         /* fan-to-fan moves of the closest-point search */
 #define SQFFD__FIT_SVD_RCOND 1e-10    /* singular values below this fraction of the largest are dropped */
-#define SQFFD__FIT_BLOCK 32           /* rows of B per block while forming B^T B */
-#define SQFFD__FIT_TILE 64            /* columns of B per tile while forming B^T B */
-#define SQFFD__FIT_PAD 8              /* the block's row stride is L + 8: a power-of-two L would map its rows onto one cache set */
+#define SQFFD__FIT_SNAP 1e-14         /* u this close to its run's first is that u (rounding: the runs' B rows factor) */
 
 /* ---- the (eta, omega) grid and its closed mesh ----------------------------
    Vertex i * n_omega + j is (eta_i, omega_j) with eta_i = -pi/2 + (i + 1) pi /
@@ -65,7 +63,8 @@ static void sqffd__fit_ring_of(const int grid[2], size_t v, sqffd__fit_ring *r)
         r->count = ne;
         return;
     }
-    i = v / ne; j = v - i * ne; jp = j + 1 < ne ? j + 1 : 0; jm = j > 0 ? j - 1 : ne - 1;
+    i = (size_t)((uint32_t)v / (uint32_t)ne); /* the grid check keeps vertex numbers below 2^32: a faster division */
+    j = v - i * ne; jp = j + 1 < ne ? j + 1 : 0; jm = j > 0 ? j - 1 : ne - 1;
     cand[0] = i * ne + jp;
     cand[1] = i + 1 < (size_t)grid[0] ? (i + 1) * ne + jp : north;
     cand[2] = i + 1 < (size_t)grid[0] ? (i + 1) * ne + j : north;
@@ -82,16 +81,16 @@ static size_t sqffd__fit_ring_at(const sqffd__fit_ring *r, size_t k)
     return r->pole ? r->base + k : r->v[k];
 }
 
-/* Closest point to p on the triangle (v, v + ea, v + eb), from ap = p - v and
-   the dot products pa = ea.ap, pb = eb.ap, aa = ea.ea, bb = eb.eb,
-   ab = ea.eb (a fan shares most of them): its barycentric weights w (of v,
-   a, b; w[0] is exactly 0 on the edge ab and its ends), by the Voronoi
-   regions of the vertices, edges and face (Ericson, Real-Time Collision
-   Detection, 5.1.5), and its squared distance. A flat triangle falls back on
-   its nearest vertex, a zero-length edge on its end. */
-static double sqffd__fit_triangle(const double ap[3], const double ea[3], const double eb[3], double pa, double pb,
-                                  double aa, double bb, double ab, double w[3])
+/* Closest point to q on the triangle (v, v + ea, v + eb), from ap = q - v:
+   its barycentric weights w (of v, a, b; w[0] is exactly 0 on the edge ab
+   and its ends), by the Voronoi regions of the vertices, edges and face
+   (Ericson, Real-Time Collision Detection, 5.1.5), and its squared distance.
+   A flat triangle falls back on its nearest vertex, a zero-length edge on
+   its end. */
+static double sqffd__fit_triangle(const double ap[3], const double ea[3], const double eb[3], double w[3])
 {
+    double pa = sqffd__dot3(ea, ap), pb = sqffd__dot3(eb, ap);
+    double aa = sqffd__dot3(ea, ea), bb = sqffd__dot3(eb, eb), ab = sqffd__dot3(ea, eb);
     double d3 = pa - aa, d4 = pb - ab, d5 = pa - ab, d6 = pb - bb;
     double vc = pa * d4 - d3 * pb, vb = d5 * pb - pa * d6, va = d3 * d6 - d5 * d4, sum, r[3];
     int k;
@@ -110,70 +109,210 @@ static double sqffd__fit_triangle(const double ap[3], const double ea[3], const 
         double inv = 1.0 / sum;
         w[1] = vb * inv; w[2] = vc * inv; w[0] = va * inv;
     } else {                                                              /* flat */
-        double da = aa - 2.0 * pa, db = bb - 2.0 * pb; /* |p - a|^2 - |p - v|^2, same for b */
+        double da = aa - 2.0 * pa, db = bb - 2.0 * pb; /* |q - a|^2 - |q - v|^2, same for b */
         w[da < 0.0 && da <= db ? 1 : db < 0.0 ? 2 : 0] = 1.0;
     }
     for (k = 0; k < 3; ++k) r[k] = ap[k] - w[1] * ea[k] - w[2] * eb[k];
     return sqffd__dot3(r, r);
 }
 
-/* The closest point to q on the fan of triangles around vertex v of the mesh
-   whose vertices are x: its squared distance, triangle (tri[0] = v) and
-   barycentric weights. */
+/* Triangle k of the fan around vertex v, (v, ring k, ring k+1 mod count), of
+   the mesh whose vertices are x, against q: its corners into tri, and the
+   closest point's squared distance and barycentric weights. The fan search
+   and the warm start's re-measurement of one triangle both come here, so
+   they agree to the bit. */
+static double sqffd__fit_fan_triangle(const double *x, const sqffd__fit_ring *r, size_t v, size_t k, const double q[3],
+                                      size_t tri[3], double w[3])
+{
+    double ap[3], ea[3], eb[3];
+    tri[0] = v;
+    tri[1] = sqffd__fit_ring_at(r, k);
+    tri[2] = sqffd__fit_ring_at(r, k + 1 < r->count ? k + 1 : 0);
+    sqffd__sub3(q, x + 3 * v, ap);
+    sqffd__sub3(x + 3 * tri[1], x + 3 * v, ea);
+    sqffd__sub3(x + 3 * tri[2], x + 3 * v, eb);
+    return sqffd__fit_triangle(ap, ea, eb, w);
+}
+
+/* The closest point to q on the fan of triangles around vertex v: its
+   squared distance, triangle (tri[0] = v), barycentric weights and position
+   k in the fan (the first of equally close ones), and the squared distance
+   of the runner-up triangle (*second >= the result). */
 static double sqffd__fit_fan_closest(const double *x, const int grid[2], size_t v, const double q[3], size_t tri[3],
-                                     double w[3])
+                                     double w[3], size_t *position, double *second)
 {
     sqffd__fit_ring r;
-    double best = HUGE_VAL, ap[3], e[2][3], pe[2], ee[2], first[3], first_pe, first_ee, tw[3];
-    size_t k, a0;
+    double best = HUGE_VAL, tw[3];
+    size_t k, t[3];
     sqffd__fit_ring_of(grid, v, &r);
-    sqffd__sub3(q, x + 3 * v, ap);
-    a0 = sqffd__fit_ring_at(&r, 0);
-    sqffd__sub3(x + 3 * a0, x + 3 * v, first);
-    first_pe = sqffd__dot3(first, ap);
-    first_ee = sqffd__dot3(first, first);
-    memcpy(e[0], first, sizeof first);
-    pe[0] = first_pe; ee[0] = first_ee;
-    for (k = 0; k < r.count; ++k) { /* triangle (v, ring k, ring k+1): e[k & 1] is ring k's edge */
-        int c = (int)(k & 1), n = 1 - c;
-        size_t b = sqffd__fit_ring_at(&r, k + 1 < r.count ? k + 1 : 0);
-        double d;
-        if (k + 1 < r.count) {
-            sqffd__sub3(x + 3 * b, x + 3 * v, e[n]);
-            pe[n] = sqffd__dot3(e[n], ap);
-            ee[n] = sqffd__dot3(e[n], e[n]);
-        } else {
-            memcpy(e[n], first, sizeof first);
-            pe[n] = first_pe; ee[n] = first_ee;
-        }
-        d = sqffd__fit_triangle(ap, e[c], e[n], pe[c], pe[n], ee[c], ee[n], sqffd__dot3(e[c], e[n]), tw);
+    *second = HUGE_VAL;
+    *position = 0;
+    for (k = 0; k < r.count; ++k) {
+        double d = sqffd__fit_fan_triangle(x, &r, v, k, q, t, tw);
         if (d < best) {
+            *second = best;
             best = d;
-            tri[0] = v; tri[1] = sqffd__fit_ring_at(&r, k); tri[2] = b;
+            *position = k;
+            memcpy(tri, t, sizeof t);
             memcpy(w, tw, sizeof tw);
+        } else if (d < *second) {
+            *second = d;
         }
     }
     return best;
 }
 
-/* "The error" of one point q whose nearest mesh vertex is v: the closest
-   point on the fan around v; while that lies on the fan's outer rim (v's
-   weight 0), the fan around the rim vertex nearer to it is searched too (at
-   most SQFFD__FIT_MAX_WALK moves, never getting farther). */
-static double sqffd__fit_mesh_closest(const double *x, const int grid[2], size_t v, const double q[3], size_t tri[3],
-                                      double w[3])
+/* "The error" of q from the closest point (best, tri, w) on the fan of its
+   nearest mesh vertex: while that lies on the fan's outer rim (v's weight
+   0), the fan around the rim vertex nearer to it is searched too (at most
+   SQFFD__FIT_MAX_WALK moves, never getting farther). */
+static double sqffd__fit_walk(const double *x, const int grid[2], const double q[3], double best, size_t tri[3], double w[3])
 {
-    double best = sqffd__fit_fan_closest(x, grid, v, q, tri, w);
     int step;
     for (step = 0; step < SQFFD__FIT_MAX_WALK && w[0] == 0.0; ++step) {
-        size_t t2[3];
-        double w2[3], d = sqffd__fit_fan_closest(x, grid, w[1] >= w[2] ? tri[1] : tri[2], q, t2, w2);
+        size_t t2[3], position;
+        double w2[3], second;
+        double d = sqffd__fit_fan_closest(x, grid, w[1] >= w[2] ? tri[1] : tri[2], q, t2, w2, &position, &second);
         if (!(d < best)) break;
         best = d;
         memcpy(tri, t2, sizeof t2);
         memcpy(w, w2, sizeof w2);
     }
     return best;
+}
+
+/* ---- the closest-point search, with a warm start -------------------------
+   A data point's answer (its nearest mesh vertex, and the closest triangle of
+   that vertex's fan) rarely changes between two iterations, whose model
+   points move little. A distance to a vertex or to a triangle changes by at
+   most the largest move of the vertices involved. So a tree query also
+   records how near the nearest vertex outside the anchor's closed ring (the
+   anchor = the nearest vertex then) was; less the moves summed since, that
+   bounds every vertex outside the ring from below, and while the nearest
+   vertex of the ring is nearer than the bound it is the nearest of all (no
+   tree query). Likewise, while twice the fan's moves summed since the fan
+   was searched stay below the gap then seen between its closest and
+   runner-up triangles, that triangle is still the closest and only it is
+   measured again. Either way the answer is the one the full search would
+   give. The tree over the mesh vertices is built only when some point needs
+   it. */
+#define SQFFD__FIT_KNN 8 /* neighbours a tree query fetches: a closed ring (<= 7) and one more */
+
+typedef struct sqffd__fit_search {
+    const double *x;         /* mesh vertices (the model points) */
+    int grid[2];
+    sqffd_kdtree tree;       /* over x, once built */
+    void *tree_ws;
+    size_t tree_size;
+    int built;
+    /* the warm start (anchor NULL: none), per data point */
+    uint32_t *anchor;        /* the nearest vertex at the last tree query */
+    double *outside;         /* lower bound on the distance to any vertex outside the anchor's closed ring (-inf: none) */
+    uint32_t *vertex;        /* the nearest vertex at the last fan search */
+    uint32_t *position;      /* the closest triangle's position in that fan */
+    double *triangle_slack;  /* that fan's gap less twice its largest moves since (< 0: search the fan) */
+    double moved;            /* largest vertex move since the previous pass */
+    double *fan_moved;       /* per mesh vertex: largest move of its fan's vertices since the previous pass */
+    double margin;           /* allowance for rounding in the distances */
+} sqffd__fit_search;
+
+/* Whether vertex u is in the closed ring (v and its ring r). */
+static int sqffd__fit_in_ring(const sqffd__fit_ring *r, size_t v, size_t u)
+{
+    size_t k;
+    if (u == v) return 1;
+    if (r->pole) return u >= r->base && u < r->base + r->count;
+    for (k = 0; k < r->count; ++k)
+        if (r->v[k] == u) return 1;
+    return 0;
+}
+
+/* The nearest mesh vertex to data point i at q. */
+static sqffd_result sqffd__fit_nearest_vertex(sqffd__fit_search *s, size_t i, const double q[3], size_t *nearest)
+{
+    size_t near[SQFFD__FIT_KNN], k, count;
+    double d2[SQFFD__FIT_KNN];
+    sqffd__fit_ring r;
+    if (s->anchor && (s->outside[i] -= s->moved) > s->margin) {
+        size_t v = s->anchor[i];
+        double best = sqffd__dist2_3(q, s->x + 3 * v);
+        sqffd__fit_ring_of(s->grid, v, &r);
+        *nearest = v;
+        for (k = 0; k < r.count; ++k) {
+            size_t u = sqffd__fit_ring_at(&r, k);
+            double d = sqffd__dist2_3(q, s->x + 3 * u);
+            if (d < best) { best = d; *nearest = u; }
+        }
+        if (sqrt(best) < s->outside[i] - s->margin) return SQFFD_OK;
+    }
+    if (!s->built) {
+        sqffd_result res = sqffd_kdtree_build(&s->tree, s->x, sqffd__fit_grid_count(s->grid), s->tree_ws, s->tree_size);
+        if (res != SQFFD_OK) return res;
+        s->built = 1;
+    }
+    count = sqffd_kdtree_knn(&s->tree, q, SQFFD__FIT_KNN, near, d2);
+    if (count == 0) return SQFFD_ERROR_NON_FINITE;
+    *nearest = near[0];
+    if (s->anchor) {
+        s->anchor[i] = (uint32_t)near[0];
+        s->outside[i] = -HUGE_VAL;
+        sqffd__fit_ring_of(s->grid, near[0], &r);
+        for (k = 1; k < count; ++k)
+            if (!sqffd__fit_in_ring(&r, near[0], near[k])) { s->outside[i] = sqrt(d2[k]); break; }
+    }
+    return SQFFD_OK;
+}
+
+/* The closest point on the mesh to data point i at q ("the error"): squared
+   distance, triangle and barycentric weights. */
+static sqffd_result sqffd__fit_closest(sqffd__fit_search *s, size_t i, const double q[3], double *dist2, size_t tri[3],
+                                       double w[3])
+{
+    size_t v, position;
+    double second, d;
+    sqffd_result res = sqffd__fit_nearest_vertex(s, i, q, &v);
+    if (res != SQFFD_OK) return res;
+    if (s->anchor && s->vertex[i] == v && s->triangle_slack[i] - 2.0 * s->fan_moved[v] > s->margin) {
+        sqffd__fit_ring r;
+        sqffd__fit_ring_of(s->grid, v, &r);
+        d = sqffd__fit_fan_triangle(s->x, &r, v, s->position[i], q, tri, w);
+        if (w[0] != 0.0) { /* (else the full search would walk on) */
+            s->triangle_slack[i] -= 2.0 * s->fan_moved[v];
+            *dist2 = d;
+            return SQFFD_OK;
+        }
+    }
+    d = sqffd__fit_fan_closest(s->x, s->grid, v, q, tri, w, &position, &second);
+    if (s->anchor) {
+        s->vertex[i] = (uint32_t)v;
+        s->position[i] = (uint32_t)position;
+        s->triangle_slack[i] = w[0] == 0.0 ? -1.0 : sqrt(second) - sqrt(d);
+    }
+    *dist2 = sqffd__fit_walk(s->x, s->grid, q, d, tri, w);
+    return SQFFD_OK;
+}
+
+/* The moves from x to next into the search's warm start (largest overall and
+   per fan); returns the sum of their squares. */
+static double sqffd__fit_moves(sqffd__fit_search *s, const double *x, const double *next)
+{
+    size_t v, k, m = sqffd__fit_grid_count(s->grid);
+    double sum2 = 0.0, max2 = 0.0;
+    for (v = 0; v < m; ++v) {
+        sqffd__fit_ring r;
+        double move2 = sqffd__dist2_3(next + 3 * v, x + 3 * v), fan2 = move2;
+        sum2 += move2;
+        max2 = move2 > max2 ? move2 : max2;
+        sqffd__fit_ring_of(s->grid, v, &r);
+        for (k = 0; k < r.count; ++k) {
+            size_t u = sqffd__fit_ring_at(&r, k);
+            double d2 = sqffd__dist2_3(next + 3 * u, x + 3 * u);
+            fan2 = d2 > fan2 ? d2 : fan2;
+        }
+        s->fan_moved[v] = sqrt(fan2);
+    }
+    s->moved = sqrt(max2);
+    return sum2;
 }
 
 /* ---- statistics ---------------------------------------------------------- */
@@ -209,21 +348,36 @@ static void sqffd__fit_stats(double sum, double sum2, double max, size_t n, doub
     s->max_relative = diagonal > 0.0 ? s->max / diagonal : 0.0;
 }
 
-/* One pass over the data against the mesh with vertices x (tree built over
-   x): each point's distance to the mesh (the error) into the statistics and
-   per_point (may be NULL). With sums/weights (step 1 of the fit) each point's
-   displacement to it from its closest mesh point is also spread over that
-   triangle's vertices with the barycentric weights. */
-static void sqffd__fit_pass(const double *points, size_t n, const double *x, const int grid[2], const sqffd_kdtree *tree,
-                            double diagonal, double *per_point, double *sums, double *weights, sqffd_distance_stats *stats)
+/* A search over the mesh with vertices x (tree workspace given, built on
+   first need), without a warm start. */
+static void sqffd__fit_search_init(sqffd__fit_search *s, const double *x, const int grid[2], void *tree_ws, size_t tree_size)
 {
+    memset(s, 0, sizeof *s);
+    s->x = x;
+    s->grid[0] = grid[0];
+    s->grid[1] = grid[1];
+    s->tree_ws = tree_ws;
+    s->tree_size = tree_size;
+}
+
+/* One pass over the data against the search's mesh: each point's distance
+   to the mesh (the error) into the statistics and per_point (may be NULL).
+   With sums/weights (step 1 of the fit) each point's displacement to it from
+   its closest mesh point is also spread over that triangle's vertices with
+   the barycentric weights. */
+static sqffd_result sqffd__fit_pass(const double *points, size_t n, sqffd__fit_search *search, double diagonal,
+                                    double *per_point, double *sums, double *weights, sqffd_distance_stats *stats)
+{
+    const double *x = search->x;
     double sum = 0.0, sum2 = 0.0, max = 0.0, w[3];
     size_t i, tri[3];
     int k;
     for (i = 0; i < n; ++i) {
         const double *q = points + 3 * i;
-        size_t v = sqffd_kdtree_nearest(tree, q, NULL);
-        double d2 = sqffd__fit_mesh_closest(x, grid, v, q, tri, w), d = sqrt(d2);
+        double d2, d;
+        sqffd_result res = sqffd__fit_closest(search, i, q, &d2, tri, w);
+        if (res != SQFFD_OK) return res;
+        d = sqrt(d2);
         sum += d; sum2 += d2;
         if (d > max) max = d;
         if (per_point) per_point[i] = d;
@@ -242,6 +396,7 @@ static void sqffd__fit_pass(const double *points, size_t n, const double *x, con
         }
     }
     sqffd__fit_stats(sum, sum2, max, n, diagonal, stats);
+    return SQFFD_OK;
 }
 
 /* ---- model geometry ------------------------------------------------------ */
@@ -346,15 +501,15 @@ SQFFD_DEF size_t sqffd_model_reverse_distances_workspace_size(size_t n, const sq
     return sqffd__fit_distances_size(n, model, 1);
 }
 
-/* Shared by both directions: validates, lays out, samples the model mesh and
-   builds the tree over the mesh vertices (forward) or the data (reverse). */
+/* Shared by both directions: validates, lays out and samples the model mesh;
+   the tree's workspace is for the mesh vertices (forward) or the data
+   (reverse). */
 static sqffd_result sqffd__fit_distances_setup(const sqffd_model *model, const double *points, size_t n, int reverse,
-                                              void *workspace, size_t workspace_size, double **x, sqffd_kdtree *tree,
-                                              double *diagonal)
+                                              void *workspace, size_t workspace_size, double **x, void **tree_ws,
+                                              size_t *tree_size, double *diagonal)
 {
     sqffd__arena a;
-    void *tree_ws;
-    size_t tree_size, m;
+    size_t m;
     sqffd_result r;
     if (!model || !points || !workspace || !sqffd__fit_model_valid(model)) return SQFFD_ERROR_INVALID_ARGUMENT;
     if (n == 0) return SQFFD_ERROR_TOO_FEW_POINTS;
@@ -362,24 +517,28 @@ static sqffd_result sqffd__fit_distances_setup(const sqffd_model *model, const d
     if (r != SQFFD_OK) return r;
     m = sqffd__fit_grid_count(model->grid);
     sqffd__arena_init(&a, workspace, workspace_size);
-    sqffd__fit_distances_layout(&a, reverse ? n : m, m, x, &tree_ws, &tree_size);
+    sqffd__fit_distances_layout(&a, reverse ? n : m, m, x, tree_ws, tree_size);
     if (a.overflow) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
     sqffd__fit_surface(model, model->grid, *x);
-    return sqffd_kdtree_build(tree, reverse ? points : *x, reverse ? n : m, tree_ws, tree_size);
+    return SQFFD_OK;
 }
 
 SQFFD_DEF sqffd_result sqffd_model_distances(const sqffd_model *model, const double *points, size_t n,
                                              double *per_point, sqffd_distance_stats *stats,
                                              void *workspace, size_t workspace_size)
 {
-    sqffd_kdtree tree;
+    sqffd__fit_search search;
     sqffd_distance_stats s;
     double *x = NULL, diagonal = 0.0;
-    sqffd_result r = sqffd__fit_distances_setup(model, points, n, 0, workspace, workspace_size, &x, &tree, &diagonal);
+    void *tree_ws = NULL;
+    size_t tree_size = 0;
+    sqffd_result r = sqffd__fit_distances_setup(model, points, n, 0, workspace, workspace_size, &x, &tree_ws, &tree_size,
+                                                &diagonal);
     if (r != SQFFD_OK) return r;
-    sqffd__fit_pass(points, n, x, model->grid, &tree, diagonal, per_point, NULL, NULL, &s);
-    if (stats) *stats = s;
-    return SQFFD_OK;
+    sqffd__fit_search_init(&search, x, model->grid, tree_ws, tree_size);
+    r = sqffd__fit_pass(points, n, &search, diagonal, per_point, NULL, NULL, &s);
+    if (r == SQFFD_OK && stats) *stats = s;
+    return r;
 }
 
 SQFFD_DEF sqffd_result sqffd_model_reverse_distances(const sqffd_model *model, const double *points, size_t n,
@@ -388,8 +547,11 @@ SQFFD_DEF sqffd_result sqffd_model_reverse_distances(const sqffd_model *model, c
 {
     sqffd_kdtree tree;
     double *x = NULL, diagonal = 0.0, sum = 0.0, sum2 = 0.0, max = 0.0;
-    size_t v, m;
-    sqffd_result r = sqffd__fit_distances_setup(model, points, n, 1, workspace, workspace_size, &x, &tree, &diagonal);
+    void *tree_ws = NULL;
+    size_t v, m, tree_size = 0;
+    sqffd_result r = sqffd__fit_distances_setup(model, points, n, 1, workspace, workspace_size, &x, &tree_ws, &tree_size,
+                                                &diagonal);
+    if (r == SQFFD_OK) r = sqffd_kdtree_build(&tree, points, n, tree_ws, tree_size);
     if (r != SQFFD_OK) return r;
     m = sqffd__fit_grid_count(model->grid);
     for (v = 0; v < m; ++v) {
@@ -478,8 +640,20 @@ SQFFD_DEF sqffd_result sqffd_model_init(sqffd_model *model, const sqffd_superqua
    B (model points x control points) never changes during a fit, nor between
    the frames of a sequence that keep the superquadric and the box, so the
    normal matrix B^T B + a D^T D is built and factored once. B's row at a
-   model point is the tensor product of three 1-D Bernstein vectors; only
-   those l + m + n numbers are stored per point. */
+   model point is the tensor product a (x) b (x) c of three 1-D Bernstein
+   vectors (in s, t, u); only those l + m + n numbers are stored per point.
+
+   Runs: the model points of one grid row share eta, and when the box is
+   aligned with the superquadric's axes (as sqffd_model_init makes it) their
+   u, which then depends on eta alone, agrees to rounding; prepare makes it
+   agree exactly (SQFFD__FIT_SNAP), so over a run of consecutive points with
+   the same c, B's products factor:
+     (B P)_v   = sum_ij a_i b_j (sum_k c_k P_ijk), the inner sums once per run;
+     B^T y     = sum over runs of (sum_v (a (x) b) y_v) (x) c;
+     B^T B     = sum over runs of (sum_v (a (x) b)(a (x) b)^T) (x) c c^T.
+   That cuts their cost about n-fold (and B^T B's about L-fold over l m). For
+   another box the runs are single points and the same code does the plain
+   products. */
 typedef struct sqffd__fit_system {
     int dims[3];
     int grid[2];
@@ -488,6 +662,8 @@ typedef struct sqffd__fit_system {
     size_t stride;       /* l + m + n */
     sqffd_solver solver;
     double *weights;     /* M x stride */
+    uint32_t *run;       /* runs + 1: the first point of each run, then M */
+    size_t runs;
     double *matrix;      /* L x L: Cholesky factor, or V of the stacked system's SVD */
     double *inverse_s2;  /* SVD: 1 / s_k^2 for the kept singular values, 0 for the dropped */
     double *rhs0;        /* 3 x L: a D^T D P0 (displacement springs), zero for the paper's springs */
@@ -505,9 +681,12 @@ typedef struct sqffd__fit_work {
     unsigned char *state;/* M */
     double *rhs;         /* 3 x L, then the new control points */
     double *scratch;     /* L */
-    double *block;       /* SQFFD__FIT_BLOCK rows of B, row stride L + SQFFD__FIT_PAD */
+    double *pairs;       /* (l m)^2: a run's sum of (a (x) b)(a (x) b)^T while preparing */
     void *tree_ws;       /* tree over the model points */
     size_t tree_size;
+    uint32_t *anchor, *vertex, *position; /* per FFD data point: the closest-point search's warm start */
+    double *outside, *triangle_slack;
+    double *fan_moved;   /* M */
     void *data_ws;       /* tree over the data (symmetric option) */
     size_t data_size;
     double *sample;      /* the FFD subsample (NULL: all points) */
@@ -557,6 +736,7 @@ static void sqffd__fit_layout(sqffd__arena *a, size_t n, const int dims[3], cons
     s->stride = (size_t)(dims[0] + dims[1] + dims[2]);
     s->solver = o->solver;
     s->weights = (double *)sqffd__arena_take(a, m, s->stride * sizeof(double));
+    s->run = (uint32_t *)sqffd__arena_take(a, m + 1, sizeof(uint32_t));
     s->matrix = (double *)sqffd__arena_take(a, l * l, sizeof(double));
     s->inverse_s2 = (double *)sqffd__arena_take(a, l, sizeof(double));
     s->rhs0 = (double *)sqffd__arena_take(a, 3 * l, sizeof(double));
@@ -578,11 +758,17 @@ static void sqffd__fit_layout(sqffd__arena *a, size_t n, const int dims[3], cons
     w->state = (unsigned char *)sqffd__arena_take(a, m, 1);
     w->rhs = (double *)sqffd__arena_take(a, 3 * l, sizeof(double));
     w->scratch = (double *)sqffd__arena_take(a, l, sizeof(double));
-    w->block = (double *)sqffd__arena_take(a, SQFFD__FIT_BLOCK, (l + SQFFD__FIT_PAD) * sizeof(double));
+    w->pairs = (double *)sqffd__arena_take(a, (size_t)(dims[0] * dims[1] * dims[0] * dims[1]), sizeof(double));
     w->tree_size = sqffd_kdtree_workspace_size(m);
     w->tree_ws = sqffd__arena_take(a, w->tree_size, 1);
     w->sample_count = sqffd__fit_cap(n, o->ffd_max_points);
     if (w->sample_count < n) w->sample = (double *)sqffd__arena_take(a, w->sample_count, 3 * sizeof(double));
+    w->anchor = (uint32_t *)sqffd__arena_take(a, w->sample_count, sizeof(uint32_t));
+    w->outside = (double *)sqffd__arena_take(a, w->sample_count, sizeof(double));
+    w->vertex = (uint32_t *)sqffd__arena_take(a, w->sample_count, sizeof(uint32_t));
+    w->position = (uint32_t *)sqffd__arena_take(a, w->sample_count, sizeof(uint32_t));
+    w->triangle_slack = (double *)sqffd__arena_take(a, w->sample_count, sizeof(double));
+    w->fan_moved = (double *)sqffd__arena_take(a, m, sizeof(double));
     if (o->symmetric) {
         w->data_size = sqffd_kdtree_workspace_size(w->sample_count);
         if (w->data_size == 0) a->overflow = 1;
@@ -590,48 +776,39 @@ static void sqffd__fit_layout(sqffd__arena *a, size_t n, const int dims[3], cons
     }
 }
 
-/* row[0..count) += sum_k w[k] block[k][0..count) over the rows of a block of
-   B (row stride ld): part of a row of B^T B (w = a column of the block) or of
-   B^T X (w = a coordinate of the block's points). Eight columns at a time in
-   registers, so the row is read and written once per block. */
-static void sqffd__fit_rank_update(double *row, size_t count, const double *block, size_t rows, size_t ld, const double *w)
+/* The lower triangle of B^T B into matrix (L x L, zeroed), run by run. */
+static void sqffd__fit_gram(const sqffd__fit_system *s, double *pairs, double *matrix)
 {
-    size_t c = 0, k;
-    for (; c + 8 <= count; c += 8) {
-        double a[8];
-        int j;
-        for (j = 0; j < 8; ++j) a[j] = row[c + (size_t)j];
-        for (k = 0; k < rows; ++k) {
-            const double *b = block + k * ld + c;
-            for (j = 0; j < 8; ++j) a[j] += w[k] * b[j];
+    const int *d = s->dims;
+    size_t l = s->lattice, lm = (size_t)(d[0] * d[1]), n = (size_t)d[2], r, v, e, f, k, h;
+    for (r = 0; r < s->runs; ++r) {
+        const double *c = s->weights + (size_t)s->run[r] * s->stride + d[0] + d[1];
+        memset(pairs, 0, lm * lm * sizeof(double));
+        for (v = s->run[r]; v < s->run[r + 1]; ++v) { /* pairs += (a (x) b)(a (x) b)^T, lower triangle */
+            const double *a = s->weights + v * s->stride, *b = a + d[0];
+            double ab[SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE];
+            for (e = 0; e < lm; ++e) ab[e] = a[e / (size_t)d[1]] * b[e % (size_t)d[1]];
+            for (e = 0; e < lm; ++e)
+                for (f = 0; f <= e; ++f) pairs[e * lm + f] += ab[e] * ab[f];
         }
-        for (j = 0; j < 8; ++j) row[c + (size_t)j] = a[j];
+        for (e = 0; e < lm; ++e) /* matrix += pairs (x) c c^T: rows e n + k, columns f n + h, f <= e */
+            for (f = 0; f <= e; ++f)
+                for (k = 0; k < n; ++k) {
+                    double *row = matrix + (e * n + k) * l + f * n, pk = pairs[e * lm + f] * c[k];
+                    size_t end = f < e ? n : k + 1;
+                    for (h = 0; h < end; ++h) row[h] += pk * c[h];
+                }
     }
-    for (; c < count; ++c) {
-        double a = row[c];
-        for (k = 0; k < rows; ++k) a += w[k] * block[k * ld + c];
-        row[c] = a;
-    }
-}
-
-/* Rows v, v+1, ... of B (at most SQFFD__FIT_BLOCK, row stride L +
-   SQFFD__FIT_PAD) into block; returns how many. */
-static size_t sqffd__fit_block(const sqffd__fit_system *s, size_t v, double *block)
-{
-    size_t rows = s->count - v < SQFFD__FIT_BLOCK ? s->count - v : SQFFD__FIT_BLOCK, k;
-    for (k = 0; k < rows; ++k)
-        sqffd__ffd_expand(s->dims, s->weights + (v + k) * s->stride, block + k * (s->lattice + SQFFD__FIT_PAD));
-    return rows;
 }
 
 /* B's rows, the regularisation's right-hand side and the factor, from the
    model's superquadric, box and grid. */
 static sqffd_result sqffd__fit_prepare(const sqffd_model *model, const sqffd_fit_options *o, sqffd__fit_system *s,
-                                       double *block)
+                                       double *pairs)
 {
     sqffd_ffd regular; /* P0 */
-    double alpha, root;
-    size_t l = s->lattice, m = s->count, ld = l + SQFFD__FIT_PAD, v, p, q, r, c, k;
+    double alpha, root, run_u = 0.0;
+    size_t l = s->lattice, m = s->count, v, p, q, r, c;
     int axis;
     sqffd_result res = sqffd_ffd_init(&regular, model->ffd.dims, model->ffd.origin, model->ffd.edges);
     if (res != SQFFD_OK) return res;
@@ -639,14 +816,18 @@ static sqffd_result sqffd__fit_prepare(const sqffd_model *model, const sqffd_fit
        squared residual per model point, whatever the grid and the lattice */
     alpha = o->alpha * (double)m / (double)l;
     root = sqrt(alpha);
+    s->runs = 0;
     for (v = 0; v < m; ++v) {
         double eta, omega, pt[3], stu[3];
         sqffd__fit_grid_angles(s->grid, v, &eta, &omega);
         sqffd_sq_point(&model->sq, eta, omega, pt, NULL);
         if (!sqffd__finite3(pt)) return SQFFD_ERROR_NON_FINITE;
         sqffd_ffd_local(&model->ffd, pt, stu);
+        if (v > 0 && fabs(stu[2] - run_u) <= SQFFD__FIT_SNAP) stu[2] = run_u;
+        else { s->run[s->runs++] = (uint32_t)v; run_u = stu[2]; }
         sqffd__ffd_axis_weights(s->dims, stu, s->weights + v * s->stride);
     }
+    s->run[s->runs] = (uint32_t)m;
     memset(s->rhs0, 0, 3 * l * sizeof(double));
     if (o->regularization == SQFFD_REG_DISPLACEMENT)
         for (p = 0; p < l; ++p)
@@ -659,16 +840,7 @@ static sqffd_result sqffd__fit_prepare(const sqffd_model *model, const sqffd_fit
                     }
     if (s->solver == SQFFD_SOLVER_CHOLESKY) {
         memset(s->matrix, 0, l * l * sizeof(double));
-        for (v = 0; v < m; v += SQFFD__FIT_BLOCK) { /* lower triangle of B^T B, a block of B's rows at a time */
-            size_t rows = sqffd__fit_block(s, v, block);
-            for (c = 0; c < l; c += SQFFD__FIT_TILE) /* column tiles of the block stay in the L1 cache */
-                for (r = c; r < l; ++r) {
-                    double w[SQFFD__FIT_BLOCK];
-                    size_t end = r + 1 < c + SQFFD__FIT_TILE ? r + 1 : c + SQFFD__FIT_TILE;
-                    for (k = 0; k < rows; ++k) w[k] = block[k * ld + r];
-                    sqffd__fit_rank_update(s->matrix + r * l + c, end - c, block + c, rows, ld, w);
-                }
-        }
+        sqffd__fit_gram(s, pairs, s->matrix);
         for (p = 0; p < l; ++p) /* + alpha D^T D: the springs' graph Laplacian */
             for (axis = 0; axis < 3; ++axis)
                 if (sqffd__fit_spring(s->dims, p, axis, &q)) {
@@ -745,18 +917,33 @@ static void sqffd__fit_fill(const int grid[2], size_t m, const double *weights, 
         }
 }
 
-/* rhs (3 x L) = B^T x + rhs0, a block of B's rows at a time. */
-static void sqffd__fit_project(const sqffd__fit_system *s, const double *x, double *block, double *rhs)
+/* rhs (3 x L) = B^T y + rhs0, run by run. */
+static void sqffd__fit_project(const sqffd__fit_system *s, const double *y, double *rhs)
 {
-    size_t l = s->lattice, v, k, c;
+    const int *d = s->dims;
+    size_t l = s->lattice, lm = (size_t)(d[0] * d[1]), n = (size_t)d[2], r, v, e, k, i, j;
     memcpy(rhs, s->rhs0, 3 * l * sizeof(double));
-    for (v = 0; v < s->count; v += SQFFD__FIT_BLOCK) {
-        size_t rows = sqffd__fit_block(s, v, block);
-        for (c = 0; c < 3; ++c) {
-            double w[SQFFD__FIT_BLOCK];
-            for (k = 0; k < rows; ++k) w[k] = x[3 * (v + k) + c];
-            sqffd__fit_rank_update(rhs + c * l, l, block, rows, l + SQFFD__FIT_PAD, w);
+    for (r = 0; r < s->runs; ++r) {
+        const double *c = s->weights + (size_t)s->run[r] * s->stride + d[0] + d[1];
+        double sum[SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE][3];
+        memset(sum, 0, sizeof sum);
+        for (v = s->run[r]; v < s->run[r + 1]; ++v) { /* sum += (a (x) b) y_v */
+            const double *a = s->weights + v * s->stride, *b = a + d[0], *yv = y + 3 * v;
+            for (i = 0; i < (size_t)d[0]; ++i) {
+                double ay[3];
+                ay[0] = a[i] * yv[0]; ay[1] = a[i] * yv[1]; ay[2] = a[i] * yv[2];
+                for (j = 0; j < (size_t)d[1]; ++j) {
+                    double *t = sum[i * (size_t)d[1] + j];
+                    t[0] += b[j] * ay[0]; t[1] += b[j] * ay[1]; t[2] += b[j] * ay[2];
+                }
+            }
         }
+        for (e = 0; e < lm; ++e) /* rhs += sum (x) c */
+            for (k = 0; k < n; ++k) {
+                rhs[e * n + k] += c[k] * sum[e][0];
+                rhs[l + e * n + k] += c[k] * sum[e][1];
+                rhs[2 * l + e * n + k] += c[k] * sum[e][2];
+            }
     }
 }
 
@@ -785,12 +972,19 @@ static void sqffd__fit_solve(const sqffd__fit_system *s, double *rhs, double *sc
     }
 }
 
-/* x = B P for every model point. */
+/* x = B P for every model point, run by run. */
 static void sqffd__fit_evaluate(const sqffd__fit_system *s, const sqffd_ffd *ffd, double *x)
 {
-    size_t v;
-    for (v = 0; v < s->count; ++v)
-        sqffd__ffd_apply(s->dims, (const double (*)[3])ffd->control, s->weights + v * s->stride, x + 3 * v);
+    double q[SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE][3];
+    size_t r, v;
+    for (r = 0; r < s->runs; ++r) {
+        const double *c = s->weights + (size_t)s->run[r] * s->stride + s->dims[0] + s->dims[1];
+        sqffd__ffd_sum_u(s->dims, (const double (*)[3])ffd->control, c, q);
+        for (v = s->run[r]; v < s->run[r + 1]; ++v) {
+            const double *a = s->weights + v * s->stride;
+            sqffd__ffd_sum_st(s->dims, (const double (*)[3])q, a, a + s->dims[0], x + 3 * v);
+        }
+    }
 }
 
 /* The paper's two-step loop from the model's current control points, with
@@ -803,21 +997,37 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
                                        const sqffd__fit_system *s, const sqffd_kdtree *data_tree, sqffd__fit_work *w,
                                        sqffd_model *model, sqffd_fit_report *rep)
 {
-    size_t m = s->count, l = s->lattice, v, p;
-    double *x = w->x, *next = w->next, *t = w->target;
+    size_t m = s->count, l = s->lattice, v, p, i;
+    double *x = w->x, *next = w->next, *t = w->target, magnitude = 0.0;
+    sqffd__fit_search search;
     int it;
     sqffd__fit_evaluate(s, &model->ffd, x);
+    sqffd__fit_search_init(&search, x, s->grid, w->tree_ws, w->tree_size);
+    search.vertex = w->vertex;
+    search.position = w->position;
+    search.anchor = w->anchor;
+    search.outside = w->outside;
+    search.triangle_slack = w->triangle_slack;
+    search.fan_moved = w->fan_moved;
+    for (i = 0; i < n; ++i) { /* no warm start yet */
+        w->anchor[i] = 0;
+        w->outside[i] = -HUGE_VAL;
+        w->vertex[i] = UINT32_MAX;
+        for (p = 0; p < 3; ++p) magnitude = fabs(points[3 * i + p]) > magnitude ? fabs(points[3 * i + p]) : magnitude;
+    }
+    search.margin = 1e-10 * (magnitude + diagonal); /* far above the rounding of distances between such points */
     rep->iterations = 0;
     rep->converged = 0;
     rep->history_count = 0;
     for (it = 0;; ++it) {
-        sqffd_kdtree tree;
-        double step2 = 0.0;
-        sqffd_result res = sqffd_kdtree_build(&tree, x, m, w->tree_ws, w->tree_size);
-        if (res != SQFFD_OK) return res;
+        double step2;
+        sqffd_result res;
         memset(t, 0, 3 * m * sizeof(double));
         memset(w->weights, 0, m * sizeof(double));
-        sqffd__fit_pass(points, n, x, s->grid, &tree, diagonal, NULL, t, w->weights, &rep->error);
+        search.x = x;
+        search.built = 0;
+        res = sqffd__fit_pass(points, n, &search, diagonal, NULL, t, w->weights, &rep->error);
+        if (res != SQFFD_OK) return res;
         if (it == 0) rep->sq_error = rep->error;
         else {
             if (it <= SQFFD_FIT_HISTORY) rep->history[rep->history_count++] = rep->error.rms_relative;
@@ -839,7 +1049,7 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
                 for (p = 0; p < 3; ++p) t[3 * v + p] = 0.5 * (t[3 * v + p] + q[p]);
             }
         /* step 2: P = argmin ||B P - X^a||^2 + alpha ||D (P - P0)||^2 (or ||D P||^2) */
-        sqffd__fit_project(s, t, w->block, w->rhs);
+        sqffd__fit_project(s, t, w->rhs);
         sqffd__fit_solve(s, w->rhs, w->scratch);
         for (p = 0; p < l; ++p) {
             model->ffd.control[p][0] = w->rhs[p];
@@ -848,7 +1058,7 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
             if (!sqffd__finite3(model->ffd.control[p])) return SQFFD_ERROR_NON_FINITE;
         }
         sqffd__fit_evaluate(s, &model->ffd, next);
-        for (v = 0; v < 3 * m; ++v) step2 += (next[v] - x[v]) * (next[v] - x[v]);
+        step2 = sqffd__fit_moves(&search, x, next);
         t = x; x = next; next = t; t = w->target;
         rep->iterations = it + 1;
         rep->step = sqrt(step2 / (double)m) / diagonal;
@@ -901,12 +1111,10 @@ SQFFD_DEF size_t sqffd_fit_ffd_workspace_size(size_t n, const sqffd_model *model
 static sqffd_result sqffd__fit_error(const double *points, size_t n, double diagonal, const sqffd__fit_system *s,
                                      const sqffd__fit_work *w, const sqffd_model *model, sqffd_distance_stats *stats)
 {
-    sqffd_kdtree tree;
-    sqffd_result res;
+    sqffd__fit_search search;
     sqffd__fit_evaluate(s, &model->ffd, w->x);
-    res = sqffd_kdtree_build(&tree, w->x, s->count, w->tree_ws, w->tree_size);
-    if (res == SQFFD_OK) sqffd__fit_pass(points, n, w->x, s->grid, &tree, diagonal, NULL, NULL, NULL, stats);
-    return res;
+    sqffd__fit_search_init(&search, w->x, s->grid, w->tree_ws, w->tree_size);
+    return sqffd__fit_pass(points, n, &search, diagonal, NULL, NULL, NULL, stats);
 }
 
 /* Stage 2 with the system prepared (tracking prepares once for frame 0's
@@ -955,7 +1163,7 @@ SQFFD_DEF sqffd_result sqffd_fit_ffd(const double *points, size_t n, const sqffd
     sqffd__fit_layout(&a, n, model->ffd.dims, model->grid, options, &s, &w);
     if (a.overflow) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
     memset(&local, 0, sizeof local);
-    res = sqffd__fit_prepare(model, options, &s, w.block);
+    res = sqffd__fit_prepare(model, options, &s, w.pairs);
     if (res == SQFFD_OK) res = sqffd__fit_run(points, n, diagonal, options, &s, &w, model, &local);
     if (report) *report = local;
     return res;
@@ -1000,7 +1208,7 @@ SQFFD_DEF sqffd_result sqffd_fit(const double *points, size_t n, const sqffd_fit
     res = sqffd_sq_fit(sample ? sample : points, k, &sq_options, &sq, &local.sq, sq_ws, sq_size);
     if (res == SQFFD_OK) res = sqffd_model_init(model, &sq, options);
     /* stage 2: the FFD */
-    if (res == SQFFD_OK) res = sqffd__fit_prepare(model, options, &s, w.block);
+    if (res == SQFFD_OK) res = sqffd__fit_prepare(model, options, &s, w.pairs);
     if (res == SQFFD_OK) res = sqffd__fit_run(points, n, diagonal, options, &s, &w, model, &local);
     if (report) *report = local;
     return res;
