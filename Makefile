@@ -11,7 +11,7 @@ TEST_DEP = sqffd.h $(wildcard dev/*.h) $(wildcard tests/*.h) $(wildcard examples
 FUZZ_TARGETS = $(patsubst fuzz/%.c,%,$(wildcard fuzz/fuzz_*.c))
 BENCHES = $(patsubst bench/%.c,%,$(wildcard bench/bench_*.c))
 
-.PHONY: all test check-header check-symbols cli-test unit unit-asan fuzz-replay demo bench fuzz install clean
+.PHONY: all test check check-header check-symbols cli-test unit unit-asan fuzz-replay demo bench fuzz install clean
 
 all: $(BUILD)/sqffd
 
@@ -71,6 +71,17 @@ $(BUILD)/replay_%: fuzz/%.c fuzz/replay.c $(TEST_DEP) | $(BUILD)
 
 fuzz-replay: $(addprefix $(BUILD)/replay_,$(FUZZ_TARGETS))
 	@for t in $(FUZZ_TARGETS); do ./$(BUILD)/replay_$$t fuzz/corpus/$$t || exit 1; done
+
+# ---- make check: make test, then static analysis and valgrind (skipped when missing)
+check: test
+	@if command -v cppcheck >/dev/null 2>&1; then \
+	  cppcheck --enable=warning,performance,portability --std=c99 --inline-suppr --quiet \
+	    --error-exitcode=1 -DSQFFD_IMPLEMENTATION tests/check_header.c && echo "cppcheck: clean"; \
+	else echo "check: cppcheck not installed, skipped"; fi
+	@if command -v valgrind >/dev/null 2>&1; then \
+	  valgrind -q --error-exitcode=1 --leak-check=full ./$(BUILD)/sqffd_tests > $(BUILD)/valgrind.log 2>&1 \
+	    && tail -n 1 $(BUILD)/valgrind.log | sed 's/^/valgrind: /' || { tail -n 30 $(BUILD)/valgrind.log; exit 1; }; \
+	else echo "check: valgrind not installed, skipped"; fi
 
 # ---- make fuzz: libFuzzer (clang) on each target, FUZZ_SECONDS each
 FUZZ_SECONDS ?= 60

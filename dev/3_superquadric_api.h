@@ -36,13 +36,16 @@ SQFFD_DEF void sqffd_sq_point(const sqffd_superquadric *sq, double eta, double o
    doubles do not fit a size_t. */
 SQFFD_DEF sqffd_result sqffd_sq_sample_grid(const sqffd_superquadric *sq, int n_eta, int n_omega, double *points, double *normals);
 /* Near-equal-distance sampling (after Pilu & Fisher): rows of constant eta
-   about `spacing` apart, each row walked in omega with steps of about
-   `spacing` (each step searched so its chord is the spacing within 10%), so
-   flat and pointy shapes are covered evenly. Returns how many points the
+   about `spacing` apart (measured on the longest of eight meridians), each
+   row walked in omega with steps of about `spacing` (each step searched so
+   its chord is the spacing within 10%), so flat and pointy shapes are
+   covered evenly. Like Pilu & Fisher's product sampling, a shape much
+   longer in x or y than its meridians are elsewhere gets its rows closer
+   than `spacing` where the meridians are short. Returns how many points the
    sampling has and writes at most `capacity` of them (points may be NULL
    with capacity 0 to count). Returns 0 for an invalid superquadric, a
    spacing that is not positive and finite, or one so small that the count
-   would pass ~1e8. */
+   could pass ~1e8. */
 SQFFD_DEF size_t sqffd_sq_sample_uniform(const sqffd_superquadric *sq, double spacing, double *points, size_t capacity);
 /* Enclosed volume: a1 a2 a3 e1 e2 B(e2/2, e2/2) [B(e1/2, e1+1) + Kx Ky B(3 e1/2, e1+1)]
    (the untapered 2 a1 a2 a3 e1 e2 B(e1/2+1, e1) B(e2/2, e2/2), plus the

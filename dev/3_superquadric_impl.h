@@ -312,12 +312,15 @@ static size_t sqffd__sq_sample_row(const sqffd_superquadric *sq, double eta, dou
     return count;
 }
 
-/* Rough area bound of the tapered shape: the box around it. */
-static double sqffd__sq_box_area(const sqffd_superquadric *sq)
+/* Upper bound of the samples sqffd_sq_sample_uniform makes: rows of
+   constant eta at most (meridian length) / spacing, each with at most
+   (ring perimeter) / spacing points; a convex arc is no longer than the
+   two legs of its bounding rectangle. */
+static double sqffd__sq_sample_bound(const sqffd_superquadric *sq, double spacing)
 {
     double x = sq->size[0] * (1.0 + fabs(sq->taper[0])), y = sq->size[1] * (1.0 + fabs(sq->taper[1]));
-    double z = sq->size[2];
-    return 8.0 * (x * y + y * z + z * x);
+    double r = x > y ? x : y, z = sq->size[2];
+    return (2.0 * (2.0 * (r + z)) / spacing + 2.0) * (4.0 * (x + y) / spacing + 4.0);
 }
 
 static int sqffd__sq_valid(const sqffd_superquadric *sq)
@@ -342,8 +345,8 @@ SQFFD_DEF size_t sqffd_sq_sample_uniform(const sqffd_superquadric *sq, double sp
     arc.fixed = 0.0;
     if (!sq || !sqffd__sq_valid(sq) || !(spacing > 0.0) || !isfinite(spacing)) return 0;
     if (!points) capacity = 0;
-    /* refuse samplings beyond ~1e8 points rather than run for hours */
-    if (sqffd__sq_box_area(sq) / (spacing * spacing) > 1e8) return 0;
+    /* refuse samplings beyond ~1e8 points rather than run for minutes */
+    if (sqffd__sq_sample_bound(sq, spacing) > 1e8) return 0;
     for (half = 0; half < 2; half++) { /* eta in [-pi/2, 0), then [0, pi/2) */
         double t = -0.5 * SQFFD__SQ_PI + 0.5 * SQFFD__SQ_PI * half, t_end = t + 0.5 * SQFFD__SQ_PI, guess = 0.0;
         sqffd__sq_arc_begin(&arc, t_end);
@@ -452,6 +455,9 @@ SQFFD_DEF double sqffd_sq_iou(const sqffd_superquadric *a, const sqffd_superquad
 #define SQFFD__SQ_P_E2 10
 #define SQFFD__SQ_P_TAPER 11
 #define SQFFD__SQ_NPAR 13
+/* Row stride of J^T W J: padded to 16 so that the per-point row update has a
+   fixed length and vectorises (the padding columns stay 0). */
+#define SQFFD__SQ_ROW 16
 /* The starts and how much work each gets (measured on issue 3's random
    shapes: fewer or smaller cost accuracy, more cost time). */
 #define SQFFD__SQ_SCREEN 48            /* subsample every start is screened on */
@@ -562,6 +568,55 @@ static double sqffd__sq_residual(const sqffd__sq_eval *ev, const double p[3], do
     return r;
 }
 
+/* ---- robust mode's mixture ----
+   "Gaussian in the radial distance around the surface (its density spread
+   over the area) + uniform over the data box". An E-step gives each point
+   its inlier probability from the current sigma^2 and prior; the M-step
+   then re-estimates both from those weights. */
+typedef struct sqffd__sq_mixture {
+    double sigma2;   /* variance of the inlier distances */
+    double prior;    /* inlier fraction */
+    double *weights; /* the points' inlier probabilities (the E-step's output) */
+    double peak, outlier, sum_w, sum_wd2; /* one E-step's densities and sums */
+} sqffd__sq_mixture;
+
+/* Approximate surface area (Thomsen's ellipsoid formula): only the density
+   of the inlier model needs it. */
+static double sqffd__sq_area(const sqffd_superquadric *sq)
+{
+    const double p = 1.6075;
+    double x = pow(sq->size[0], p), y = pow(sq->size[1], p), z = pow(sq->size[2], p);
+    return 4.0 * SQFFD__SQ_PI * pow((x * y + y * z + z * x) / 3.0, 1.0 / p);
+}
+
+static void sqffd__sq_estep_begin(sqffd__sq_mixture *mix, const sqffd_superquadric *sq, double box_volume)
+{
+    if (mix->sigma2 < 1e-12) mix->sigma2 = 1e-12;
+    mix->peak = mix->prior / (sqrt(2.0 * SQFFD__SQ_PI * mix->sigma2) * sqffd__sq_area(sq));
+    mix->outlier = (1.0 - mix->prior) / box_volume;
+    mix->sum_w = mix->sum_wd2 = 0.0;
+}
+
+/* The E-step for point k at radial distance d: its weight, also summed for the M-step. */
+static double sqffd__sq_estep_point(sqffd__sq_mixture *mix, size_t k, double d)
+{
+    double d2 = d * d, inlier = mix->peak * exp(-0.5 * d2 / mix->sigma2);
+    double w = inlier / (inlier + mix->outlier);
+    mix->weights[k] = w;
+    mix->sum_w += w;
+    mix->sum_wd2 += w * d2;
+    return w;
+}
+
+/* The M-step after an E-step over m points. */
+static void sqffd__sq_mstep(sqffd__sq_mixture *mix, size_t m)
+{
+    mix->prior = mix->sum_w / (double)m;
+    if (mix->prior < 0.05) mix->prior = 0.05;
+    if (mix->prior > 0.999) mix->prior = 0.999;
+    if (mix->sum_w > 0.0) mix->sigma2 = mix->sum_wd2 / mix->sum_w;
+}
+
 /* State shared by the stages of one fit. */
 typedef struct sqffd__sq_fit {
     const sqffd_sq_fit_options *opt;
@@ -575,34 +630,44 @@ typedef struct sqffd__sq_fit {
     void *ncg_work;       /* CG optimiser scratch */
     size_t ncg_size;
     sqffd_result status;  /* SQFFD_ERROR_CANCELLED once the callback asked */
+    sqffd__sq_mixture *estep; /* robust mode: the next sqffd__sq_accumulate starts with this E-step
+                                 (cost must be the radial distance, the mixture's own residual) */
 } sqffd__sq_fit;
 
 /* Weighted cost sum w r^2 over m points (weights NULL = 1); with jtr also
-   J^T W r, and with jtj too the upper triangle of J^T W J (the Gauss-Newton
-   normal equations; row stride SQFFD__SQ_NPAR). */
-static double sqffd__sq_accumulate(const sqffd__sq_fit *fit, const sqffd_superquadric *sq, const double *pts,
+   J^T W r, and with jtj too the first npar rows of J^T W J (the Gauss-Newton
+   normal equations; row stride SQFFD__SQ_ROW). With fit->estep set (robust
+   mode) the weights come from an E-step at sq on the way, then the M-step:
+   the optimiser's first evaluation does the E-step without a pass of its own. */
+static double sqffd__sq_accumulate(sqffd__sq_fit *fit, const sqffd_superquadric *sq, const double *pts,
                                    const double *weights, size_t m, double *jtj, double *jtr)
 {
+    sqffd__sq_mixture *mix = fit->estep;
     sqffd__sq_eval ev;
-    double cost = 0.0, g[SQFFD__SQ_NPAR];
+    double cost = 0.0, g[SQFFD__SQ_ROW];
     int np = fit->npar, i, j;
     size_t k;
     sqffd__sq_eval_init(&ev, sq, fit->cost);
-    if (jtj) memset(jtj, 0, sizeof(double) * SQFFD__SQ_NPAR * SQFFD__SQ_NPAR);
+    memset(g, 0, sizeof g);
+    if (jtj) memset(jtj, 0, sizeof(double) * SQFFD__SQ_NPAR * SQFFD__SQ_ROW);
     if (jtr) memset(jtr, 0, sizeof(double) * SQFFD__SQ_NPAR);
+    fit->estep = NULL;
+    if (mix) sqffd__sq_estep_begin(mix, sq, fit->box_volume);
     for (k = 0; k < m; k++) {
-        double w = weights ? weights[k] : 1.0, r;
+        double w = weights && !mix ? weights[k] : 1.0, r;
         if (w <= 0.0) continue;
         r = sqffd__sq_residual(&ev, pts + 3 * k, jtr ? g : NULL);
+        if (mix) w = sqffd__sq_estep_point(mix, k, r);
         cost += w * r * r;
         if (!jtr) continue;
         for (i = 0; i < np; i++) {
             double wg = w * g[i];
             jtr[i] += wg * r;
             if (jtj)
-                for (j = i; j < np; j++) jtj[i * SQFFD__SQ_NPAR + j] += wg * g[j];
+                for (j = 0; j < SQFFD__SQ_ROW; j++) jtj[i * SQFFD__SQ_ROW + j] += wg * g[j];
         }
     }
+    if (mix) sqffd__sq_mstep(mix, m);
     return cost;
 }
 
@@ -738,19 +803,20 @@ static int sqffd__sq_tick(sqffd__sq_fit *fit, double cost)
 static int sqffd__sq_lm(sqffd__sq_fit *fit, sqffd_superquadric *sq, const double *pts, const double *weights,
                         size_t m, int max_iterations, double *cost)
 {
-    double jtj[SQFFD__SQ_NPAR * SQFFD__SQ_NPAR], jtr[SQFFD__SQ_NPAR];
-    double tjtj[SQFFD__SQ_NPAR * SQFFD__SQ_NPAR], tjtr[SQFFD__SQ_NPAR];
+    double jtj[SQFFD__SQ_NPAR * SQFFD__SQ_ROW], jtr[SQFFD__SQ_NPAR];
+    double tjtj[SQFFD__SQ_NPAR * SQFFD__SQ_ROW], tjtr[SQFFD__SQ_NPAR];
     double a[SQFFD__SQ_NPAR * SQFFD__SQ_NPAR], delta[SQFFD__SQ_NPAR], lambda = 1e-3, step;
     int np = fit->npar, it, i, j;
     double c0 = sqffd__sq_accumulate(fit, sq, pts, weights, m, jtj, jtr);
     if (c0 < SQFFD__SQ_EXACT * (double)m) { *cost = c0; return 1; }
     for (it = 0; it < max_iterations; it++) {
         sqffd_superquadric trial = *sq;
+        int last = it + 1 == max_iterations; /* no use for the trial's Jacobian */
         double c1;
         for (i = 0; i < np; i++) {
             for (j = 0; j < np; j++)
-                a[i * np + j] = i <= j ? jtj[i * SQFFD__SQ_NPAR + j] : jtj[j * SQFFD__SQ_NPAR + i];
-            a[i * np + i] += lambda * jtj[i * SQFFD__SQ_NPAR + i] + 1e-12 * (1.0 + c0);
+                a[i * np + j] = i <= j ? jtj[i * SQFFD__SQ_ROW + j] : jtj[j * SQFFD__SQ_ROW + i];
+            a[i * np + i] += lambda * jtj[i * SQFFD__SQ_ROW + i] + 1e-12 * (1.0 + c0);
             delta[i] = -jtr[i];
         }
         for (i = np; i < SQFFD__SQ_NPAR; i++) delta[i] = 0.0;
@@ -763,13 +829,15 @@ static int sqffd__sq_lm(sqffd__sq_fit *fit, sqffd_superquadric *sq, const double
         step = 0.0;
         for (i = 0; i < np; i++) step = fabs(delta[i]) > step ? fabs(delta[i]) : step;
         sqffd__sq_step(fit, &trial, delta);
-        c1 = sqffd__sq_accumulate(fit, &trial, pts, weights, m, tjtj, tjtr);
+        c1 = sqffd__sq_accumulate(fit, &trial, pts, weights, m, last ? NULL : tjtj, last ? NULL : tjtr);
         if (!sqffd__sq_tick(fit, c1 < c0 ? c1 : c0)) break;
         if (c1 < c0) {
             double gain = (c0 - c1) / c0;
             *sq = trial;
-            memcpy(jtj, tjtj, sizeof jtj);
-            memcpy(jtr, tjtr, sizeof jtr);
+            if (!last) {
+                memcpy(jtj, tjtj, sizeof jtj);
+                memcpy(jtr, tjtr, sizeof jtr);
+            }
             c0 = c1;
             lambda = lambda * 0.2 > 1e-9 ? lambda * 0.2 : 1e-9;
             if (gain < fit->opt->tolerance || step < SQFFD__SQ_MIN_STEP || c0 < SQFFD__SQ_EXACT * (double)m) {
@@ -911,6 +979,8 @@ typedef struct sqffd__sq_work {
     double *screen;  /* 3 * min(n, SQFFD__SQ_SCREEN) subsample */
     double *polish;  /* 3 * min(n, SQFFD__SQ_POLISH) subsample */
     double *dense;   /* robust mode: the polish points that are not isolated */
+    void *tree;      /* robust mode: kd-tree over the polish points */
+    size_t tree_size;
     double *hist;    /* 3 * SQFFD__SQ_HISTOGRAM */
     void *ncg;       /* CG optimiser scratch */
     size_t ncg_size;
@@ -924,6 +994,8 @@ static void sqffd__sq_fit_layout(sqffd__arena *a, size_t n, const sqffd_sq_fit_o
     w->screen = (double *)sqffd__arena_take(a, n < SQFFD__SQ_SCREEN ? n : SQFFD__SQ_SCREEN, 3 * sizeof(double));
     w->polish = (double *)sqffd__arena_take(a, n < SQFFD__SQ_POLISH ? n : SQFFD__SQ_POLISH, 3 * sizeof(double));
     w->dense = o->robust ? (double *)sqffd__arena_take(a, n < SQFFD__SQ_POLISH ? n : SQFFD__SQ_POLISH, 3 * sizeof(double)) : NULL;
+    w->tree_size = o->robust ? sqffd_kdtree_workspace_size(n < SQFFD__SQ_POLISH ? n : SQFFD__SQ_POLISH) : 0;
+    w->tree = w->tree_size ? sqffd__arena_take(a, w->tree_size, 1) : NULL;
     w->hist = (double *)sqffd__arena_take(a, 3 * SQFFD__SQ_HISTOGRAM, sizeof(double));
     w->ncg_size = o->optimizer == SQFFD_SQ_OPTIMIZER_CG ? sqffd_ncg_workspace_size(SQFFD__SQ_NPAR) : 0;
     w->ncg = w->ncg_size ? sqffd__arena_take(a, w->ncg_size, 1) : NULL;
@@ -967,58 +1039,16 @@ SQFFD_DEF size_t sqffd_sq_fit_workspace_size(size_t n, const sqffd_sq_fit_option
     return sqffd__arena_required(&a);
 }
 
-/* Approximate surface area (Thomsen's ellipsoid formula): only the density
-   of the inlier model of the robust mode needs it. */
-static double sqffd__sq_area(const sqffd_superquadric *sq)
+/* An EM step (E, then M) at sq over m points in a pass of its own. */
+static void sqffd__sq_reweight(sqffd__sq_mixture *mix, const sqffd_superquadric *sq, const double *pts, size_t m,
+                               double box_volume)
 {
-    const double p = 1.6075;
-    double x = pow(sq->size[0], p), y = pow(sq->size[1], p), z = pow(sq->size[2], p);
-    return 4.0 * SQFFD__SQ_PI * pow((x * y + y * z + z * x) / 3.0, 1.0 / p);
-}
-
-/* Robust mode, one EM step on the mixture "Gaussian in the radial distance
-   around the surface (its density spread over the area) + uniform over the
-   data box": E-step (weights from the current sigma^2 and inlier prior),
-   then the mixture's M-step (new sigma^2 and prior). Returns the negative
-   log-likelihood of the data before the update. */
-typedef struct sqffd__sq_mixture {
-    double sigma2; /* variance of the inlier distances; 0 = not yet estimated */
-    double prior;  /* inlier fraction */
-} sqffd__sq_mixture;
-
-static double sqffd__sq_reweight(const sqffd_superquadric *sq, const double *pts, size_t m, double box_volume,
-                                 double *weights, sqffd__sq_mixture *mix)
-{
-    double norm, outlier, sum_w = 0.0, sum_wd2 = 0.0, nll = 0.0;
     sqffd__sq_eval ev;
     size_t k;
     sqffd__sq_eval_init(&ev, sq, SQFFD_SQ_COST_RADIAL);
-    if (!(mix->sigma2 > 0.0)) { /* first call: all points as inliers */
-        for (k = 0; k < m; k++) {
-            double d = sqffd__sq_residual(&ev, pts + 3 * k, NULL);
-            sum_wd2 += d * d;
-        }
-        mix->sigma2 = sum_wd2 / (double)m;
-        mix->prior = 0.5;
-        sum_wd2 = 0.0;
-    }
-    if (mix->sigma2 < 1e-12) mix->sigma2 = 1e-12;
-    norm = mix->prior / (sqrt(2.0 * SQFFD__SQ_PI * mix->sigma2) * sqffd__sq_area(sq));
-    outlier = (1.0 - mix->prior) / box_volume;
-    for (k = 0; k < m; k++) {
-        double d = sqffd__sq_residual(&ev, pts + 3 * k, NULL), d2 = d * d;
-        double inlier = norm * exp(-0.5 * d2 / mix->sigma2), w;
-        w = inlier / (inlier + outlier);
-        nll -= log(inlier + outlier);
-        weights[k] = w;
-        sum_w += w;
-        sum_wd2 += w * d2;
-    }
-    mix->prior = sum_w / (double)m;
-    if (mix->prior < 0.05) mix->prior = 0.05;
-    if (mix->prior > 0.999) mix->prior = 0.999;
-    if (sum_w > 0.0) mix->sigma2 = sum_wd2 / sum_w;
-    return nll;
+    sqffd__sq_estep_begin(mix, sq, box_volume);
+    for (k = 0; k < m; k++) sqffd__sq_estep_point(mix, k, sqffd__sq_residual(&ev, pts + 3 * k, NULL));
+    sqffd__sq_mstep(mix, m);
 }
 
 /* Weighted mean of the squared radial distance (weights NULL = 1). */
@@ -1149,28 +1179,22 @@ static double sqffd__sq_select(double *a, size_t n, size_t k)
 }
 
 /* Robust mode's start set: of every other point, those whose
-   SQFFD__SQ_NEIGHBOURS-th nearest neighbour among all m (brute force: m is a
-   subsample) is at most 1.2 times the median such distance. Outliers away
-   from the surface are isolated and drop out; so do some surface points,
-   which the starts can spare. dist: m doubles of scratch. Returns the
-   count written to out. */
+   SQFFD__SQ_NEIGHBOURS-th nearest neighbour among all m (a kd-tree over
+   them) is at most 1.2 times the median such distance. Outliers away from
+   the surface are isolated and drop out; so do some surface points, which
+   the starts can spare. dist: m doubles of scratch. Returns the count
+   written to out (0 if the tree cannot be built). */
 #define SQFFD__SQ_NEIGHBOURS 6
-static size_t sqffd__sq_dense_points(const double *pts, size_t m, double *out, double *dist)
+static size_t sqffd__sq_dense_points(const double *pts, size_t m, double *out, double *dist, void *tree_work,
+                                     size_t tree_size)
 {
-    size_t i, j, kept = 0, half = (m + 1) / 2;
-    double limit;
-    for (i = 0; i < half; i++) {
-        const double *p = pts + 6 * i;
-        double nearest[SQFFD__SQ_NEIGHBOURS];
-        int k;
-        for (k = 0; k < SQFFD__SQ_NEIGHBOURS; k++) nearest[k] = HUGE_VAL;
-        for (j = 0; j < m; j++) {
-            double d2 = sqffd__dist2_3(p, pts + 3 * j);
-            if (j == 2 * i || d2 >= nearest[SQFFD__SQ_NEIGHBOURS - 1]) continue;
-            for (k = SQFFD__SQ_NEIGHBOURS - 1; k > 0 && nearest[k - 1] > d2; k--) nearest[k] = nearest[k - 1];
-            nearest[k] = d2;
-        }
-        dist[i] = dist[half + i] = nearest[SQFFD__SQ_NEIGHBOURS - 1];
+    sqffd_kdtree tree;
+    size_t i, kept = 0, half = (m + 1) / 2, index[SQFFD__SQ_NEIGHBOURS + 1];
+    double d2[SQFFD__SQ_NEIGHBOURS + 1], limit;
+    if (sqffd_kdtree_build(&tree, pts, m, tree_work, tree_size) != SQFFD_OK) return 0;
+    for (i = 0; i < half; i++) { /* the point itself is the first of the k + 1 nearest */
+        size_t found = sqffd_kdtree_knn(&tree, pts + 6 * i, SQFFD__SQ_NEIGHBOURS + 1, index, d2);
+        dist[i] = dist[half + i] = d2[found - 1];
     }
     limit = 1.44 * sqffd__sq_select(dist + half, half, half / 2); /* squared: 1.2 times the median distance */
     for (i = 0; i < half; i++)
@@ -1192,25 +1216,28 @@ static double sqffd__sq_robust_d2(const sqffd_superquadric *sq, const double *pt
 }
 
 #define SQFFD__SQ_ROBUST_COST SQFFD_SQ_COST_RADIAL /* the mixture's own residual */
-#define SQFFD__SQ_ROUND_ITERATIONS 3 /* LM iterations per EM round */
+#define SQFFD__SQ_ROUND_ITERATIONS 1 /* LM iterations per EM round but the last */
 #define SQFFD__SQ_FULL_ROUNDS 1      /* EM rounds on all points after the polish subsample */
-/* Robust mode: `rounds` EM rounds on m points (reweight, then a few
-   weighted LM iterations of the mixture's own residual, the radial
-   distance); the last round runs the LM to convergence. Returns the
-   mixture's negative log-likelihood of the points at the result. */
-static double sqffd__sq_em(sqffd__sq_fit *fit, sqffd_superquadric *sq, const double *pts, size_t m, double *weights,
-                           sqffd__sq_mixture *mix, int rounds, int *converged)
+/* Robust mode: `rounds` EM rounds on m points, each an E-step and M-step
+   (fused into the optimiser's first evaluation), then a few weighted LM
+   iterations of the mixture's own residual, the radial distance; the last
+   round runs the LM to convergence. Returns non-zero when that moved sq
+   (else the last E-step's weights are those at the result). */
+static int sqffd__sq_em(sqffd__sq_fit *fit, sqffd_superquadric *sq, const double *pts, size_t m,
+                        sqffd__sq_mixture *mix, int rounds, int *converged)
 {
+    sqffd_superquadric at_estep = *sq;
     double cost;
     int r;
     fit->cost = SQFFD__SQ_ROBUST_COST;
     for (r = 0; r < rounds && fit->status == SQFFD_OK; r++) {
-        sqffd__sq_reweight(sq, pts, m, fit->box_volume, weights, mix);
-        *converged = sqffd__sq_optimize(fit, sq, pts, weights, m,
+        at_estep = *sq;
+        fit->estep = mix;
+        *converged = sqffd__sq_optimize(fit, sq, pts, mix->weights, m,
                                         r + 1 < rounds ? SQFFD__SQ_ROUND_ITERATIONS : fit->opt->max_iterations, &cost);
     }
     fit->cost = (int)fit->opt->cost;
-    return sqffd__sq_reweight(sq, pts, m, fit->box_volume, weights, mix);
+    return memcmp(&at_estep, sq, sizeof *sq) != 0;
 }
 
 /* Keep the SQFFD__SQ_KEEP cheapest starts, sorted by cost. */
@@ -1313,14 +1340,17 @@ typedef struct sqffd__sq_sets {
     size_t m_start;
 } sqffd__sq_sets;
 
-/* Run a candidate to convergence on the polish points (robust mode: on the
-   start set, the polish points without the isolated ones). Returns its cost. */
+/* Run a candidate to convergence on the polish points. Robust mode only
+   ranks it by its cost on the start set (the polish points without the
+   isolated ones): the EM rounds that follow do the fitting. Returns its cost. */
 static double sqffd__sq_polish(sqffd__sq_fit *fit, sqffd_superquadric *sq, const sqffd__sq_sets *sets, int *converged)
 {
     double cost;
-    const double *pts = fit->opt->robust ? sets->start : sets->polish;
-    size_t m = fit->opt->robust ? sets->m_start : sets->m_polish;
-    *converged = sqffd__sq_optimize(fit, sq, pts, NULL, m, fit->opt->max_iterations, &cost);
+    if (fit->opt->robust) {
+        *converged = 0;
+        return sqffd__sq_accumulate(fit, sq, sets->start, NULL, sets->m_start, NULL, NULL);
+    }
+    *converged = sqffd__sq_optimize(fit, sq, sets->polish, NULL, sets->m_polish, fit->opt->max_iterations, &cost);
     return cost;
 }
 
@@ -1337,6 +1367,7 @@ SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_
     sqffd__sq_work w;
     sqffd__sq_fit fit;
     sqffd_superquadric best, twin;
+    sqffd__sq_mixture mix; /* robust mode's mixture */
     double centroid[3], scale, centre[3], cov[9], values[3], axes[9], best_cost = 0.0;
     const double *start_pts, *weights;
     double rms;
@@ -1382,7 +1413,7 @@ SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_
     start_pts = w.points;
     m_start = n;
     if (o->robust) {
-        m_start = sqffd__sq_dense_points(w.polish, m_polish, w.dense, w.weights);
+        m_start = sqffd__sq_dense_points(w.polish, m_polish, w.dense, w.weights, w.tree, w.tree_size);
         start_pts = w.dense;
         if (m_start < SQFFD_SQ_FIT_MIN_POINTS) { start_pts = w.polish; m_start = m_polish; }
     }
@@ -1419,11 +1450,13 @@ SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_
     if (o->robust && fit.status == SQFFD_OK) {
         /* EM from the fit's robust spread on the start set: on the polish
            subsample, then on all points */
-        sqffd__sq_mixture mix;
+        int moved;
         mix.sigma2 = sqffd__sq_robust_d2(&best, start_pts, m_start, w.weights);
         mix.prior = (double)m_start / (double)m_polish;
-        sqffd__sq_em(&fit, &best, w.polish, m_polish, w.weights, &mix, o->robust_rounds, &converged);
-        if (m_polish < n) sqffd__sq_em(&fit, &best, w.points, n, w.weights, &mix, SQFFD__SQ_FULL_ROUNDS, &converged);
+        mix.weights = w.weights;
+        moved = sqffd__sq_em(&fit, &best, w.polish, m_polish, &mix, o->robust_rounds, &converged);
+        if (m_polish < n) moved = sqffd__sq_em(&fit, &best, w.points, n, &mix, SQFFD__SQ_FULL_ROUNDS, &converged);
+        if (moved) sqffd__sq_reweight(&mix, &best, w.points, n, fit.box_volume); /* the weights at the result */
     } else if (fit.status == SQFFD_OK && m_polish < n) {
         converged = sqffd__sq_optimize(&fit, &best, w.points, NULL, n, o->max_iterations, &best_cost);
     }
@@ -1433,7 +1466,8 @@ SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_
        partial view: the data show part of the shape); any other is kept
        within the box enlarged by the margin. */
     weights = o->robust ? w.weights : NULL;
-    rms = sqrt(sqffd__sq_mean_d2(&best, w.points, weights, n));
+    /* robust mode: the last EM step's sigma^2 is this weighted mean already */
+    rms = sqrt(o->robust ? mix.sigma2 : sqffd__sq_mean_d2(&best, w.points, weights, n));
     if (rms > SQFFD__SQ_CLOSE_FIT * (best.size[0] + best.size[1] + best.size[2]) / 3.0) {
         sqffd__sq_contain(&fit, &best);
         rms = sqrt(sqffd__sq_mean_d2(&best, w.points, weights, n));

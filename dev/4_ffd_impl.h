@@ -62,14 +62,6 @@ static void sqffd__ffd_sum_st(const int dims[3], const double (*q)[3], const dou
     out[0] = x; out[1] = y; out[2] = z;
 }
 
-/* sum_ijk ws_i wt_j wu_k P_ijk from the three 1-D weight vectors. */
-static void sqffd__ffd_apply(const int dims[3], const double (*control)[3], const double *w, double out[3])
-{
-    double q[SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE][3];
-    sqffd__ffd_sum_u(dims, control, w + dims[0] + dims[1], q);
-    sqffd__ffd_sum_st(dims, (const double (*)[3])q, w, w + dims[0], out);
-}
-
 static int sqffd__ffd_dims_valid(const int dims[3])
 {
     int a;
@@ -120,10 +112,12 @@ SQFFD_DEF void sqffd_ffd_local(const sqffd_ffd *ffd, const double point[3], doub
 
 SQFFD_DEF void sqffd_ffd_eval(const sqffd_ffd *ffd, const double stu[3], double out[3])
 {
-    double w[3 * SQFFD_MAX_LATTICE];
-    SQFFD_ASSERT(sqffd__ffd_dims_valid(ffd->dims));
-    sqffd__ffd_axis_weights(ffd->dims, stu, w);
-    sqffd__ffd_apply(ffd->dims, (const double (*)[3])ffd->control, w, out);
+    double w[3 * SQFFD_MAX_LATTICE], q[SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE][3];
+    const int *d = ffd->dims;
+    SQFFD_ASSERT(sqffd__ffd_dims_valid(d));
+    sqffd__ffd_axis_weights(d, stu, w);
+    sqffd__ffd_sum_u(d, (const double (*)[3])ffd->control, w + d[0] + d[1], q);
+    sqffd__ffd_sum_st(d, (const double (*)[3])q, w, w + d[0], out);
 }
 
 SQFFD_DEF void sqffd_ffd_deform(const sqffd_ffd *ffd, const double point[3], double out[3])

@@ -77,7 +77,9 @@ SQFFD_DEF size_t sqffd_fit_workspace_size(size_t n, const sqffd_fit_options *opt
    it with the regular lattice P0, model points X0 = B P0 on the grid, then the
    two-step iteration: (1) each data point's closest point on the model
    surface (the mesh of the model points: nearest model point by kd-tree, then
-   the triangles around it, as for the error); its displacement to the data
+   the triangles around it, as for the error; searched afresh only where the
+   model's moves since the previous iteration could have changed the answer,
+   which gives the same answer); its displacement to the data
    point is spread over that triangle's three model points with the
    barycentric weights and averaged per model point; model points no data
    point reached are filled by interpolation over the mesh (breadth-first from

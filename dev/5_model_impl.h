@@ -116,43 +116,41 @@ static double sqffd__fit_triangle(const double ap[3], const double ea[3], const 
     return sqffd__dot3(r, r);
 }
 
-/* Triangle k of the fan around vertex v, (v, ring k, ring k+1 mod count), of
-   the mesh whose vertices are x, against q: its corners into tri, and the
-   closest point's squared distance and barycentric weights. The fan search
-   and the warm start's re-measurement of one triangle both come here, so
-   they agree to the bit. */
-static double sqffd__fit_fan_triangle(const double *x, const sqffd__fit_ring *r, size_t v, size_t k, const double q[3],
-                                      size_t tri[3], double w[3])
+/* The mesh triangle tri (corner tri[0] first, as in a fan around it) against
+   q: the closest point's squared distance and barycentric weights. The fan
+   search and the warm start's re-measurement of one triangle both come
+   here, so they agree to the bit. */
+static double sqffd__fit_corner_triangle(const double *x, const size_t tri[3], const double q[3], double w[3])
 {
     double ap[3], ea[3], eb[3];
-    tri[0] = v;
-    tri[1] = sqffd__fit_ring_at(r, k);
-    tri[2] = sqffd__fit_ring_at(r, k + 1 < r->count ? k + 1 : 0);
-    sqffd__sub3(q, x + 3 * v, ap);
-    sqffd__sub3(x + 3 * tri[1], x + 3 * v, ea);
-    sqffd__sub3(x + 3 * tri[2], x + 3 * v, eb);
+    const double *v = x + 3 * tri[0];
+    sqffd__sub3(q, v, ap);
+    sqffd__sub3(x + 3 * tri[1], v, ea);
+    sqffd__sub3(x + 3 * tri[2], v, eb);
     return sqffd__fit_triangle(ap, ea, eb, w);
 }
 
-/* The closest point to q on the fan of triangles around vertex v: its
-   squared distance, triangle (tri[0] = v), barycentric weights and position
-   k in the fan (the first of equally close ones), and the squared distance
-   of the runner-up triangle (*second >= the result). */
+/* The closest point to q on the fan of triangles (v, ring k, ring k+1 mod
+   count) around vertex v: its squared distance, triangle (tri[0] = v) and
+   barycentric weights (the first of equally close triangles), and the
+   squared distance of the runner-up triangle (*second >= the result). */
 static double sqffd__fit_fan_closest(const double *x, const int grid[2], size_t v, const double q[3], size_t tri[3],
-                                     double w[3], size_t *position, double *second)
+                                     double w[3], double *second)
 {
     sqffd__fit_ring r;
     double best = HUGE_VAL, tw[3];
     size_t k, t[3];
     sqffd__fit_ring_of(grid, v, &r);
     *second = HUGE_VAL;
-    *position = 0;
+    t[0] = v;
     for (k = 0; k < r.count; ++k) {
-        double d = sqffd__fit_fan_triangle(x, &r, v, k, q, t, tw);
+        double d;
+        t[1] = sqffd__fit_ring_at(&r, k);
+        t[2] = sqffd__fit_ring_at(&r, k + 1 < r.count ? k + 1 : 0);
+        d = sqffd__fit_corner_triangle(x, t, q, tw);
         if (d < best) {
             *second = best;
             best = d;
-            *position = k;
             memcpy(tri, t, sizeof t);
             memcpy(w, tw, sizeof tw);
         } else if (d < *second) {
@@ -170,9 +168,8 @@ static double sqffd__fit_walk(const double *x, const int grid[2], const double q
 {
     int step;
     for (step = 0; step < SQFFD__FIT_MAX_WALK && w[0] == 0.0; ++step) {
-        size_t t2[3], position;
-        double w2[3], second;
-        double d = sqffd__fit_fan_closest(x, grid, w[1] >= w[2] ? tri[1] : tri[2], q, t2, w2, &position, &second);
+        size_t t2[3];
+        double w2[3], second, d = sqffd__fit_fan_closest(x, grid, w[1] >= w[2] ? tri[1] : tri[2], q, t2, w2, &second);
         if (!(d < best)) break;
         best = d;
         memcpy(tri, t2, sizeof t2);
@@ -184,32 +181,37 @@ static double sqffd__fit_walk(const double *x, const int grid[2], const double q
 /* ---- the closest-point search, with a warm start -------------------------
    A data point's answer (its nearest mesh vertex, and the closest triangle of
    that vertex's fan) rarely changes between two iterations, whose model
-   points move little. A distance to a vertex or to a triangle changes by at
-   most the largest move of the vertices involved. So a tree query also
-   records how near the nearest vertex outside the anchor's closed ring (the
-   anchor = the nearest vertex then) was; less the moves summed since, that
-   bounds every vertex outside the ring from below, and while the nearest
-   vertex of the ring is nearer than the bound it is the nearest of all (no
-   tree query). Likewise, while twice the fan's moves summed since the fan
-   was searched stay below the gap then seen between its closest and
-   runner-up triangles, that triangle is still the closest and only it is
-   measured again. Either way the answer is the one the full search would
-   give. The tree over the mesh vertices is built only when some point needs
-   it. */
-#define SQFFD__FIT_KNN 8 /* neighbours a tree query fetches: a closed ring (<= 7) and one more */
+   points move little, and a distance to a vertex or to a triangle changes by
+   at most the largest move of the vertices involved. So each point keeps
+   three bounds, each less the moves summed since it was taken:
+   - the gap between its nearest and runner-up vertex: while twice the moves
+     stay below it, the nearest vertex is the same;
+   - a lower bound on the distance to every vertex outside the anchor's
+     closed ring (anchor: the nearest vertex at its last tree query): while
+     the nearest vertex of that ring is nearer, it is the nearest of all;
+   - the gap between the fan's closest and runner-up triangles (moves of the
+     fan's own vertices): while twice those stay below it, only that triangle
+     is measured again.
+   Only when the first two fail is the tree asked; it is kept over a snapshot
+   of the vertices and asked with their drift since as slack, and rebuilt when
+   that leaves the answer open. Every way the answer is the one a fresh
+   search gives (ties aside, which any search breaks arbitrarily). */
+#define SQFFD__FIT_KNN 4 /* neighbours a tree query fetches (measured: fewer repeat queries vs dearer ones) */
 
 typedef struct sqffd__fit_search {
     const double *x;         /* mesh vertices (the model points) */
     int grid[2];
-    sqffd_kdtree tree;       /* over x, once built */
+    sqffd_kdtree tree;       /* over snapshot (NULL: x itself), once built */
     void *tree_ws;
     size_t tree_size;
     int built;
+    double *snapshot;        /* x when the tree was built (the warm start keeps the tree while it can) */
+    double drift;            /* the vertices' largest moves summed since */
     /* the warm start (anchor NULL: none), per data point */
     uint32_t *anchor;        /* the nearest vertex at the last tree query */
-    double *outside;         /* lower bound on the distance to any vertex outside the anchor's closed ring (-inf: none) */
-    uint32_t *vertex;        /* the nearest vertex at the last fan search */
-    uint32_t *position;      /* the closest triangle's position in that fan */
+    double *outside;         /* lower bound on the distance to any vertex outside the anchor's closed ring */
+    double *vertex_slack;    /* the gap between the nearest vertex and the runner-up less twice the largest moves since */
+    uint32_t (*triangle)[3]; /* the closest triangle of the last fan search (its corner 0: the fan's vertex) */
     double *triangle_slack;  /* that fan's gap less twice its largest moves since (< 0: search the fan) */
     double moved;            /* largest vertex move since the previous pass */
     double *fan_moved;       /* per mesh vertex: largest move of its fan's vertices since the previous pass */
@@ -231,36 +233,68 @@ static int sqffd__fit_in_ring(const sqffd__fit_ring *r, size_t v, size_t u)
 static sqffd_result sqffd__fit_nearest_vertex(sqffd__fit_search *s, size_t i, const double q[3], size_t *nearest)
 {
     size_t near[SQFFD__FIT_KNN], k, count;
-    double d2[SQFFD__FIT_KNN];
+    double d2[SQFFD__FIT_KNN], d[SQFFD__FIT_KNN];
     sqffd__fit_ring r;
-    if (s->anchor && (s->outside[i] -= s->moved) > s->margin) {
-        size_t v = s->anchor[i];
-        double best = sqffd__dist2_3(q, s->x + 3 * v);
-        sqffd__fit_ring_of(s->grid, v, &r);
-        *nearest = v;
-        for (k = 0; k < r.count; ++k) {
-            size_t u = sqffd__fit_ring_at(&r, k);
-            double d = sqffd__dist2_3(q, s->x + 3 * u);
-            if (d < best) { best = d; *nearest = u; }
-        }
-        if (sqrt(best) < s->outside[i] - s->margin) return SQFFD_OK;
-    }
-    if (!s->built) {
-        sqffd_result res = sqffd_kdtree_build(&s->tree, s->x, sqffd__fit_grid_count(s->grid), s->tree_ws, s->tree_size);
-        if (res != SQFFD_OK) return res;
-        s->built = 1;
-    }
-    count = sqffd_kdtree_knn(&s->tree, q, SQFFD__FIT_KNN, near, d2);
-    if (count == 0) return SQFFD_ERROR_NON_FINITE;
-    *nearest = near[0];
     if (s->anchor) {
-        s->anchor[i] = (uint32_t)near[0];
-        s->outside[i] = -HUGE_VAL;
-        sqffd__fit_ring_of(s->grid, near[0], &r);
-        for (k = 1; k < count; ++k)
-            if (!sqffd__fit_in_ring(&r, near[0], near[k])) { s->outside[i] = sqrt(d2[k]); break; }
+        s->outside[i] -= s->moved;
+        s->vertex_slack[i] -= 2.0 * s->moved;
+        if (s->vertex_slack[i] > s->margin) { /* still the last pass's nearest vertex */
+            *nearest = s->triangle[i][0];
+            return SQFFD_OK;
+        }
+        if (s->outside[i] > s->margin) { /* the nearest of the anchor's closed ring, if nearer than the rest */
+            size_t v = s->anchor[i];
+            double best = sqffd__dist2_3(q, s->x + 3 * v), second = HUGE_VAL;
+            sqffd__fit_ring_of(s->grid, v, &r);
+            *nearest = v;
+            for (k = 0; k < r.count; ++k) {
+                size_t u = sqffd__fit_ring_at(&r, k);
+                double du = sqffd__dist2_3(q, s->x + 3 * u);
+                if (du < best) { second = best; best = du; *nearest = u; }
+                else if (du < second) second = du;
+            }
+            best = sqrt(best);
+            if (best < s->outside[i] - s->margin) {
+                second = sqrt(second);
+                s->vertex_slack[i] = (second < s->outside[i] ? second : s->outside[i]) - best;
+                return SQFFD_OK;
+            }
+        }
     }
-    return SQFFD_OK;
+    for (;;) { /* a tree query, from a tree built over the vertices as they were `drift` ago */
+        size_t b = 0;
+        double rest, second = HUGE_VAL;
+        if (!s->built) {
+            size_t m = sqffd__fit_grid_count(s->grid);
+            const double *at = s->snapshot ? (const double *)memcpy(s->snapshot, s->x, 3 * m * sizeof(double)) : s->x;
+            sqffd_result res = sqffd_kdtree_build(&s->tree, at, m, s->tree_ws, s->tree_size);
+            if (res != SQFFD_OK) return res;
+            s->built = 1;
+            s->drift = 0.0;
+        }
+        count = sqffd_kdtree_knn(&s->tree, q, s->anchor ? SQFFD__FIT_KNN : 1, near, d2);
+        if (count == 0) return SQFFD_ERROR_NON_FINITE;
+        rest = count == (s->anchor ? SQFFD__FIT_KNN : 1) ? sqrt(d2[count - 1]) - s->drift : HUGE_VAL; /* the vertices not returned */
+        for (k = 0; k < count; ++k) { /* the returned ones as they are now */
+            d[k] = sqrt(s->drift != 0.0 ? sqffd__dist2_3(q, s->x + 3 * near[k]) : d2[k]);
+            if (d[k] < d[b]) { second = d[b]; b = k; }
+            else if (k > 0 && d[k] < second) second = d[k];
+        }
+        if (s->drift != 0.0 && !(d[b] < rest - s->margin)) { /* too stale to tell: rebuild */
+            s->built = 0;
+            continue;
+        }
+        *nearest = near[b];
+        if (s->anchor) {
+            s->anchor[i] = (uint32_t)near[b];
+            s->vertex_slack[i] = (second < rest ? second : rest) - d[b];
+            s->outside[i] = rest;
+            sqffd__fit_ring_of(s->grid, near[b], &r);
+            for (k = 0; k < count; ++k)
+                if (d[k] < s->outside[i] && !sqffd__fit_in_ring(&r, near[b], near[k])) s->outside[i] = d[k];
+        }
+        return SQFFD_OK;
+    }
 }
 
 /* The closest point on the mesh to data point i at q ("the error"): squared
@@ -268,24 +302,22 @@ static sqffd_result sqffd__fit_nearest_vertex(sqffd__fit_search *s, size_t i, co
 static sqffd_result sqffd__fit_closest(sqffd__fit_search *s, size_t i, const double q[3], double *dist2, size_t tri[3],
                                        double w[3])
 {
-    size_t v, position;
+    size_t v, k;
     double second, d;
     sqffd_result res = sqffd__fit_nearest_vertex(s, i, q, &v);
     if (res != SQFFD_OK) return res;
-    if (s->anchor && s->vertex[i] == v && s->triangle_slack[i] - 2.0 * s->fan_moved[v] > s->margin) {
-        sqffd__fit_ring r;
-        sqffd__fit_ring_of(s->grid, v, &r);
-        d = sqffd__fit_fan_triangle(s->x, &r, v, s->position[i], q, tri, w);
+    if (s->anchor && s->triangle[i][0] == v && s->triangle_slack[i] - 2.0 * s->fan_moved[v] > s->margin) {
+        for (k = 0; k < 3; ++k) tri[k] = s->triangle[i][k];
+        d = sqffd__fit_corner_triangle(s->x, tri, q, w);
         if (w[0] != 0.0) { /* (else the full search would walk on) */
             s->triangle_slack[i] -= 2.0 * s->fan_moved[v];
             *dist2 = d;
             return SQFFD_OK;
         }
     }
-    d = sqffd__fit_fan_closest(s->x, s->grid, v, q, tri, w, &position, &second);
+    d = sqffd__fit_fan_closest(s->x, s->grid, v, q, tri, w, &second);
     if (s->anchor) {
-        s->vertex[i] = (uint32_t)v;
-        s->position[i] = (uint32_t)position;
+        for (k = 0; k < 3; ++k) s->triangle[i][k] = (uint32_t)tri[k];
         s->triangle_slack[i] = w[0] == 0.0 ? -1.0 : sqrt(second) - sqrt(d);
     }
     *dist2 = sqffd__fit_walk(s->x, s->grid, q, d, tri, w);
@@ -312,6 +344,7 @@ static double sqffd__fit_moves(sqffd__fit_search *s, const double *x, const doub
         s->fan_moved[v] = sqrt(fan2);
     }
     s->moved = sqrt(max2);
+    s->drift += s->moved;
     return sum2;
 }
 
@@ -651,7 +684,7 @@ SQFFD_DEF sqffd_result sqffd_model_init(sqffd_model *model, const sqffd_superqua
      (B P)_v   = sum_ij a_i b_j (sum_k c_k P_ijk), the inner sums once per run;
      B^T y     = sum over runs of (sum_v (a (x) b) y_v) (x) c;
      B^T B     = sum over runs of (sum_v (a (x) b)(a (x) b)^T) (x) c c^T.
-   That cuts their cost about n-fold (and B^T B's about L-fold over l m). For
+   That cuts the first two's cost about n-fold and B^T B's about n^2-fold. For
    another box the runs are single points and the same code does the plain
    products. */
 typedef struct sqffd__fit_system {
@@ -684,8 +717,9 @@ typedef struct sqffd__fit_work {
     double *pairs;       /* (l m)^2: a run's sum of (a (x) b)(a (x) b)^T while preparing */
     void *tree_ws;       /* tree over the model points */
     size_t tree_size;
-    uint32_t *anchor, *vertex, *position; /* per FFD data point: the closest-point search's warm start */
-    double *outside, *triangle_slack;
+    double *snapshot;    /* M x 3: the model points the tree was built over */
+    uint32_t *anchor, (*triangle)[3]; /* per FFD data point: the closest-point search's warm start */
+    double *outside, *vertex_slack, *triangle_slack;
     double *fan_moved;   /* M */
     void *data_ws;       /* tree over the data (symmetric option) */
     size_t data_size;
@@ -763,10 +797,11 @@ static void sqffd__fit_layout(sqffd__arena *a, size_t n, const int dims[3], cons
     w->tree_ws = sqffd__arena_take(a, w->tree_size, 1);
     w->sample_count = sqffd__fit_cap(n, o->ffd_max_points);
     if (w->sample_count < n) w->sample = (double *)sqffd__arena_take(a, w->sample_count, 3 * sizeof(double));
+    w->snapshot = (double *)sqffd__arena_take(a, m, 3 * sizeof(double));
     w->anchor = (uint32_t *)sqffd__arena_take(a, w->sample_count, sizeof(uint32_t));
     w->outside = (double *)sqffd__arena_take(a, w->sample_count, sizeof(double));
-    w->vertex = (uint32_t *)sqffd__arena_take(a, w->sample_count, sizeof(uint32_t));
-    w->position = (uint32_t *)sqffd__arena_take(a, w->sample_count, sizeof(uint32_t));
+    w->vertex_slack = (double *)sqffd__arena_take(a, w->sample_count, sizeof(double));
+    w->triangle = (uint32_t (*)[3])sqffd__arena_take(a, w->sample_count, 3 * sizeof(uint32_t));
     w->triangle_slack = (double *)sqffd__arena_take(a, w->sample_count, sizeof(double));
     w->fan_moved = (double *)sqffd__arena_take(a, m, sizeof(double));
     if (o->symmetric) {
@@ -900,7 +935,7 @@ static void sqffd__fit_fill(const int grid[2], size_t m, const double *weights, 
     }
     for (sweep = 0; sweep <= SQFFD__FIT_FILL_SWEEPS; ++sweep)
         for (t = first; t < tail; ++t) {
-            double sum[3] = {0.0, 0.0, 0.0};
+            double sum[3] = {0.0, 0.0, 0.0}, inverse;
             size_t used = 0;
             v = order[t];
             sqffd__fit_ring_of(grid, v, &r);
@@ -910,9 +945,10 @@ static void sqffd__fit_fill(const int grid[2], size_t m, const double *weights, 
                 sum[0] += disp[3 * w]; sum[1] += disp[3 * w + 1]; sum[2] += disp[3 * w + 2];
                 used++;
             }
-            disp[3 * v] = sum[0] / (double)used;
-            disp[3 * v + 1] = sum[1] / (double)used;
-            disp[3 * v + 2] = sum[2] / (double)used;
+            inverse = 1.0 / (double)used;
+            disp[3 * v] = sum[0] * inverse;
+            disp[3 * v + 1] = sum[1] * inverse;
+            disp[3 * v + 2] = sum[2] * inverse;
             state[v] = 2;
         }
 }
@@ -1003,16 +1039,17 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
     int it;
     sqffd__fit_evaluate(s, &model->ffd, x);
     sqffd__fit_search_init(&search, x, s->grid, w->tree_ws, w->tree_size);
-    search.vertex = w->vertex;
-    search.position = w->position;
+    search.triangle = w->triangle;
+    search.snapshot = w->snapshot;
     search.anchor = w->anchor;
     search.outside = w->outside;
+    search.vertex_slack = w->vertex_slack;
     search.triangle_slack = w->triangle_slack;
     search.fan_moved = w->fan_moved;
     for (i = 0; i < n; ++i) { /* no warm start yet */
         w->anchor[i] = 0;
-        w->outside[i] = -HUGE_VAL;
-        w->vertex[i] = UINT32_MAX;
+        w->outside[i] = w->vertex_slack[i] = -HUGE_VAL;
+        w->triangle[i][0] = UINT32_MAX;
         for (p = 0; p < 3; ++p) magnitude = fabs(points[3 * i + p]) > magnitude ? fabs(points[3 * i + p]) : magnitude;
     }
     search.margin = 1e-10 * (magnitude + diagonal); /* far above the rounding of distances between such points */
@@ -1025,7 +1062,6 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
         memset(t, 0, 3 * m * sizeof(double));
         memset(w->weights, 0, m * sizeof(double));
         search.x = x;
-        search.built = 0;
         res = sqffd__fit_pass(points, n, &search, diagonal, NULL, t, w->weights, &rep->error);
         if (res != SQFFD_OK) return res;
         if (it == 0) rep->sq_error = rep->error;

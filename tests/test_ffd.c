@@ -484,6 +484,43 @@ static void test_fit_in_class_recovery(void)
     free(pts);
 }
 
+/* The iterations' closest-point passes reuse each data point's previous
+   answer while the model's moves provably cannot change it; their error must
+   equal a fresh search (sqffd_model_distances: tree query and fan search for
+   every point) on the model after 1, 2, 5, ... iterations. */
+static void test_fit_warm_start_exact(void)
+{
+    enum { N = 3000 };
+    const int counts[5] = {1, 2, 5, 12, 40};
+    phantom_lv ph = phantom_lv_default();
+    sqffd_fit_options o = sqffd_fit_options_default();
+    sqffd_fit_report rep;
+    sqffd_distance_stats s;
+    sqffd_model start, m;
+    double *pts = (double *)malloc(3 * N * sizeof *pts);
+    size_t size;
+    void *ws;
+    int c;
+    phantom_lv_sample(&ph, 0.0, N, pts);
+    o.tolerance = 0.0;
+    o.max_iterations = 0;
+    CHECK_RESULT(run_fit(pts, N, &o, &start, &rep), SQFFD_OK); /* the superquadric only */
+    size = sqffd_model_distances_workspace_size(N, &start);
+    ws = malloc(size);
+    for (c = 0; c < 5; c++) {
+        m = start;
+        o.max_iterations = counts[c];
+        CHECK_RESULT(run_fit_ffd(pts, N, &o, &m, &rep), SQFFD_OK);
+        CHECK(rep.iterations == counts[c]);
+        CHECK_RESULT(sqffd_model_distances(&m, pts, N, NULL, &s, ws, size), SQFFD_OK);
+        CHECK_MSG(fabs(rep.error.rms - s.rms) <= 1e-12 * s.rms && fabs(rep.error.max - s.max) <= 1e-12 * s.max,
+                  "after %d iterations: rms %.17g max %.17g, a fresh search %.17g %.17g", counts[c], rep.error.rms,
+                  rep.error.max, s.rms, s.max);
+    }
+    free(ws);
+    free(pts);
+}
+
 /* The paper's Table 1 with its own springs ||D P||^2: as alpha grows the
    error rises and the spring energy falls. */
 static void test_fit_regularisation_monotone(void)
@@ -863,6 +900,7 @@ void suite_ffd(void)
     RUN_TEST(test_model_mesh);
     RUN_TEST(test_model_distances);
     RUN_TEST(test_fit_in_class_recovery);
+    RUN_TEST(test_fit_warm_start_exact);
     RUN_TEST(test_fit_regularisation_monotone);
     RUN_TEST(test_fit_convergence_lv);
     RUN_TEST(test_fit_bunny);

@@ -17,6 +17,12 @@ static sqffd_superquadric sq_make(double a1, double a2, double a3, double e1, do
     return sq;
 }
 
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
 /* ---- geometry ------------------------------------------------------------ */
 
 static void test_sq_surface_points_have_f_one(void)
@@ -219,7 +225,7 @@ static double nn_spread(const double *p, size_t n, double *median_out)
     mean /= (double)n;
     for (i = 0; i < n; i++) var += (d[i] - mean) * (d[i] - mean);
     if (median_out) {
-        qsort(d, n, sizeof *d, synth__cmp_double);
+        qsort(d, n, sizeof *d, cmp_double);
         *median_out = d[n / 2];
     }
     free(d);
@@ -282,12 +288,6 @@ static void test_sq_iou(void)
 
 /* ---- fit -------------------------------------------------------------------- */
 
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
 static sqffd_result fit_points(const double *pts, size_t n, const sqffd_sq_fit_options *o, sqffd_superquadric *sq,
                                sqffd_sq_fit_report *report)
 {
@@ -323,7 +323,7 @@ static void fit_statistics(int kind, int cases, size_t n, int robust, int resolu
     synth_rng rng = synth_rng_seed(seed);
     sqffd_sq_fit_options o = sqffd_sq_fit_options_default();
     double *pts = (double *)malloc(3 * (n + n / 4 + 1) * sizeof *pts);
-    size_t size = sqffd_sq_fit_workspace_size(n + n / 4 + 1, &o);
+    size_t size;
     void *work;
     int c;
     o.robust = robust;
@@ -605,7 +605,7 @@ static void test_sq_fit_bad_input(void)
     CHECK_RESULT(sqffd_sq_fit(bad, 200, NULL, &fit, NULL, work, size), SQFFD_ERROR_DEGENERATE);
     for (i = 0; i < 200; i++) {
         double s = synth_gaussian(&rng), t = synth_gaussian(&rng);
-        bad[3 * i] = s + t; bad[3 * i + 1] = 2 * s - t; bad[3 * i + 2] = 3 * s; /* the plane 2x + y - 3z... spanned by two vectors */
+        bad[3 * i] = s + t; bad[3 * i + 1] = 2 * s - t; bad[3 * i + 2] = 3 * s; /* spanned by (1, 2, 3) and (1, -1, 0) */
     }
     CHECK_RESULT(sqffd_sq_fit(bad, 200, NULL, &fit, NULL, work, size), SQFFD_ERROR_DEGENERATE);
     CHECK(memcmp(&fit, &untouched, sizeof fit) == 0); /* nothing written on failure */
