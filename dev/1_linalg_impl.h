@@ -478,9 +478,7 @@ SQFFD_DEF sqffd_result sqffd_svd(const double *a, int m, int n, double *u, doubl
     nn = (size_t)n;
     required = sqffd_svd_workspace_size(m, n);
     if (required == 0) return SQFFD_ERROR_TOO_LARGE;
-    /* the documented contract: anything below the reported size is refused,
-       whatever the alignment of the block happens to be */
-    if (!workspace || workspace_size < required) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
+    if (!workspace) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
     sqffd__arena_init(&ar, workspace, workspace_size);
     sqffd__la_svd_layout(&ar, mm, nn, &w);
     if (ar.overflow) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
@@ -615,7 +613,7 @@ SQFFD_DEF sqffd_result sqffd_cg_solve(int n, sqffd_matvec_fn matvec, void *user,
     nn = (size_t)n;
     required = sqffd_cg_workspace_size(n);
     if (required == 0) return SQFFD_ERROR_TOO_LARGE;
-    if (!workspace || workspace_size < required) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
+    if (!workspace) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
     sqffd__arena_init(&ar, workspace, workspace_size);
     sqffd__la_cg_layout(&ar, nn, &w);
     if (ar.overflow) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
@@ -817,7 +815,7 @@ SQFFD_DEF sqffd_result sqffd_ncg_minimize(int n, sqffd_objective_fn f, sqffd_pro
     nn = (size_t)n;
     required = sqffd_ncg_workspace_size(n);
     if (required == 0) return SQFFD_ERROR_TOO_LARGE;
-    if (!workspace || workspace_size < required) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
+    if (!workspace) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
     sqffd__arena_init(&ar, workspace, workspace_size);
     sqffd__la_ncg_layout(&ar, nn, &w);
     if (ar.overflow) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;

@@ -144,11 +144,9 @@ SQFFD_DEF sqffd_result sqffd_kdtree_build(sqffd_kdtree *tree, const double *poin
     if (tree) memset(tree, 0, sizeof *tree);
     if (!tree || !points || !workspace || n == 0) return SQFFD_ERROR_INVALID_ARGUMENT;
     if (n > (size_t)UINT32_MAX) return SQFFD_ERROR_TOO_LARGE;
-    /* Exactly the advertised size is required, whatever the block's alignment. */
-    if (workspace_size < sqffd_kdtree_workspace_size(n)) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
     sqffd__arena_init(&a, workspace, workspace_size);
     sqffd__kd_layout(&a, n, &index, &nodes);
-    SQFFD_ASSERT(!a.overflow); /* the size check above covers the layout */
+    if (a.overflow) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
 
     sqffd__kd_empty_box(stack[0].box);
     for (i = 0; i < n; i++) {

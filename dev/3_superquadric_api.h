@@ -103,11 +103,12 @@ SQFFD_DEF size_t sqffd_sq_fit_workspace_size(size_t n, const sqffd_sq_fit_option
    z, several (e1, e2) seeds, axes turned 45 degrees where two eigenvalues
    are close), are screened on a small subsample, the best run to
    convergence on a larger one, then on all points. Robust mode starts from
-   the points that are not isolated (a nearest-neighbour density test) and
-   alternates EM re-weighting with weighted fits of the radial distance. A fit
-   whose RMS radial distance exceeds 5% of its mean size (data that are no
-   superquadric) is kept within the data's box enlarged by 25%; a close fit
-   may reach past it (a partial view). Deterministic.
+   the points that are not isolated (a nearest-neighbour density test),
+   ranks the best starts on them, and alternates EM re-weighting with
+   weighted fits of the radial distance (on the larger subsample, then on
+   all points). A fit whose RMS radial distance exceeds 5% of its mean size
+   (data that are no superquadric) is kept within the data's box enlarged by
+   25%; a close fit may reach past it (a partial view). Deterministic.
    Results: INVALID_ARGUMENT (NULL points/sq, bad options), TOO_FEW_POINTS
    (n < SQFFD_SQ_FIT_MIN_POINTS), WORKSPACE_TOO_SMALL (also a NULL workspace),
    NON_FINITE, DEGENERATE (coincident, collinear or coplanar: smallest

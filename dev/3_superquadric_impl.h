@@ -462,7 +462,7 @@ SQFFD_DEF double sqffd_sq_iou(const sqffd_superquadric *a, const sqffd_superquad
    shapes: fewer or smaller cost accuracy, more cost time). */
 #define SQFFD__SQ_SCREEN 48            /* subsample every start is screened on */
 #define SQFFD__SQ_START_ITERATIONS 4   /* LM iterations per start on it */
-#define SQFFD__SQ_KEEP 2               /* best starts run to convergence ... */
+#define SQFFD__SQ_KEEP 2               /* best starts run to convergence (robust mode: ranked) ... */
 #define SQFFD__SQ_POLISH 384           /* ... on this subsample */
 #define SQFFD__SQ_CLEAR_WIN 1e-2       /* a start this much costlier than the best is not polished */
 #define SQFFD__SQ_CLOSE_RATIO 0.7      /* eigenvalues or sizes this close count as ambiguous axes */
@@ -1216,8 +1216,24 @@ static double sqffd__sq_robust_d2(const sqffd_superquadric *sq, const double *pt
 }
 
 #define SQFFD__SQ_ROBUST_COST SQFFD_SQ_COST_RADIAL /* the mixture's own residual */
-#define SQFFD__SQ_ROUND_ITERATIONS 1 /* LM iterations per EM round but the last */
+/* Optimiser iterations per EM round but the last (the CG's get multiplied by
+   SQFFD__SQ_CG_FACTOR too): one LM step lets the weights follow; the CG's
+   steps do less (measured on issue 3's shapes). */
+#define SQFFD__SQ_ROUND_ITERATIONS(o) ((o)->optimizer == SQFFD_SQ_OPTIMIZER_CG ? 3 : 1)
 #define SQFFD__SQ_FULL_ROUNDS 1      /* EM rounds on all points after the polish subsample */
+/* Field by field: the core may not call memcmp. */
+static int sqffd__sq_equal(const sqffd_superquadric *a, const sqffd_superquadric *b)
+{
+    int k;
+    for (k = 0; k < 9; k++)
+        if (a->rotation[k] != b->rotation[k]) return 0;
+    for (k = 0; k < 3; k++)
+        if (a->size[k] != b->size[k] || a->center[k] != b->center[k]) return 0;
+    for (k = 0; k < 2; k++)
+        if (a->shape[k] != b->shape[k] || a->taper[k] != b->taper[k]) return 0;
+    return 1;
+}
+
 /* Robust mode: `rounds` EM rounds on m points, each an E-step and M-step
    (fused into the optimiser's first evaluation), then a few weighted LM
    iterations of the mixture's own residual, the radial distance; the last
@@ -1234,10 +1250,10 @@ static int sqffd__sq_em(sqffd__sq_fit *fit, sqffd_superquadric *sq, const double
         at_estep = *sq;
         fit->estep = mix;
         *converged = sqffd__sq_optimize(fit, sq, pts, mix->weights, m,
-                                        r + 1 < rounds ? SQFFD__SQ_ROUND_ITERATIONS : fit->opt->max_iterations, &cost);
+                                        r + 1 < rounds ? SQFFD__SQ_ROUND_ITERATIONS(fit->opt) : fit->opt->max_iterations, &cost);
     }
     fit->cost = (int)fit->opt->cost;
-    return memcmp(&at_estep, sq, sizeof *sq) != 0;
+    return !sqffd__sq_equal(&at_estep, sq);
 }
 
 /* Keep the SQFFD__SQ_KEEP cheapest starts, sorted by cost. */
