@@ -7,7 +7,7 @@ BUILD    = build
 PREFIX  ?= /usr/local
 
 TEST_SRC = $(filter-out tests/test_main.c tests/test_impl.c,$(wildcard tests/test_*.c))
-TEST_DEP = sqffd.h $(wildcard dev/*.h) $(wildcard tests/*.h) $(wildcard examples/*.h)
+TEST_DEP = sqffd.h $(wildcard tests/*.h) $(wildcard examples/*.h)
 FUZZ_TARGETS = $(patsubst fuzz/%.c,%,$(wildcard fuzz/fuzz_*.c))
 BENCHES = $(patsubst bench/%.c,%,$(wildcard bench/bench_*.c))
 

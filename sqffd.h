@@ -1,7 +1,98 @@
-/* sqffd.h - superquadric + free-form deformation shape fitting - v0.1.0
-   Single-header C library, public domain or MIT (see end of file).
+/* sqffd.h - v0.1.0 - superquadric + free-form deformation shape fitting
+   Public domain or MIT, your choice (see the end of this file).
 
-   DOCUMENTATION BLOCK: filled in at integration (see dev/README.md).
+   Turns 3-D points into a compact global shape model: a superquadric with
+   global tapering (13 numbers), refined by a Bernstein free-form deformation
+   (FFD) of a control lattice, with the two-step inverse algorithm and its
+   regularisation from Bardinet, Cohen & Ayache, "Superquadrics and free-form
+   deformations: a global model to fit and track 3D medical data".
+   Uses libc (<string.h>, <stddef.h>, <stdint.h>) and libm only: no malloc,
+   no FILE, no printf, no globals, no clock. Double precision; deterministic
+   (the same input gives bit-identical output).
+
+   USING IT
+       Copy sqffd.h into your project. In ONE C or C++ file:
+           #define SQFFD_IMPLEMENTATION
+           #include "sqffd.h"
+       Elsewhere include it without the define.
+       SQFFD_STATIC          make every function static (private to one file)
+       SQFFD_DEF             linkage of the public functions (extern/static)
+       SQFFD_ASSERT(x)       programmer-error checks (default: assert); bad
+                             data never asserts, it returns a result code
+       SQFFD_MAX_LATTICE     control points per FFD axis at most (default 8);
+                             sizes sqffd_ffd and sqffd_model at compile time
+
+   MEMORY
+       The library never allocates. Every operation that needs scratch memory
+       comes as a pair:
+           size_t       sqffd_X_workspace_size(...);
+           sqffd_result sqffd_X(..., void *workspace, size_t workspace_size);
+       Hand in at least the reported size, at any alignment (0 from a
+       _workspace_size call means the request is too large to represent).
+       Less is SQFFD_ERROR_WORKSPACE_TOO_SMALL; nothing is ever written past
+       the block or past an output array's documented size. Results (the
+       superquadric, the lattice, the model) are plain structs you can keep on
+       the stack, copy or store.
+
+   RESULTS
+       Every fallible call returns sqffd_result: SQFFD_OK (0) or an error,
+       named by sqffd_result_string(): INVALID_ARGUMENT, NON_FINITE,
+       TOO_FEW_POINTS, DEGENERATE, TOO_LARGE, WORKSPACE_TOO_SMALL,
+       NOT_POSITIVE_DEFINITE, NO_CONVERGENCE, CANCELLED. Options structs come
+       from sqffd_X_options_default(); change the fields you care about. Long
+       operations take a progress callback that may cancel.
+
+   QUICK START
+       sqffd_fit_options opt = sqffd_fit_options_default();
+       size_t size = sqffd_fit_workspace_size(n, &opt);
+       void *ws = malloc(size);                  (or any memory you own)
+       sqffd_model model;
+       sqffd_fit_report report;
+       if (sqffd_fit(points, n, &opt, &model, &report, ws, size) == SQFFD_OK)
+           printf("relative RMS error %g\n", report.error.rms_relative);
+
+   API BY LAYER (each layer uses only the ones above it)
+   Common
+       sqffd_result_string             description of a result code
+   1. Linear algebra
+       sqffd_sym3_eigen                symmetric 3x3 eigen-decomposition (Jacobi)
+       sqffd_cholesky_factor/_solve    Cholesky of an SPD matrix, and solve
+       sqffd_svd(_workspace_size)      one-sided Jacobi SVD (QR-preconditioned)
+       sqffd_svd_solve                 least squares / pseudo-inverse solve
+       sqffd_cg_solve(_workspace_size), sqffd_cg_options_default
+                                       conjugate gradient for SPD systems
+       sqffd_ncg_minimize(_workspace_size)
+                                       nonlinear conjugate gradient with bounds
+   2. kd-tree
+       sqffd_kdtree_build(_workspace_size)   static 3-D tree over your points
+       sqffd_kdtree_nearest / _knn / _radius queries
+   3. Superquadric
+       sqffd_sq_inside_outside         inside-outside function F
+       sqffd_sq_radial_distance        radial (Euclidean-approximating) distance
+       sqffd_sq_point                  surface point and normal at (eta, omega)
+       sqffd_sq_sample_grid            regular (eta, omega) sampling
+       sqffd_sq_sample_uniform         near-equal-distance sampling
+       sqffd_sq_volume, sqffd_sq_iou   volume (closed form), volumetric IoU
+       sqffd_sq_fit(_workspace_size), sqffd_sq_fit_options_default
+                                       the fit (LM or the paper's CG, robust mode)
+   4. Free-form deformation
+       sqffd_ffd_init                  regular lattice in a box
+       sqffd_ffd_local / _eval / _deform / _weights
+                                       local coordinates, Bernstein evaluation
+   5. Model fit
+       sqffd_fit(_workspace_size), sqffd_fit_options_default
+                                       superquadric + FFD two-step fit
+       sqffd_model_init, sqffd_fit_ffd(_workspace_size)
+                                       FFD stage alone from a given model
+       sqffd_model_point, sqffd_model_mesh(_size)
+                                       model surface point, triangle mesh
+       sqffd_model_distances(_workspace_size)
+                                       data-to-model distances ("the error")
+       sqffd_model_reverse_distances(_workspace_size)
+                                       model-to-data distances
+
+   VERSION
+       0.1.0 (2026-11)  first release: layers 1-5
 */
 #ifndef SQFFD_H
 #define SQFFD_H
@@ -63,11 +154,490 @@ typedef enum sqffd_stage {
    (the operation then returns SQFFD_ERROR_CANCELLED). */
 typedef int (*sqffd_progress_fn)(void *user, int stage, int iteration, double error);
 
-#include "dev/1_linalg_api.h"
-#include "dev/2_kdtree_api.h"
-#include "dev/3_superquadric_api.h"
-#include "dev/4_ffd_api.h"
-#include "dev/5_model_api.h"
+/* ======================================================================
+   Layer 1: linear algebra
+   Dense matrices are row-major arrays of doubles. None of these functions
+   allocates; those that need scratch memory take a workspace sized by the
+   matching _workspace_size() function.
+   ====================================================================== */
+
+/* Symmetric 3x3 eigen-decomposition by cyclic Jacobi rotations; exact for
+   repeated eigenvalues (any orthonormal basis of the eigenspace is returned).
+   Only the upper triangle of `a` is read. `values` ascending; the
+   eigenvectors are the COLUMNS of `vectors` (row-major 3x3), orthonormal,
+   with det = +1 (a rotation). Deterministic signs: in columns 0 and 1 the
+   component of largest magnitude is positive, column 2 = col0 x col1.
+   NaN/Inf input gives NaN output (callers validate their data). */
+SQFFD_DEF void sqffd_sym3_eigen(const double a[9], double values[3], double vectors[9]);
+
+/* Cholesky factorisation A = L L^T of an n x n symmetric positive definite
+   matrix, row-major, in place. Only the lower triangle is read; on success
+   the lower triangle holds L and the strict upper triangle is zeroed, so `a`
+   is exactly L. Returns SQFFD_ERROR_INVALID_ARGUMENT (a NULL or n < 1),
+   SQFFD_ERROR_NON_FINITE (NaN/Inf in the lower triangle, nothing written) or
+   SQFFD_ERROR_NOT_POSITIVE_DEFINITE (a pivot <= 0; `a` is then partly
+   overwritten). */
+SQFFD_DEF sqffd_result sqffd_cholesky_factor(double *a, int n);
+
+/* Solves L L^T x = b in place (b becomes x), L from sqffd_cholesky_factor. */
+SQFFD_DEF void sqffd_cholesky_solve(const double *l, int n, double *b);
+
+/* Singular value decomposition A = U diag(s) V^T of a row-major m x n matrix,
+   m >= n >= 1, by Householder QR with column pivoting followed by one-sided
+   Jacobi on R^T (de Rijk pivoting, relative convergence test).
+   u: m x n row-major with orthonormal columns (NULL if not wanted: the
+   rotations are then not accumulated, about half the time); s: n singular
+   values, descending;
+   v: n x n row-major orthogonal (NULL if not wanted). Columns of U and V that
+   belong to zero singular values are completed to orthonormal sets.
+   Accuracy: ||A - U S V^T|| / ||A|| and max |U^T U - I|, |V^T V - I| are
+   ~5e-15 at n = 125; singular values are relatively accurate even for
+   graded columns. Singular values below ~1e-154 * max|a_ij| are returned as exactly
+   0. Deterministic; leaving out u or v does not change the other outputs.
+   Results: SQFFD_ERROR_INVALID_ARGUMENT (a or s NULL, n < 1, m < n),
+   SQFFD_ERROR_TOO_LARGE (sizes not representable), SQFFD_ERROR_NON_FINITE,
+   SQFFD_ERROR_WORKSPACE_TOO_SMALL (workspace NULL or smaller than
+   sqffd_svd_workspace_size(m, n)), SQFFD_ERROR_NO_CONVERGENCE (80 Jacobi
+   sweeps were not enough, never seen in practice; the outputs are still
+   filled). */
+SQFFD_DEF size_t sqffd_svd_workspace_size(int m, int n);
+SQFFD_DEF sqffd_result sqffd_svd(const double *a, int m, int n, double *u, double *s, double *v,
+                                 void *workspace, size_t workspace_size);
+
+/* Least-squares / pseudo-inverse solve x = V diag(1/s_i) U^T b over the
+   singular values s_i > rcond * s_0 (all others are treated as zero), from
+   the output of sqffd_svd (u and v required). b has m entries, x has n,
+   scratch has n doubles. Returns the numerical rank used (0: x = 0). */
+SQFFD_DEF int sqffd_svd_solve(const double *u, const double *s, const double *v, int m, int n,
+                              double rcond, const double *b, double *x, double *scratch);
+
+/* Linear conjugate gradient for a symmetric positive definite system A x = b,
+   A given as a mat-vec callback (y = A x, y never aliases x). */
+typedef void (*sqffd_matvec_fn)(void *user, const double *x, double *y);
+typedef struct sqffd_cg_options {
+    int max_iterations;            /* 0 (default) = 2 n */
+    double tolerance;              /* stop when ||r|| <= tolerance * ||b||, default 1e-10 */
+    const double *jacobi_diagonal; /* diagonal of A for the Jacobi preconditioner, NULL = none (default) */
+} sqffd_cg_options;
+SQFFD_DEF sqffd_cg_options sqffd_cg_options_default(void);
+SQFFD_DEF size_t sqffd_cg_workspace_size(int n);
+/* x: in the starting guess, out the solution. options NULL = defaults.
+   iterations and relative_residual (true ||b - A x|| / ||b||, one extra
+   mat-vec) may be NULL. Results: SQFFD_ERROR_INVALID_ARGUMENT (NULL pointers,
+   n < 1, negative options), SQFFD_ERROR_NON_FINITE (b, x or a mat-vec result),
+   SQFFD_ERROR_NOT_POSITIVE_DEFINITE (p^T A p <= 0, or a preconditioner
+   diagonal entry <= 0), SQFFD_ERROR_NO_CONVERGENCE (limit reached; x holds
+   the last iterate), SQFFD_ERROR_WORKSPACE_TOO_SMALL. */
+SQFFD_DEF sqffd_result sqffd_cg_solve(int n, sqffd_matvec_fn matvec, void *user, const double *b, double *x,
+                                      const sqffd_cg_options *options, int *iterations, double *relative_residual,
+                                      void *workspace, size_t workspace_size);
+
+/* Nonlinear conjugate gradient (Polak-Ribiere+, restarted every n steps or
+   when the direction stops descending) with a bracketing weak-Wolfe line
+   search along the projected path x(t) = project(x + t d).
+   f returns f(x) and writes the gradient. project (may be NULL) clamps x into
+   a feasible set (e.g. a box) in place; it is applied to the start point too.
+   Stops with SQFFD_OK when the projected gradient step is small,
+   ||project(x - g) - x||_inf <= tolerance * (1 + |f|), or when no step can
+   decrease f any more at machine precision; SQFFD_ERROR_NO_CONVERGENCE after
+   max_iterations (x, fx: the last accepted point, usable). progress (may be NULL) is called once per iteration with stage
+   SQFFD_STAGE_SUPERQUADRIC and error = f; non-zero cancels
+   (SQFFD_ERROR_CANCELLED, x = the last accepted point). iterations and fx may be NULL.
+   Other results: SQFFD_ERROR_INVALID_ARGUMENT (NULL f/x, n < 1,
+   max_iterations < 1, tolerance < 0), SQFFD_ERROR_NON_FINITE (x or f/gradient
+   at the start point), SQFFD_ERROR_WORKSPACE_TOO_SMALL. */
+typedef double (*sqffd_objective_fn)(void *user, const double *x, double *gradient);
+typedef void (*sqffd_project_fn)(void *user, double *x);
+SQFFD_DEF size_t sqffd_ncg_workspace_size(int n);
+SQFFD_DEF sqffd_result sqffd_ncg_minimize(int n, sqffd_objective_fn f, sqffd_project_fn project, void *user, double *x,
+                                          int max_iterations, double tolerance, int *iterations, double *fx,
+                                          sqffd_progress_fn progress, void *progress_user,
+                                          void *workspace, size_t workspace_size);
+/* ======================================================================
+   Layer 2: kd-tree
+   ====================================================================== */
+
+/* A static 3-D kd-tree over caller points (x y z doubles, 3 per point,
+   contiguous). It is built into caller memory (sqffd_kdtree_workspace_size())
+   over a permutation of point indices: the points are NOT copied, so they must
+   stay alive and unchanged while the tree is used. Memory: 4 bytes per point
+   for the permutation plus at most one 24-byte node per 2.5 points (under
+   14 bytes per point in all). The fields are readable but belong to the
+   library. A built tree is read-only: any number of threads may query it.
+
+   Splits: the widest side of a node's tight bounding box is cut at its middle
+   (so the cut always lies inside the data), each child keeps at least 5 points
+   (leaves hold 5 to 10, except the root leaf of a tiny set and leaves of
+   identical points, which may be any size), and where those cuts would make
+   the tree deeper than SQFFD_KDTREE_MAX_DEPTH allows the node is split at its
+   median instead, so degenerate spacing (e.g. exponential) keeps O(log n)
+   depth. Every node stores the gap around its cut (the low child's largest
+   and the high child's smallest coordinate on the cut axis). Queries walk the
+   tree without recursion (a stack of SQFFD_KDTREE_MAX_DEPTH entries), nearest
+   side first, and skip a subtree when the sum of the squared per-axis offsets
+   from the query to the gaps crossed on the way there (incremental distance)
+   exceeds the current answer; that sum is added in the same order as a
+   point's distance, so it never exceeds the computed distance of any point
+   in the subtree and no point is missed by rounding.
+
+       size_t size = sqffd_kdtree_workspace_size(n);
+       void *memory = malloc(size);
+       sqffd_kdtree tree;
+       if (sqffd_kdtree_build(&tree, points, n, memory, size) == SQFFD_OK)
+           nearest = sqffd_kdtree_nearest(&tree, query, &dist2);
+
+   Query contract shared by nearest / knn / radius:
+   - distances are squared Euclidean, computed in double (points farther apart
+     than ~1e154 overflow to +inf; results stay defined);
+   - a query with a NaN or infinite coordinate (or a NULL or zeroed tree)
+     finds nothing: nearest returns 0 with *dist2 = NaN, knn and radius
+     return 0;
+   - equal distances are ordered arbitrarily but deterministically (the same
+     tree and query always give the same answer). */
+
+#define SQFFD_KDTREE_MAX_DEPTH 64 /* bound on the leaf depth (and the query stack) */
+
+/* One node, 24 bytes. Nodes are stored depth-first: an inner node's low child
+   is the next node. */
+typedef struct sqffd_kdtree_node {
+    union {
+        struct { double low, high; } split;   /* inner: gap around the cut on `axis` */
+        struct { uint32_t begin, end; } leaf; /* leaf: its points are index[begin..end) */
+    } u;
+    uint32_t high_child; /* inner: node number of the high child; leaf: 0 */
+    uint32_t axis;       /* inner: cut axis 0, 1 or 2; leaf: SQFFD_KDTREE_LEAF */
+} sqffd_kdtree_node;
+
+#define SQFFD_KDTREE_LEAF 3u
+
+typedef struct sqffd_kdtree {
+    const double *points;    /* the caller's points (not copied) */
+    size_t count;            /* number of points */
+    uint32_t *index;         /* permutation of 0..count-1; every leaf's points are one range */
+    sqffd_kdtree_node *nodes;/* node 0 is the root */
+    size_t node_count;       /* nodes used: 1 if count <= 10, else at most 2 (count / 5) - 1 */
+    double bbox[2][3];       /* bounding box of all points: [0] = min corner, [1] = max corner */
+} sqffd_kdtree;
+
+/* Workspace bytes sqffd_kdtree_build() needs for n points (the tree lives in
+   it). 0 if n is 0 or beyond what the tree can index (n > UINT32_MAX). */
+SQFFD_DEF size_t sqffd_kdtree_workspace_size(size_t n);
+
+/* Builds the tree over points[0 .. 3n) into the workspace (any alignment).
+   Returns SQFFD_ERROR_INVALID_ARGUMENT (tree, points or workspace NULL, or
+   n == 0), SQFFD_ERROR_NON_FINITE (a NaN or infinite coordinate),
+   SQFFD_ERROR_TOO_LARGE (n > UINT32_MAX) or SQFFD_ERROR_WORKSPACE_TOO_SMALL;
+   on error *tree is zeroed. Deterministic: the same points give the same tree. */
+SQFFD_DEF sqffd_result sqffd_kdtree_build(sqffd_kdtree *tree, const double *points, size_t n,
+                                          void *workspace, size_t workspace_size);
+
+/* Index (into the caller's points) of the point nearest to query; its squared
+   distance goes to *dist2 when dist2 is not NULL. */
+SQFFD_DEF size_t sqffd_kdtree_nearest(const sqffd_kdtree *tree, const double query[3], double *dist2);
+
+/* The k nearest points, by increasing distance: writes min(k, n) indices and
+   squared distances (both arrays have room for k) and returns min(k, n);
+   0 if k == 0 or an argument is NULL. */
+SQFFD_DEF size_t sqffd_kdtree_knn(const sqffd_kdtree *tree, const double query[3], size_t k,
+                                  size_t *indices, double *dist2);
+
+/* Points within `radius` of query (distance <= radius): returns how many there
+   are, and writes the min(that, capacity) nearest of them by increasing
+   distance to indices and dist2 (both with room for capacity). capacity 0
+   only counts (the arrays may then be NULL). A negative or NaN radius finds
+   nothing. */
+SQFFD_DEF size_t sqffd_kdtree_radius(const sqffd_kdtree *tree, const double query[3], double radius,
+                                     size_t *indices, double *dist2, size_t capacity);
+/* ======================================================================
+   Layer 3: superquadric with global tapering
+   ====================================================================== */
+
+/* A superellipsoid in its own frame, tapered along its local z, then
+   rotated and moved:
+     local surface at (eta, omega), eta in [-pi/2, pi/2], omega in [-pi, pi]:
+       x = a1 c(eta)^e1 c(omega)^e2,  y = a2 c(eta)^e1 s(omega)^e2,  z = a3 s(eta)^e1
+       (signed powers: c^e = sign(cos) |cos|^e)
+     tapering (Solina): X = (Kx z / a3 + 1) x,  Y = (Ky z / a3 + 1) y,  Z = z
+     world = rotation * (X, Y, Z) + center
+   rotation is row-major and its COLUMNS are the local x, y, z axes in world
+   coordinates (a proper rotation, det +1). */
+typedef struct sqffd_superquadric {
+    double size[3];     /* a1, a2, a3 > 0: half-extents along the local axes */
+    double shape[2];    /* e1 (north-south, along local z), e2 (east-west) */
+    double taper[2];    /* Kx, Ky, |K| < 1 */
+    double rotation[9];
+    double center[3];
+} sqffd_superquadric;
+
+/* Inside-outside function F (tapering undone first): < 1 inside, 1 on the
+   surface, > 1 outside. Computed in logarithms; may be +inf far away. */
+SQFFD_DEF double sqffd_sq_inside_outside(const sqffd_superquadric *sq, const double point[3]);
+/* Radial distance: |u| |1 - F^(-e1/2)|, u the point in the untapered local
+   frame: the distance along the ray from the centre (an approximation of the
+   Euclidean distance that is exact for spheres). */
+SQFFD_DEF double sqffd_sq_radial_distance(const sqffd_superquadric *sq, const double point[3]);
+/* World surface point and outward unit normal at (eta, omega); normal may be
+   NULL. The normal is analytic (finite at the poles and for small e). */
+SQFFD_DEF void sqffd_sq_point(const sqffd_superquadric *sq, double eta, double omega, double point[3], double normal[3]);
+/* Regular grid: n_eta rows from eta = -pi/2 to pi/2 (poles included), n_omega
+   columns from omega = -pi (included) to pi (excluded); row-major, point
+   (i, j) at index i * n_omega + j. normals may be NULL. INVALID_ARGUMENT for
+   NULL sq/points, n_eta < 2 or n_omega < 1; TOO_LARGE if 3 n_eta n_omega
+   doubles do not fit a size_t. */
+SQFFD_DEF sqffd_result sqffd_sq_sample_grid(const sqffd_superquadric *sq, int n_eta, int n_omega, double *points, double *normals);
+/* Near-equal-distance sampling (after Pilu & Fisher): rows of constant eta
+   about `spacing` apart (measured on the longest of eight meridians), each
+   row walked in omega with steps of about `spacing` (each step searched so
+   its chord is the spacing within 10%), so flat and pointy shapes are
+   covered evenly. Like Pilu & Fisher's product sampling, a shape much
+   longer in x or y than its meridians are elsewhere gets its rows closer
+   than `spacing` where the meridians are short. Returns how many points the
+   sampling has and writes at most `capacity` of them (points may be NULL
+   with capacity 0 to count). Returns 0 for an invalid superquadric, a
+   spacing that is not positive and finite, or one so small that the count
+   could pass ~1e8. */
+SQFFD_DEF size_t sqffd_sq_sample_uniform(const sqffd_superquadric *sq, double spacing, double *points, size_t capacity);
+/* Enclosed volume: a1 a2 a3 e1 e2 B(e2/2, e2/2) [B(e1/2, e1+1) + Kx Ky B(3 e1/2, e1+1)]
+   (the untapered 2 a1 a2 a3 e1 e2 B(e1/2+1, e1) B(e2/2, e2/2), plus the
+   tapering's term from the second moment of the cross-sections in z). */
+SQFFD_DEF double sqffd_sq_volume(const sqffd_superquadric *sq);
+/* Deterministic volumetric intersection-over-union of two superquadrics,
+   counted at the cell centres of a resolution^3 grid over the union of
+   their bounding boxes (48-64 resolve ~0.5%). -1 for NULL, an invalid
+   superquadric or resolution < 1. */
+SQFFD_DEF double sqffd_sq_iou(const sqffd_superquadric *a, const sqffd_superquadric *b, int resolution);
+
+typedef enum sqffd_sq_cost {
+    SQFFD_SQ_COST_SOLINA = 0, /* sqrt(a1 a2 a3) (F^e1 - 1): the paper's equation (1) family (default) */
+    SQFFD_SQ_COST_RADIAL = 1  /* radial distance */
+} sqffd_sq_cost;
+
+typedef enum sqffd_sq_optimizer {
+    SQFFD_SQ_OPTIMIZER_LM = 0, /* Levenberg-Marquardt, analytic Jacobian (default) */
+    SQFFD_SQ_OPTIMIZER_CG = 1  /* the paper's conjugate-gradient descent */
+} sqffd_sq_optimizer;
+
+typedef struct sqffd_sq_fit_options {
+    sqffd_sq_cost cost;           /* residual of the plain fit (default SOLINA) */
+    sqffd_sq_optimizer optimizer; /* default LM */
+    int taper;                 /* non-zero (default): fit Kx, Ky (13 parameters); 0: 11 parameters, K = 0 */
+    double shape_min, shape_max; /* bounds on e1, e2 (default 0.1, 1.9; 0.01 <= min <= max <= 4) */
+    double taper_max;          /* |K| bound (default 0.95, < 1) */
+    int max_iterations;        /* per optimiser run (default 100; the CG gets 4 times as many) */
+    double tolerance;          /* relative cost decrease that counts as converged (default 1e-5) */
+    int robust;                /* non-zero: outlier-robust mode (Gaussian + uniform mixture weights) */
+    int robust_rounds;         /* EM rounds in robust mode (default 4) */
+    sqffd_progress_fn progress;   /* called once per optimiser iteration (may be NULL) */
+    void *progress_user;
+} sqffd_sq_fit_options;
+
+typedef struct sqffd_sq_fit_report {
+    int iterations;       /* total optimiser iterations over all starts and rounds */
+    double cost;          /* final sum of (inlier-weighted) squared residuals of `cost`, in data units */
+    double rms_radial;    /* RMS radial distance of the (inlier-weighted) points, data units */
+    int start;            /* which start won (0 = principal axes as found, e = 1, 1) */
+    int converged;        /* the last optimiser run met its tolerance */
+    double inlier_fraction; /* robust mode: sum of weights / n; 1 otherwise */
+} sqffd_sq_fit_report;
+
+/* Fewest points sqffd_sq_fit accepts (one per parameter). */
+#define SQFFD_SQ_FIT_MIN_POINTS 13
+
+SQFFD_DEF sqffd_sq_fit_options sqffd_sq_fit_options_default(void);
+/* Bytes of workspace a fit of n points needs with these options (NULL =
+   defaults); 0 when that size cannot be represented. */
+SQFFD_DEF size_t sqffd_sq_fit_workspace_size(size_t n, const sqffd_sq_fit_options *options);
+/* Fit a superquadric to n points (x y z each); options NULL = defaults,
+   report may be NULL. The data are normalised (centroid, RMS radius); the
+   starts come from the moments of inertia (each principal axis as the local
+   z, several (e1, e2) seeds, axes turned 45 degrees where two eigenvalues
+   are close), are screened on a small subsample, the best run to
+   convergence on a larger one, then on all points. Robust mode starts from
+   the points that are not isolated (a nearest-neighbour density test),
+   ranks the best starts on them, and alternates EM re-weighting with
+   weighted fits of the radial distance (on the larger subsample, then on
+   all points). A fit whose RMS radial distance exceeds 5% of its mean size
+   (data that are no superquadric) is kept within the data's box enlarged by
+   25%; a close fit may reach past it (a partial view). Deterministic.
+   Results: INVALID_ARGUMENT (NULL points/sq, bad options), TOO_FEW_POINTS
+   (n < SQFFD_SQ_FIT_MIN_POINTS), WORKSPACE_TOO_SMALL (also a NULL workspace),
+   NON_FINITE, DEGENERATE (coincident, collinear or coplanar: smallest
+   covariance eigenvalue <= 1e-10 of the largest), CANCELLED. On failure
+   *sq and *report are not written. */
+SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_sq_fit_options *options,
+                                    sqffd_superquadric *sq, sqffd_sq_fit_report *report,
+                                    void *workspace, size_t workspace_size);
+/* ======================================================================
+   Layer 4: free-form deformation (Bernstein lattice)
+   ====================================================================== */
+
+#ifndef SQFFD_MAX_LATTICE
+#define SQFFD_MAX_LATTICE 8 /* control points per axis at most; bounds sqffd_ffd's size */
+#endif
+
+/* A box (origin + three edge vectors, not necessarily orthogonal) holding an
+   l x m x n lattice of control points (Sederberg & Parry); a point with local
+   coordinates (s, t, u) maps to
+     sum_ijk B_i^{l-1}(s) B_j^{m-1}(t) B_k^{n-1}(u) P_ijk,
+   B_i^d(s) = C(d, i) s^i (1 - s)^(d - i). Points outside the box (s, t, u
+   outside [0, 1]) follow the same polynomial (no clamping), so the map is
+   smooth everywhere; far outside, rounding grows like (|s| + |1 - s|)^degree
+   (the weights alternate in sign). The weights come from de Casteljau's
+   recurrence: on a face (s = 0 or 1) only that face's control points act,
+   and a corner lands exactly on its corner control point. */
+typedef struct sqffd_ffd {
+    int dims[3];       /* l, m, n: control points per axis, 2..SQFFD_MAX_LATTICE */
+    double origin[3];  /* the box corner at (s, t, u) = (0, 0, 0) */
+    double edges[9];   /* row-major: rows are the edge vectors S, T, U */
+    double inverse[9]; /* set by sqffd_ffd_init: rows T x U, U x S, S x T over det, so stu = inverse (p - origin) */
+    double control[SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE][3]; /* P_ijk at (i * m + j) * n + k */
+} sqffd_ffd;
+
+/* The regular lattice P0: P_ijk = origin + i/(l-1) S + j/(m-1) T + k/(n-1) U,
+   which maps every point to itself (linear precision of Bernstein polynomials).
+   INVALID_ARGUMENT for NULL or dims out of range, NON_FINITE, DEGENERATE for a
+   flat box (|det| <= 1e-12 |S| |T| |U|). */
+SQFFD_DEF sqffd_result sqffd_ffd_init(sqffd_ffd *ffd, const int dims[3], const double origin[3], const double edges[9]);
+/* Local (s, t, u) of a world point. */
+SQFFD_DEF void sqffd_ffd_local(const sqffd_ffd *ffd, const double point[3], double stu[3]);
+/* The deformed position of local coordinates (s, t, u). */
+SQFFD_DEF void sqffd_ffd_eval(const sqffd_ffd *ffd, const double stu[3], double out[3]);
+/* Forward deformation of a world point: eval(local(point)). */
+SQFFD_DEF void sqffd_ffd_deform(const sqffd_ffd *ffd, const double point[3], double out[3]);
+/* One row of the matrix B: the l*m*n Bernstein products at (s, t, u), in control-point order. */
+SQFFD_DEF void sqffd_ffd_weights(const int dims[3], const double stu[3], double *weights);
+/* ======================================================================
+   Layer 5: model fit (superquadric + FFD, the paper's two-step algorithm)
+   ====================================================================== */
+
+/* The global shape model: 13 superquadric numbers plus the control lattice.
+   Model point (eta, omega) = FFD(superquadric point (eta, omega)).
+   The model's grid (n_eta x n_omega) places its model points and its mesh:
+   vertex i * n_omega + j is (eta_i, omega_j) with eta_i = -pi/2 + (i + 1) pi /
+   (n_eta + 1) (rows strictly between the poles, evenly spaced with them) and
+   omega_j = -pi + 2 pi j / n_omega; then the south pole (eta = -pi/2) and the
+   north pole (eta = pi/2): n_eta n_omega + 2 vertices, 2 n_eta n_omega
+   triangles (quads split along their (i, j)-(i+1, j+1) diagonal, fans at the
+   poles, outward-facing for a proper superquadric).
+
+   THE ERROR (used everywhere: report, history, progress, distances): for each
+   data point, its Euclidean distance to the model's triangle mesh on the
+   model's grid, taken as the exact distance to the nearest of the triangles
+   around the mesh vertex nearest to the point; the RMS of these over the
+   points, and relative = that RMS divided by the diagonal of the data's
+   axis-aligned bounding box. */
+typedef struct sqffd_model {
+    sqffd_superquadric sq;
+    sqffd_ffd ffd;
+    int grid[2]; /* n_eta >= 2, n_omega >= 3: the model-point grid of the fit and of the error's mesh */
+} sqffd_model;
+
+typedef enum sqffd_regularization {
+    SQFFD_REG_DISPLACEMENT = 0, /* alpha ||D (P - P0)||^2: springs on the control-point displacements; keeps the box regular without shrinking it (default) */
+    SQFFD_REG_POSITION = 1      /* alpha ||D P||^2: the paper's zero-length springs between lattice neighbours (also shrinks the box) */
+} sqffd_regularization;
+
+typedef enum sqffd_solver {
+    SQFFD_SOLVER_CHOLESKY = 0,  /* Cholesky factor of the normal matrix B^T B + a D^T D, built and factored once (default; needs alpha > 0 where B alone is rank-deficient) */
+    SQFFD_SOLVER_SVD = 1        /* SVD of the stacked [B; sqrt(a) D], once, as in the paper: pseudo-inverse solution, singular values below 1e-10 of the largest dropped (rank-deficient B is fine, alpha may be 0) */
+} sqffd_solver;
+
+typedef struct sqffd_fit_options {
+    sqffd_sq_fit_options sq;     /* stage 1 (its progress defaults to the one below) */
+    int lattice[3];              /* control points per axis, 2..SQFFD_MAX_LATTICE (default 5 x 5 x 5) */
+    double box_margin;           /* box = the tapered superquadric's local bounding box, axes along its axes, grown by this fraction per side (default 0.1) */
+    int grid[2];                 /* model-point grid n_eta x n_omega (default 32 x 64: 2,050 model points) */
+    double alpha;                /* regularisation weight >= 0 (default 1e-5); the solver uses a = alpha M / L (M model points, L control points), i.e. alpha weighs the mean spring energy per control point against the mean squared residual per model point */
+    sqffd_regularization regularization;
+    sqffd_solver solver;
+    int max_iterations;          /* two-step iterations (default 30) */
+    double tolerance;            /* stop when RMS ||X_{n+1} - X_n|| / diagonal <= this (default 1e-4; 0 = always max_iterations) */
+    int symmetric;               /* non-zero: also pull model points toward their closest data points (X^a halfway between step 1's target and the closest data point; builds a tree over the data) */
+    size_t sq_max_points;        /* stage 1 runs on an even subsample of at most this many points (default 20,000; 0 = all) */
+    size_t ffd_max_points;       /* the FFD iterations run on an even subsample of at most this many points (default 200,000; 0 = all); report.error is always over all points */
+    sqffd_progress_fn progress;  /* per FFD iteration k = 1, 2, ...: stage SQFFD_STAGE_FFD, error = relative RMS error after it */
+    void *progress_user;
+} sqffd_fit_options;
+
+/* Distances from points to a model, and their statistics. */
+typedef struct sqffd_distance_stats {
+    double rms, mean, max;       /* absolute, in the data's units */
+    double diagonal;             /* the data's bounding-box diagonal */
+    double rms_relative, mean_relative, max_relative; /* divided by diagonal */
+} sqffd_distance_stats;
+
+#define SQFFD_FIT_HISTORY 64 /* iterations whose error the report keeps */
+
+typedef struct sqffd_fit_report {
+    sqffd_sq_fit_report sq;        /* stage 1 (sqffd_fit only) */
+    sqffd_distance_stats sq_error; /* data -> starting model: the superquadric alone for sqffd_fit */
+    sqffd_distance_stats error;    /* data -> final model ("the error") */
+    int iterations;                /* two-step iterations done */
+    int converged;                 /* the tolerance was reached */
+    double step;                   /* RMS move of the model points in the last iteration / diagonal */
+    int history_count;
+    double history[SQFFD_FIT_HISTORY]; /* relative RMS error after iteration 1, 2, ... (over the FFD subsample) */
+} sqffd_fit_report;
+
+SQFFD_DEF sqffd_fit_options sqffd_fit_options_default(void);
+SQFFD_DEF size_t sqffd_fit_workspace_size(size_t n, const sqffd_fit_options *options);
+/* Fit the model to n points (x y z each): the superquadric fit, a box around
+   it with the regular lattice P0, model points X0 = B P0 on the grid, then the
+   two-step iteration: (1) each data point's closest point on the model
+   surface (the mesh of the model points: nearest model point by kd-tree, then
+   the triangles around it, as for the error; searched afresh only where the
+   model's moves since the previous iteration could have changed the answer,
+   which gives the same answer); its displacement to the data
+   point is spread over that triangle's three model points with the
+   barycentric weights and averaged per model point; model points no data
+   point reached are filled by interpolation over the mesh (breadth-first from
+   the reached ones, then neighbour averaging; wraps in omega, the poles are
+   mesh vertices); X^a = X + displacement; (2) control points minimising
+   ||B P - X^a||^2 + a ||D (P - P0)||^2 (or ||D P||^2), X = B P.
+   report may be NULL. Results: INVALID_ARGUMENT (NULL, lattice out of range,
+   grid too coarse to mesh, alpha < 0 or NaN, bad options), TOO_LARGE (grid),
+   NON_FINITE, TOO_FEW_POINTS, DEGENERATE, WORKSPACE_TOO_SMALL, CANCELLED,
+   NOT_POSITIVE_DEFINITE (Cholesky with alpha = 0 on a rank-deficient B), and
+   whatever sqffd_sq_fit rejects. */
+SQFFD_DEF sqffd_result sqffd_fit(const double *points, size_t n, const sqffd_fit_options *options,
+                                 sqffd_model *model, sqffd_fit_report *report,
+                                 void *workspace, size_t workspace_size);
+
+/* A model around a given superquadric: the box, the regular lattice P0
+   (options->lattice, box_margin) and the grid (options->grid); the model
+   surface is then the superquadric itself. */
+SQFFD_DEF sqffd_result sqffd_model_init(sqffd_model *model, const sqffd_superquadric *sq, const sqffd_fit_options *options);
+/* Stage 2 alone: the two-step iteration starting from the model as given (its
+   superquadric, box, grid and current control points; the springs' rest
+   state P0 is its box's regular lattice). options' lattice, grid, box_margin
+   and sq are not used. report->sq_error is the starting model's error. */
+SQFFD_DEF size_t sqffd_fit_ffd_workspace_size(size_t n, const sqffd_model *model, const sqffd_fit_options *options);
+SQFFD_DEF sqffd_result sqffd_fit_ffd(const double *points, size_t n, const sqffd_fit_options *options, sqffd_model *model,
+                                     sqffd_fit_report *report, void *workspace, size_t workspace_size);
+
+/* The model surface point at (eta, omega). */
+SQFFD_DEF void sqffd_model_point(const sqffd_model *model, double eta, double omega, double point[3]);
+/* Triangle mesh of the model surface on an n_eta x n_omega grid laid out as
+   above (closed, poles included): n_eta n_omega + 2 vertices (x y z each),
+   2 n_eta n_omega triangles (3 uint32 indices each). INVALID_ARGUMENT when
+   n_eta < 2 or n_omega < 3, TOO_LARGE beyond 65,536 per axis or 2^32 vertices.
+   vertices or triangles may be NULL. */
+SQFFD_DEF sqffd_result sqffd_model_mesh_size(int n_eta, int n_omega, size_t *vertex_count, size_t *triangle_count);
+SQFFD_DEF sqffd_result sqffd_model_mesh(const sqffd_model *model, int n_eta, int n_omega, double *vertices, uint32_t *triangles);
+/* Data-to-model distance of each point ("the error"; per_point may be NULL)
+   and statistics, on the model's grid mesh. */
+SQFFD_DEF size_t sqffd_model_distances_workspace_size(size_t n, const sqffd_model *model);
+SQFFD_DEF sqffd_result sqffd_model_distances(const sqffd_model *model, const double *points, size_t n,
+                                             double *per_point, sqffd_distance_stats *stats,
+                                             void *workspace, size_t workspace_size);
+/* Model-to-data: for each vertex of the model's grid mesh, the distance to
+   the nearest data point (per_vertex may be NULL), statistics relative to the
+   data's diagonal. Shows whether parts of the model wander off where there is
+   no data. The workspace holds a tree over the data. */
+SQFFD_DEF size_t sqffd_model_reverse_distances_workspace_size(size_t n, const sqffd_model *model);
+SQFFD_DEF sqffd_result sqffd_model_reverse_distances(const sqffd_model *model, const double *points, size_t n,
+                                                     double *per_vertex, sqffd_distance_stats *stats,
+                                                     void *workspace, size_t workspace_size);
 
 #ifdef __cplusplus
 }
@@ -106,34 +676,37 @@ SQFFD_DEF const char *sqffd_result_string(sqffd_result result)
 
 /* ---- Workspace arena ------------------------------------------------------
    Every operation that needs scratch memory lays it out with one function
-   that takes blocks from an arena. Run over a NULL base it only measures
-   (that is what sqffd_X_workspace_size() does); run over the caller's block it
-   hands out 16-byte aligned pieces. One layout function per operation keeps
-   the size and the carving from ever disagreeing. */
+   that takes blocks from an arena. Over a measuring arena it only adds up
+   sizes (that is what sqffd_X_workspace_size() does); over the caller's block
+   it hands out 16-byte aligned pieces. One layout function per operation
+   keeps the size and the carving from ever disagreeing. */
 #define SQFFD__ALIGN 16u
 
 typedef struct sqffd__arena {
     unsigned char *base; /* NULL while measuring, else 16-byte aligned */
-    size_t size;         /* usable bytes from base (ignored while measuring) */
+    size_t size;         /* usable bytes from base */
     size_t used;
     int overflow;        /* a request did not fit, or its size overflowed */
 } sqffd__arena;
 
-/* The caller's block loses up to 15 bytes to alignment; exactly SQFFD__ALIGN
-   are always set aside for it, so a block of the measured size works at any
-   address and one byte less fails at any address. */
-static void sqffd__arena_init(sqffd__arena *a, void *memory, size_t size)
+static void sqffd__arena_measure(sqffd__arena *a)
 {
     a->base = NULL;
     a->size = 0;
     a->used = 0;
     a->overflow = 0;
-    if (memory) {
-        size_t mis = (size_t)((uintptr_t)memory % SQFFD__ALIGN);
-        if (size < SQFFD__ALIGN) { a->overflow = 1; return; }
-        a->base = (unsigned char *)memory + (mis ? SQFFD__ALIGN - mis : 0);
-        a->size = size - SQFFD__ALIGN;
-    }
+}
+
+/* The caller's block loses up to 15 bytes to alignment; exactly SQFFD__ALIGN
+   are always set aside for it, so a block of the measured size works at any
+   address and one byte less fails at any address. A NULL block has no room. */
+static void sqffd__arena_init(sqffd__arena *a, void *memory, size_t size)
+{
+    size_t mis = (size_t)((uintptr_t)memory % SQFFD__ALIGN);
+    sqffd__arena_measure(a);
+    if (!memory || size < SQFFD__ALIGN) { a->overflow = 1; return; }
+    a->base = (unsigned char *)memory + (mis ? SQFFD__ALIGN - mis : 0);
+    a->size = size - SQFFD__ALIGN;
 }
 
 /* count * elem bytes, aligned; NULL while measuring or when out of room. */
@@ -162,11 +735,4163 @@ static int sqffd__finite3(const double *p)
     return isfinite(p[0]) && isfinite(p[1]) && isfinite(p[2]);
 }
 
-#include "dev/1_linalg_impl.h"
-#include "dev/2_kdtree_impl.h"
-#include "dev/3_superquadric_impl.h"
-#include "dev/4_ffd_impl.h"
-#include "dev/5_model_impl.h"
+/* ======================================================================
+   Layer 1: linear algebra
+   ====================================================================== */
+
+/* ---- 3-vectors and row-major 3x3 matrices (private helpers) ---- */
+static double sqffd__dot3(const double a[3], const double b[3])
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+static void sqffd__sub3(const double a[3], const double b[3], double out[3])
+{
+    out[0] = a[0] - b[0]; out[1] = a[1] - b[1]; out[2] = a[2] - b[2];
+}
+
+static void sqffd__cross3(const double a[3], const double b[3], double out[3])
+{
+    double x = a[1] * b[2] - a[2] * b[1];
+    double y = a[2] * b[0] - a[0] * b[2];
+    double z = a[0] * b[1] - a[1] * b[0];
+    out[0] = x; out[1] = y; out[2] = z;
+}
+
+static double sqffd__dist2_3(const double a[3], const double b[3])
+{
+    double dx = a[0] - b[0], dy = a[1] - b[1], dz = a[2] - b[2];
+    return dx * dx + dy * dy + dz * dz;
+}
+
+/* out = M v (out may alias v) */
+static void sqffd__mat3_vec(const double m[9], const double v[3], double out[3])
+{
+    double x = m[0] * v[0] + m[1] * v[1] + m[2] * v[2];
+    double y = m[3] * v[0] + m[4] * v[1] + m[5] * v[2];
+    double z = m[6] * v[0] + m[7] * v[1] + m[8] * v[2];
+    out[0] = x; out[1] = y; out[2] = z;
+}
+
+/* out = M^T v (out may alias v) */
+static void sqffd__mat3t_vec(const double m[9], const double v[3], double out[3])
+{
+    double x = m[0] * v[0] + m[3] * v[1] + m[6] * v[2];
+    double y = m[1] * v[0] + m[4] * v[1] + m[7] * v[2];
+    double z = m[2] * v[0] + m[5] * v[1] + m[8] * v[2];
+    out[0] = x; out[1] = y; out[2] = z;
+}
+
+/* ---- Symmetric 3x3 eigen-decomposition (cyclic Jacobi) ---- */
+
+/* Rotation in the (p, q) plane that zeroes m[p][q]; v accumulates columns. */
+static void sqffd__la_jacobi3_rotate(double m[9], double v[9], int p, int q)
+{
+    double apq = m[3 * p + q], app = m[3 * p + p], aqq = m[3 * q + q];
+    double theta, t, c, s;
+    int k;
+    theta = (aqq - app) / (2.0 * apq);
+    /* t = tan of the rotation angle, the smaller root of t^2 + 2 theta t - 1 */
+    if (fabs(theta) > 1e150) t = 0.5 / theta;
+    else t = (theta >= 0.0 ? 1.0 : -1.0) / (fabs(theta) + sqrt(theta * theta + 1.0));
+    c = 1.0 / sqrt(t * t + 1.0);
+    s = t * c;
+    for (k = 0; k < 3; ++k) { /* columns p, q of m */
+        double mkp = m[3 * k + p], mkq = m[3 * k + q];
+        m[3 * k + p] = c * mkp - s * mkq;
+        m[3 * k + q] = s * mkp + c * mkq;
+    }
+    for (k = 0; k < 3; ++k) { /* rows p, q of m */
+        double mpk = m[3 * p + k], mqk = m[3 * q + k];
+        m[3 * p + k] = c * mpk - s * mqk;
+        m[3 * q + k] = s * mpk + c * mqk;
+    }
+    m[3 * p + q] = m[3 * q + p] = 0.0;
+    m[3 * p + p] = app - t * apq;
+    m[3 * q + q] = aqq + t * apq;
+    for (k = 0; k < 3; ++k) {
+        double vkp = v[3 * k + p], vkq = v[3 * k + q];
+        v[3 * k + p] = c * vkp - s * vkq;
+        v[3 * k + q] = s * vkp + c * vkq;
+    }
+}
+
+/* Flip a column so that its component of largest magnitude is positive. */
+static void sqffd__la_sign_column3(double v[9], int col)
+{
+    int k, big = 0;
+    for (k = 1; k < 3; ++k)
+        if (fabs(v[3 * k + col]) > fabs(v[3 * big + col])) big = k;
+    if (v[3 * big + col] < 0.0)
+        for (k = 0; k < 3; ++k) v[3 * k + col] = -v[3 * k + col];
+}
+
+SQFFD_DEF void sqffd_sym3_eigen(const double a[9], double values[3], double vectors[9])
+{
+    static const int pairs[3][2] = {{0, 1}, {0, 2}, {1, 2}};
+    double m[9], v[9], c0[3], c1[3], c2[3];
+    int sweep, i, j, k, order[3];
+    for (i = 0; i < 3; ++i)
+        for (j = 0; j < 3; ++j) {
+            m[3 * i + j] = i <= j ? a[3 * i + j] : a[3 * j + i];
+            v[3 * i + j] = i == j ? 1.0 : 0.0;
+        }
+    for (sweep = 0; sweep < 64; ++sweep) {
+        int rotated = 0;
+        for (k = 0; k < 3; ++k) {
+            int p = pairs[k][0], q = pairs[k][1];
+            double apq = m[3 * p + q], g = 100.0 * fabs(apq);
+            if (apq == 0.0) continue;
+            /* negligible next to both diagonal entries: drop it */
+            if (fabs(m[3 * p + p]) + g == fabs(m[3 * p + p]) && fabs(m[3 * q + q]) + g == fabs(m[3 * q + q])) {
+                m[3 * p + q] = m[3 * q + p] = 0.0;
+                continue;
+            }
+            sqffd__la_jacobi3_rotate(m, v, p, q);
+            rotated = 1;
+        }
+        if (!rotated) break;
+    }
+    /* ascending order */
+    order[0] = 0; order[1] = 1; order[2] = 2;
+    for (i = 0; i < 2; ++i)
+        for (j = 0; j < 2 - i; ++j)
+            if (m[3 * order[j + 1] + order[j + 1]] < m[3 * order[j] + order[j]]) {
+                int t = order[j]; order[j] = order[j + 1]; order[j + 1] = t;
+            }
+    for (i = 0; i < 3; ++i) {
+        values[i] = m[3 * order[i] + order[i]];
+        for (k = 0; k < 3; ++k) vectors[3 * k + i] = v[3 * k + order[i]];
+    }
+    sqffd__la_sign_column3(vectors, 0);
+    sqffd__la_sign_column3(vectors, 1);
+    for (k = 0; k < 3; ++k) { c0[k] = vectors[3 * k]; c1[k] = vectors[3 * k + 1]; }
+    sqffd__cross3(c0, c1, c2);
+    for (k = 0; k < 3; ++k) vectors[3 * k + 2] = c2[k];
+}
+
+/* ---- Dense vector kernels ---- */
+
+/* restrict lets compilers vectorise the kernels at -O2 (no alias checks) */
+#ifdef __cplusplus
+#define SQFFD__LA_RESTRICT __restrict
+#else
+#define SQFFD__LA_RESTRICT restrict
+#endif
+
+/* IEEE double constants (the core includes no <float.h>) */
+#define SQFFD__LA_EPS 2.220446049250313080847e-16        /* DBL_EPSILON */
+#define SQFFD__LA_MIN_NORMAL 2.225073858507201383090e-308 /* DBL_MIN */
+
+/* x . y with four partial sums: fixed summation order (deterministic) and
+   enough independent additions to keep the FPU busy without -ffast-math. */
+static double sqffd__la_dot(const double *x, const double *y, size_t n)
+{
+    double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
+    size_t k;
+    for (k = 0; k + 4 <= n; k += 4) {
+        s0 += x[k] * y[k];
+        s1 += x[k + 1] * y[k + 1];
+        s2 += x[k + 2] * y[k + 2];
+        s3 += x[k + 3] * y[k + 3];
+    }
+    for (; k < n; ++k) s0 += x[k] * y[k];
+    return (s0 + s1) + (s2 + s3);
+}
+
+/* y += alpha x. Unrolled by four like the rotation below: GCC's -O2
+   vectoriser turns the four statements into one SIMD operation, while it
+   leaves the plain loop (which would need a remainder loop) scalar. */
+static void sqffd__la_axpy(double *SQFFD__LA_RESTRICT y, double alpha, const double *SQFFD__LA_RESTRICT x, size_t n)
+{
+    size_t k;
+    for (k = 0; k + 4 <= n; k += 4) {
+        y[k] += alpha * x[k];
+        y[k + 1] += alpha * x[k + 1];
+        y[k + 2] += alpha * x[k + 2];
+        y[k + 3] += alpha * x[k + 3];
+    }
+    for (; k < n; ++k) y[k] += alpha * x[k];
+}
+
+/* ---- Cholesky ---- */
+
+SQFFD_DEF sqffd_result sqffd_cholesky_factor(double *a, int n)
+{
+    size_t nn, i, j;
+    if (!a || n < 1) return SQFFD_ERROR_INVALID_ARGUMENT;
+    nn = (size_t)n;
+    for (i = 0; i < nn; ++i)
+        for (j = 0; j <= i; ++j)
+            if (!isfinite(a[i * nn + j])) return SQFFD_ERROR_NON_FINITE;
+    /* Row by row (Cholesky-Crout): L[i][j] = (A[i][j] - L[i][:j].L[j][:j]) / L[j][j];
+       both dot operands are contiguous rows. */
+    for (i = 0; i < nn; ++i) {
+        double *li = a + i * nn;
+        for (j = 0; j <= i; ++j) {
+            const double *lj = a + j * nn;
+            double sum = li[j] - sqffd__la_dot(li, lj, j);
+            if (j < i) {
+                li[j] = sum / lj[j];
+            } else {
+                if (!(sum > 0.0) || !isfinite(sum)) return SQFFD_ERROR_NOT_POSITIVE_DEFINITE;
+                li[i] = sqrt(sum);
+            }
+        }
+        for (j = i + 1; j < nn; ++j) li[j] = 0.0;
+    }
+    return SQFFD_OK;
+}
+
+SQFFD_DEF void sqffd_cholesky_solve(const double *l, int n, double *b)
+{
+    size_t nn = (size_t)n, i;
+    SQFFD_ASSERT(l && b && n >= 1);
+    for (i = 0; i < nn; ++i) /* L y = b */
+        b[i] = (b[i] - sqffd__la_dot(l + i * nn, b, i)) / l[i * nn + i];
+    for (i = nn; i-- > 0;) { /* L^T x = y, column-oriented so rows of L are read */
+        const double *li = l + i * nn;
+        double xi = b[i] / li[i];
+        b[i] = xi;
+        sqffd__la_axpy(b, -xi, li, i);
+    }
+}
+
+/* ---- SVD: Householder QR with column pivoting, then one-sided Jacobi on R^T ----
+   A P = Q R. Jacobi rotations J orthogonalise the columns of X = R^T:
+   X J = U1 diag(s), so R = J diag(s) U1^T and A = (Q J) diag(s) (P U1)^T.
+   U is Q applied to J, V is the normalised columns of X J with rows permuted
+   back. R^T converges in a few sweeps (Drmac & Veselic), and the n x n
+   Jacobi costs far less than working on the m x n matrix. */
+
+typedef struct sqffd__la_svd_work {
+    double *qr;     /* m x n row-major: R on and above the diagonal, reflectors below */
+    double *x;      /* n x n, column j contiguous: the columns of X = R^T being rotated */
+    double *rot;    /* n x n, column j contiguous: accumulated right rotations J */
+    double *tau;    /* n Householder scalars */
+    double *norm2;  /* n squared column norms (of the QR columns, then of X) */
+    double *norm2_ref; /* n: norm2 when last computed exactly (QR pivoting) */
+    double *tmp;    /* n */
+    int *perm;      /* n: column k of A P is column perm[k] of A */
+} sqffd__la_svd_work;
+
+static void sqffd__la_svd_layout(sqffd__arena *ar, size_t m, size_t n, sqffd__la_svd_work *w)
+{
+    w->qr = (double *)sqffd__arena_take(ar, m * n, sizeof(double));
+    w->x = (double *)sqffd__arena_take(ar, n * n, sizeof(double));
+    w->rot = (double *)sqffd__arena_take(ar, n * n, sizeof(double));
+    w->tau = (double *)sqffd__arena_take(ar, n, sizeof(double));
+    w->norm2 = (double *)sqffd__arena_take(ar, n, sizeof(double));
+    w->norm2_ref = (double *)sqffd__arena_take(ar, n, sizeof(double));
+    w->tmp = (double *)sqffd__arena_take(ar, n, sizeof(double));
+    w->perm = (int *)sqffd__arena_take(ar, n, sizeof(int));
+}
+
+SQFFD_DEF size_t sqffd_svd_workspace_size(int m, int n)
+{
+    sqffd__arena ar;
+    sqffd__la_svd_work w;
+    size_t mm = (size_t)m, nn = (size_t)n;
+    if (n < 1 || m < n) return 0;
+    if (mm > (size_t)-1 / nn) return 0;
+    sqffd__arena_measure(&ar);
+    sqffd__la_svd_layout(&ar, mm, nn, &w);
+    return sqffd__arena_required(&ar);
+}
+
+/* (x, y) <- (c x - s y, s x + c y) in Rutishauser's form with
+   tau = s / (1 + c), 1 - c = s tau: for the small angles of late sweeps c
+   rounds to 1 and the plain form would grow every norm by ~s^2/2, a bias that
+   thousands of rotations turn into ~1e-13 of lost orthogonality. */
+static void sqffd__la_rotate(double *SQFFD__LA_RESTRICT x, double *SQFFD__LA_RESTRICT y, size_t n, double s, double tau)
+{
+    size_t k = 0, j;
+    for (; k + 4 <= n; k += 4) {
+        double xk[4], yk[4];
+        for (j = 0; j < 4; ++j) { xk[j] = x[k + j]; yk[j] = y[k + j]; }
+        for (j = 0; j < 4; ++j) {
+            x[k + j] = xk[j] - s * (yk[j] + tau * xk[j]);
+            y[k + j] = yk[j] + s * (xk[j] - tau * yk[j]);
+        }
+    }
+    for (; k < n; ++k) {
+        double xk = x[k], yk = y[k];
+        x[k] = xk - s * (yk + tau * xk);
+        y[k] = yk + s * (xk - tau * yk);
+    }
+}
+
+static void sqffd__la_swap(double *x, double *y, size_t n)
+{
+    size_t k;
+    for (k = 0; k < n; ++k) { double t = x[k]; x[k] = y[k]; y[k] = t; }
+}
+
+/* Squared norm of column j of the row-major qr over rows from..m-1. */
+static double sqffd__la_column_norm2(const double *qr, size_t m, size_t n, size_t j, size_t from)
+{
+    double sum = 0.0;
+    size_t i;
+    for (i = from; i < m; ++i) sum += qr[i * n + j] * qr[i * n + j];
+    return sum;
+}
+
+/* a <- H_k a on columns c0..n-1 of the row-major m x n `a`, with the
+   reflector H_k = I - tau v v^T stored in column k of qr (v_k = 1, v_i =
+   qr[i][k] below). Computed as w = tau a^T v, a -= v w^T, row by row, so
+   every inner loop is a contiguous axpy. wrow: n scratch doubles. */
+static void sqffd__la_reflect(const double *qr, double tau, size_t m, size_t n, size_t k, double *a, size_t c0,
+                              double *wrow)
+{
+    size_t i, j, len = n - c0;
+    double *w = wrow + c0;
+    memcpy(w, a + k * n + c0, len * sizeof(double));
+    for (i = k + 1; i < m; ++i) sqffd__la_axpy(w, qr[i * n + k], a + i * n + c0, len);
+    for (j = 0; j < len; ++j) w[j] *= tau;
+    sqffd__la_axpy(a + k * n + c0, -1.0, w, len);
+    for (i = k + 1; i < m; ++i) sqffd__la_axpy(a + i * n + c0, -qr[i * n + k], w, len);
+}
+
+/* Householder QR with column pivoting of the row-major m x n w->qr, in place
+   (LAPACK xGEQP3 conventions: H_k = I - tau v v^T, v_k = 1, v below the
+   diagonal). */
+static void sqffd__la_qr_pivoted(sqffd__la_svd_work *w, size_t m, size_t n)
+{
+    double *qr = w->qr, *vn = w->norm2, *vn_ref = w->norm2_ref;
+    size_t i, j, k;
+    for (j = 0; j < n; ++j) { vn[j] = 0.0; w->perm[j] = (int)j; }
+    for (i = 0; i < m; ++i)
+        for (j = 0; j < n; ++j) vn[j] += qr[i * n + j] * qr[i * n + j];
+    for (j = 0; j < n; ++j) vn_ref[j] = vn[j];
+    for (k = 0; k < n; ++k) {
+        size_t p = k;
+        double alpha, tau, amax;
+        for (j = k + 1; j < n; ++j)
+            if (vn[j] > vn[p]) p = j;
+        if (p != k) {
+            int t = w->perm[p]; w->perm[p] = w->perm[k]; w->perm[k] = t;
+            for (i = 0; i < m; ++i) {
+                double s = qr[i * n + p]; qr[i * n + p] = qr[i * n + k]; qr[i * n + k] = s;
+            }
+            vn[p] = vn[k]; vn_ref[p] = vn_ref[k];
+        }
+        /* The reflector is computed on the column scaled by a power of two
+           (exact) into [0.5, 1): squares of tiny entries would lose digits to
+           underflow, and an inexact norm makes H non-orthogonal. v and tau do
+           not depend on the scale. Columns below 1e-300 (the matrix is
+           scaled to max |a_ij| < 1) are left alone: H_k = I. */
+        amax = 0.0;
+        for (i = k; i < m; ++i) amax = fmax(amax, fabs(qr[i * n + k]));
+        tau = 0.0;
+        if (amax > 1e-300) {
+            double f, xnorm2 = 0.0;
+            int e;
+            (void)frexp(amax, &e);
+            f = ldexp(1.0, -e);
+            alpha = qr[k * n + k] * f;
+            for (i = k + 1; i < m; ++i) xnorm2 += (qr[i * n + k] * f) * (qr[i * n + k] * f);
+            if (xnorm2 > 0.0) {
+                double beta = -copysign(sqrt(alpha * alpha + xnorm2), alpha), scale = f / (alpha - beta);
+                tau = (beta - alpha) / beta;
+                for (i = k + 1; i < m; ++i) qr[i * n + k] *= scale;
+                qr[k * n + k] = beta / f;
+            }
+        }
+        w->tau[k] = tau;
+        if (tau == 0.0 || k + 1 == n) continue;
+        sqffd__la_reflect(qr, tau, m, n, k, qr, k + 1, w->tmp);
+        /* downdate the remaining column norms; recompute when cancellation
+           has eaten most of the digits (LAPACK working note 176) */
+        for (j = k + 1; j < n; ++j) {
+            double r, left;
+            if (vn[j] == 0.0) continue;
+            r = qr[k * n + j];
+            left = vn[j] - r * r;
+            if (left <= 1e-4 * vn_ref[j]) {
+                vn[j] = vn_ref[j] = sqffd__la_column_norm2(qr, m, n, j, k + 1);
+            } else {
+                vn[j] = left;
+            }
+        }
+    }
+}
+
+/* Swap columns p and q of the Jacobi state (X, J when accumulated, norms). */
+static void sqffd__la_svd_swap(sqffd__la_svd_work *w, size_t n, size_t p, size_t q, int with_rot)
+{
+    double t = w->norm2[p];
+    w->norm2[p] = w->norm2[q];
+    w->norm2[q] = t;
+    sqffd__la_swap(w->x + p * n, w->x + q * n, n);
+    if (with_rot) sqffd__la_swap(w->rot + p * n, w->rot + q * n, n);
+}
+
+/* Cyclic one-sided Jacobi on the columns of w->x with de Rijk pivoting (the
+   largest remaining column leads each row of the sweep). Columns whose
+   squared norm is below `zero2` count as zero and are left alone. Returns 1
+   when a sweep found every pair orthogonal:
+   |x_p . x_q| <= eps sqrt(n) ||x_p|| ||x_q||. */
+static int sqffd__la_jacobi_sweeps(sqffd__la_svd_work *w, size_t n, int with_rot, double zero2)
+{
+    const double tol = SQFFD__LA_EPS * sqrt((double)n);
+    double *x = w->x, *norm2 = w->norm2;
+    size_t p, q, j;
+    int sweep;
+    for (sweep = 0; sweep < 80; ++sweep) {
+        int rotated = 0;
+        for (j = 0; j < n; ++j) norm2[j] = sqffd__la_dot(x + j * n, x + j * n, n);
+        for (p = 0; p + 1 < n; ++p) {
+            size_t big = p;
+            for (q = p + 1; q < n; ++q)
+                if (norm2[q] > norm2[big]) big = q;
+            if (big != p) sqffd__la_svd_swap(w, n, p, big, with_rot);
+            for (q = p + 1; q < n; ++q) {
+                double a = norm2[p], b = norm2[q], c, zeta, t, cs, sn, tau;
+                if (a < zero2 || b < zero2) continue;
+                c = sqffd__la_dot(x + p * n, x + q * n, n);
+                if (fabs(c) <= tol * sqrt(a) * sqrt(b)) continue;
+                rotated = 1;
+                /* t = tan(angle): the smaller root of t^2 + 2 zeta t - 1 = 0 */
+                zeta = (b - a) / (2.0 * c);
+                if (fabs(zeta) > 1e150) t = 0.5 / zeta;
+                else t = (zeta >= 0.0 ? 1.0 : -1.0) / (fabs(zeta) + sqrt(1.0 + zeta * zeta));
+                cs = 1.0 / sqrt(1.0 + t * t);
+                sn = cs * t;
+                tau = sn / (1.0 + cs);
+                sqffd__la_rotate(x + p * n, x + q * n, n, sn, tau);
+                if (with_rot) sqffd__la_rotate(w->rot + p * n, w->rot + q * n, n, sn, tau);
+                /* exact updates of the norms; recompute where they cancel */
+                norm2[p] = a - t * c;
+                norm2[q] = b + t * c;
+                if (norm2[p] < 0.125 * a) norm2[p] = sqffd__la_dot(x + p * n, x + p * n, n);
+                if (norm2[q] < 0.125 * b) norm2[q] = sqffd__la_dot(x + q * n, x + q * n, n);
+            }
+        }
+        if (!rotated) return 1;
+    }
+    return 0;
+}
+
+/* Columns rank..n-1 of the n x n column-contiguous `basis` (the first `rank`
+   orthonormal) are replaced by an orthonormal completion: each starts from
+   the unit vector least represented in the span so far (smallest row norm)
+   and is Gram-Schmidt orthogonalised twice. row2: n scratch doubles. */
+static void sqffd__la_complete_basis(double *basis, size_t n, size_t rank, double *row2)
+{
+    size_t i, j, c, pass;
+    for (i = 0; i < n; ++i) row2[i] = 0.0;
+    for (c = 0; c < rank; ++c)
+        for (i = 0; i < n; ++i) row2[i] += basis[c * n + i] * basis[c * n + i];
+    for (j = rank; j < n; ++j) {
+        double *col = basis + j * n, len;
+        size_t best = 0;
+        for (i = 1; i < n; ++i)
+            if (row2[i] < row2[best]) best = i;
+        for (i = 0; i < n; ++i) col[i] = i == best ? 1.0 : 0.0;
+        for (pass = 0; pass < 2; ++pass)
+            for (c = 0; c < j; ++c) {
+                const double *other = basis + c * n;
+                sqffd__la_axpy(col, -sqffd__la_dot(other, col, n), other, n);
+            }
+        len = sqrt(sqffd__la_dot(col, col, n));
+        for (i = 0; i < n; ++i) { col[i] /= len; row2[i] += col[i] * col[i]; }
+    }
+}
+
+SQFFD_DEF sqffd_result sqffd_svd(const double *a, int m, int n, double *u, double *s, double *v,
+                                 void *workspace, size_t workspace_size)
+{
+    /* Jacobi columns of squared norm below DBL_MIN (norm < 1.5e-154 with the
+       matrix scaled to max |a_ij| < 1) are zero: their dot products would
+       underflow */
+    const double zero2 = SQFFD__LA_MIN_NORMAL;
+    sqffd__arena ar;
+    sqffd__la_svd_work w;
+    size_t mm, nn, i, j, k, rank, required;
+    double amax = 0.0;
+    int exponent = 0, converged;
+    if (!a || !s || n < 1 || m < n) return SQFFD_ERROR_INVALID_ARGUMENT;
+    mm = (size_t)m;
+    nn = (size_t)n;
+    required = sqffd_svd_workspace_size(m, n);
+    if (required == 0) return SQFFD_ERROR_TOO_LARGE;
+    sqffd__arena_init(&ar, workspace, workspace_size);
+    sqffd__la_svd_layout(&ar, mm, nn, &w);
+    if (ar.overflow) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
+    for (i = 0; i < mm * nn; ++i) {
+        if (!isfinite(a[i])) return SQFFD_ERROR_NON_FINITE;
+        if (fabs(a[i]) > amax) amax = fabs(a[i]);
+    }
+    /* scale by a power of two (exact) so that norms can neither overflow nor underflow */
+    if (amax > 0.0) (void)frexp(amax, &exponent);
+    for (i = 0; i < mm * nn; ++i) w.qr[i] = ldexp(a[i], -exponent);
+
+    sqffd__la_qr_pivoted(&w, mm, nn);
+    for (j = 0; j < nn; ++j) /* column j of X = row j of R */
+        for (i = 0; i < nn; ++i) w.x[j * nn + i] = i >= j ? w.qr[j * nn + i] : 0.0;
+    if (u) {
+        for (i = 0; i < nn * nn; ++i) w.rot[i] = 0.0;
+        for (i = 0; i < nn; ++i) w.rot[i * nn + i] = 1.0;
+    }
+    converged = sqffd__la_jacobi_sweeps(&w, nn, u != NULL, zero2);
+
+    /* exact norms, descending order, zero columns last */
+    for (j = 0; j < nn; ++j) w.norm2[j] = sqffd__la_dot(w.x + j * nn, w.x + j * nn, nn);
+    for (j = 0; j + 1 < nn; ++j) {
+        size_t big = j;
+        for (k = j + 1; k < nn; ++k)
+            if (w.norm2[k] > w.norm2[big]) big = k;
+        if (big != j) sqffd__la_svd_swap(&w, nn, j, big, u != NULL);
+    }
+    rank = 0;
+    for (j = 0; j < nn; ++j) {
+        double sj = w.norm2[j] < zero2 ? 0.0 : sqrt(w.norm2[j]);
+        if (sj > 0.0) rank = j + 1;
+        s[j] = ldexp(sj, exponent);
+        w.tmp[j] = sj;
+    }
+
+    if (v) { /* V = P U1: normalise the nonzero columns of X, complete the rest */
+        for (j = 0; j < rank; ++j)
+            for (i = 0; i < nn; ++i) w.x[j * nn + i] /= w.tmp[j];
+        sqffd__la_complete_basis(w.x, nn, rank, w.norm2);
+        for (i = 0; i < nn; ++i)
+            for (j = 0; j < nn; ++j) v[(size_t)w.perm[i] * nn + j] = w.x[j * nn + i];
+    }
+    if (u) { /* U = Q [J; 0], reflectors applied last to first, row by row */
+        for (i = 0; i < mm; ++i)
+            for (j = 0; j < nn; ++j) u[i * nn + j] = i < nn ? w.rot[j * nn + i] : 0.0;
+        for (k = nn; k-- > 0;)
+            if (w.tau[k] != 0.0) sqffd__la_reflect(w.qr, w.tau[k], mm, nn, k, u, 0, w.tmp);
+    }
+    return converged ? SQFFD_OK : SQFFD_ERROR_NO_CONVERGENCE;
+}
+
+SQFFD_DEF int sqffd_svd_solve(const double *u, const double *s, const double *v, int m, int n,
+                              double rcond, const double *b, double *x, double *scratch)
+{
+    size_t mm = (size_t)m, nn = (size_t)n, i, j;
+    int rank = 0;
+    SQFFD_ASSERT(u && s && v && b && x && scratch && n >= 1 && m >= n);
+    while (rank < n && s[rank] > 0.0 && s[rank] > rcond * s[0]) ++rank;
+    /* scratch = diag(1/s) U^T b over the kept values, accumulated row by row */
+    for (j = 0; j < nn; ++j) scratch[j] = 0.0;
+    for (i = 0; i < mm; ++i) sqffd__la_axpy(scratch, b[i], u + i * nn, (size_t)rank);
+    for (j = 0; j < (size_t)rank; ++j) scratch[j] /= s[j];
+    for (i = 0; i < nn; ++i) x[i] = sqffd__la_dot(v + i * nn, scratch, (size_t)rank);
+    return rank;
+}
+
+/* ---- Linear conjugate gradient ---- */
+
+SQFFD_DEF sqffd_cg_options sqffd_cg_options_default(void)
+{
+    sqffd_cg_options o;
+    o.max_iterations = 0;
+    o.tolerance = 1e-10;
+    o.jacobi_diagonal = NULL;
+    return o;
+}
+
+typedef struct sqffd__la_cg_work {
+    double *r, *z, *p, *q; /* residual, preconditioned residual, direction, A p */
+} sqffd__la_cg_work;
+
+static void sqffd__la_cg_layout(sqffd__arena *ar, size_t n, sqffd__la_cg_work *w)
+{
+    w->r = (double *)sqffd__arena_take(ar, n, sizeof(double));
+    w->z = (double *)sqffd__arena_take(ar, n, sizeof(double));
+    w->p = (double *)sqffd__arena_take(ar, n, sizeof(double));
+    w->q = (double *)sqffd__arena_take(ar, n, sizeof(double));
+}
+
+SQFFD_DEF size_t sqffd_cg_workspace_size(int n)
+{
+    sqffd__arena ar;
+    sqffd__la_cg_work w;
+    if (n < 1) return 0;
+    sqffd__arena_measure(&ar);
+    sqffd__la_cg_layout(&ar, (size_t)n, &w);
+    return sqffd__arena_required(&ar);
+}
+
+/* 1 when all n entries are finite */
+static int sqffd__la_all_finite(const double *x, size_t n)
+{
+    size_t i;
+    for (i = 0; i < n; ++i)
+        if (!isfinite(x[i])) return 0;
+    return 1;
+}
+
+/* z = M^-1 r with the Jacobi preconditioner M = diag (NULL: z = r) */
+static void sqffd__la_precondition(const double *diag, const double *r, double *z, size_t n)
+{
+    size_t i;
+    for (i = 0; i < n; ++i) z[i] = diag ? r[i] / diag[i] : r[i];
+}
+
+SQFFD_DEF sqffd_result sqffd_cg_solve(int n, sqffd_matvec_fn matvec, void *user, const double *b, double *x,
+                                      const sqffd_cg_options *options, int *iterations, double *relative_residual,
+                                      void *workspace, size_t workspace_size)
+{
+    sqffd_cg_options opt = options ? *options : sqffd_cg_options_default();
+    sqffd__arena ar;
+    sqffd__la_cg_work w;
+    sqffd_result result = SQFFD_OK;
+    size_t nn, i, required;
+    double bnorm, rnorm, rz;
+    int it = 0, max_it;
+    if (iterations) *iterations = 0;
+    if (relative_residual) *relative_residual = 0.0;
+    if (n < 1 || !matvec || !b || !x || opt.max_iterations < 0 || !(opt.tolerance >= 0.0))
+        return SQFFD_ERROR_INVALID_ARGUMENT;
+    nn = (size_t)n;
+    required = sqffd_cg_workspace_size(n);
+    if (required == 0) return SQFFD_ERROR_TOO_LARGE;
+    sqffd__arena_init(&ar, workspace, workspace_size);
+    sqffd__la_cg_layout(&ar, nn, &w);
+    if (ar.overflow) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
+    if (!sqffd__la_all_finite(b, nn) || !sqffd__la_all_finite(x, nn)) return SQFFD_ERROR_NON_FINITE;
+    if (opt.jacobi_diagonal) {
+        if (!sqffd__la_all_finite(opt.jacobi_diagonal, nn)) return SQFFD_ERROR_NON_FINITE;
+        for (i = 0; i < nn; ++i)
+            if (!(opt.jacobi_diagonal[i] > 0.0)) return SQFFD_ERROR_NOT_POSITIVE_DEFINITE;
+    }
+    max_it = opt.max_iterations > 0 ? opt.max_iterations : (n > 0x3fffffff ? 0x7fffffff : 2 * n);
+    bnorm = sqrt(sqffd__la_dot(b, b, nn));
+    if (bnorm == 0.0) { /* A x = 0 has the solution 0 */
+        for (i = 0; i < nn; ++i) x[i] = 0.0;
+        return SQFFD_OK;
+    }
+    matvec(user, x, w.q);
+    for (i = 0; i < nn; ++i) w.r[i] = b[i] - w.q[i];
+    rnorm = sqrt(sqffd__la_dot(w.r, w.r, nn));
+    if (!isfinite(rnorm)) return SQFFD_ERROR_NON_FINITE;
+    sqffd__la_precondition(opt.jacobi_diagonal, w.r, w.z, nn);
+    memcpy(w.p, w.z, nn * sizeof(double));
+    rz = sqffd__la_dot(w.r, w.z, nn);
+    while (rnorm > opt.tolerance * bnorm) {
+        double pq, alpha, rz_next, beta;
+        if (it == max_it) { result = SQFFD_ERROR_NO_CONVERGENCE; break; }
+        matvec(user, w.p, w.q);
+        pq = sqffd__la_dot(w.p, w.q, nn);
+        if (!isfinite(pq)) return SQFFD_ERROR_NON_FINITE;
+        if (!(pq > 0.0)) return SQFFD_ERROR_NOT_POSITIVE_DEFINITE;
+        alpha = rz / pq;
+        sqffd__la_axpy(x, alpha, w.p, nn);
+        sqffd__la_axpy(w.r, -alpha, w.q, nn);
+        rnorm = sqrt(sqffd__la_dot(w.r, w.r, nn));
+        ++it;
+        sqffd__la_precondition(opt.jacobi_diagonal, w.r, w.z, nn);
+        rz_next = sqffd__la_dot(w.r, w.z, nn);
+        beta = rz_next / rz;
+        rz = rz_next;
+        for (i = 0; i < nn; ++i) w.p[i] = w.z[i] + beta * w.p[i];
+    }
+    if (iterations) *iterations = it;
+    if (relative_residual) { /* the true residual, not the recurrence's */
+        matvec(user, x, w.q);
+        for (i = 0; i < nn; ++i) w.r[i] = b[i] - w.q[i];
+        *relative_residual = sqrt(sqffd__la_dot(w.r, w.r, nn)) / bnorm;
+    }
+    return result;
+}
+
+/* ---- Nonlinear conjugate gradient ---- */
+
+typedef struct sqffd__la_ncg_work {
+    double *g;      /* gradient at x */
+    double *gr;     /* reduced gradient: zero where the projection blocks descent */
+    double *gr_old; /* previous reduced gradient (Polak-Ribiere) */
+    double *d;      /* search direction */
+    double *xu;     /* unprojected trial point x + t d */
+    double *xt, *gt; /* trial point and its gradient */
+    double *xb, *gb; /* best point of the line search that passed Armijo */
+} sqffd__la_ncg_work;
+
+static void sqffd__la_ncg_layout(sqffd__arena *ar, size_t n, sqffd__la_ncg_work *w)
+{
+    w->g = (double *)sqffd__arena_take(ar, n, sizeof(double));
+    w->gr = (double *)sqffd__arena_take(ar, n, sizeof(double));
+    w->gr_old = (double *)sqffd__arena_take(ar, n, sizeof(double));
+    w->d = (double *)sqffd__arena_take(ar, n, sizeof(double));
+    w->xu = (double *)sqffd__arena_take(ar, n, sizeof(double));
+    w->xt = (double *)sqffd__arena_take(ar, n, sizeof(double));
+    w->gt = (double *)sqffd__arena_take(ar, n, sizeof(double));
+    w->xb = (double *)sqffd__arena_take(ar, n, sizeof(double));
+    w->gb = (double *)sqffd__arena_take(ar, n, sizeof(double));
+}
+
+SQFFD_DEF size_t sqffd_ncg_workspace_size(int n)
+{
+    sqffd__arena ar;
+    sqffd__la_ncg_work w;
+    if (n < 1) return 0;
+    sqffd__arena_measure(&ar);
+    sqffd__la_ncg_layout(&ar, (size_t)n, &w);
+    return sqffd__arena_required(&ar);
+}
+
+typedef struct sqffd__la_ncg_problem {
+    size_t n;
+    sqffd_objective_fn f;
+    sqffd_project_fn project;
+    void *user;
+} sqffd__la_ncg_problem;
+
+/* Reduced gradient at x: g where a projected gradient step can move,
+   0 where the projection holds the coordinate (a bound blocking descent).
+   Returns ||project(x - g) - x||_inf, the optimality measure. Uses xt. */
+static double sqffd__la_ncg_reduce(const sqffd__la_ncg_problem *pr, const double *x, sqffd__la_ncg_work *w)
+{
+    double worst = 0.0;
+    size_t i;
+    for (i = 0; i < pr->n; ++i) w->xt[i] = x[i] - w->g[i];
+    if (pr->project) pr->project(pr->user, w->xt);
+    for (i = 0; i < pr->n; ++i) {
+        double step = w->xt[i] - x[i];
+        w->gr[i] = step == 0.0 ? 0.0 : w->g[i];
+        if (fabs(step) > worst) worst = fabs(step);
+    }
+    return worst;
+}
+
+/* Strong-Wolfe line search along the projected path x(t) = project(x + t d).
+   phi(t) = f(x(t)); phi'(t) is measured on the coordinates the projection
+   left free. A trial point is acceptable when it passes Armijo,
+   phi(t) <= phi(0) + c1 g.(x(t) - x), or - where f is flat to rounding and
+   Armijo cannot tell - the approximate Wolfe test of Hager & Zhang
+   (phi(t) <= phi(0) + 1e-10 |phi(0)| and phi'(t) <= (1 - 2 c1) |phi'(0)|).
+   The search ends at an acceptable point with |phi'(t)| <= c2 |phi'(0)|.
+   [a, b] brackets the minimiser: phi'(a) < 0 at an acceptable a; b is an
+   unacceptable step or one with phi'(b) >= 0. Next trials come from the
+   secant on phi' (exact on quadratics) or a quadratic fit of phi, kept
+   inside the bracket; without b the step grows 1.1x to 10x.
+   On success x, g, *fx hold the new point and *t the step; returns 0 when no
+   step was acceptable. */
+static int sqffd__la_ncg_line_search(const sqffd__la_ncg_problem *pr, double *x, double *fx, double *t,
+                                     sqffd__la_ncg_work *w)
+{
+    const double c1 = 1e-4, c2 = 0.1;
+    size_t n = pr->n, i;
+    double dg0 = sqffd__la_dot(w->g, w->d, n), step = *t;
+    double a = 0.0, fa = *fx, da = dg0, a_prev = 0.0, da_prev = dg0; /* lower end */
+    double b = -1.0, fb = 0.0, db = 0.0;                             /* upper end, b < 0: none yet */
+    double best_t = 0.0, best_f = 0.0;
+    int eval, found = 0, b_has_slope = 0;
+    for (eval = 0; eval < 40; ++eval) {
+        double ft, slope = 0.0, dphi = 0.0, next;
+        int moved = 0, acceptable;
+        for (i = 0; i < n; ++i) w->xu[i] = w->xt[i] = x[i] + step * w->d[i];
+        if (pr->project) pr->project(pr->user, w->xt);
+        for (i = 0; i < n; ++i) {
+            slope += w->g[i] * (w->xt[i] - x[i]);
+            if (w->xt[i] != x[i]) moved = 1;
+        }
+        if (!moved) break; /* the step vanished below the resolution of x */
+        ft = pr->f(pr->user, w->xt, w->gt);
+        for (i = 0; i < n; ++i)
+            if (w->xt[i] == w->xu[i]) dphi += w->gt[i] * w->d[i];
+        acceptable = isfinite(ft) && isfinite(dphi) && slope < 0.0 &&
+                     (ft <= *fx + c1 * slope || (ft <= *fx + 1e-10 * fabs(*fx) && dphi <= -(1.0 - 2.0 * c1) * dg0));
+        if (acceptable && (!found || ft <= best_f)) {
+            memcpy(w->xb, w->xt, n * sizeof(double));
+            memcpy(w->gb, w->gt, n * sizeof(double));
+            best_t = step;
+            best_f = ft;
+            found = 1;
+            if (fabs(dphi) <= -c2 * dg0) break;
+        }
+        if (acceptable && dphi < 0.0) {
+            a_prev = a; da_prev = da;
+            a = step; fa = ft; da = dphi;
+        } else {
+            b = step;
+            fb = ft;
+            db = dphi;
+            b_has_slope = acceptable;
+        }
+        if (b < 0.0) { /* extrapolate: secant on phi' when it is rising, else x10 */
+            next = da > da_prev ? a - da * (a - a_prev) / (da - da_prev) : 10.0 * a;
+            if (!(next >= 1.1 * a)) next = 1.1 * a;
+            if (next > 10.0 * a) next = 10.0 * a;
+        } else {
+            double width = b - a;
+            if (b_has_slope) next = a - da * width / (db - da);
+            else next = a - da * width * width / (2.0 * (fb - fa - da * width));
+            if (!isfinite(next) || !(next >= a + 0.05 * width) || !(next <= b - 0.05 * width))
+                next = a + 0.5 * width;
+        }
+        step = next;
+    }
+    if (!found) return 0;
+    memcpy(x, w->xb, n * sizeof(double));
+    memcpy(w->g, w->gb, n * sizeof(double));
+    *fx = best_f;
+    *t = best_t;
+    return 1;
+}
+
+SQFFD_DEF sqffd_result sqffd_ncg_minimize(int n, sqffd_objective_fn f, sqffd_project_fn project, void *user, double *x,
+                                          int max_iterations, double tolerance, int *iterations, double *fx,
+                                          sqffd_progress_fn progress, void *progress_user,
+                                          void *workspace, size_t workspace_size)
+{
+    sqffd__arena ar;
+    sqffd__la_ncg_work w;
+    sqffd__la_ncg_problem pr;
+    sqffd_result result = SQFFD_ERROR_NO_CONVERGENCE;
+    size_t nn, i, required;
+    double value, step = 0.0, gd_old = 0.0;
+    int it, since_restart = 0;
+    if (iterations) *iterations = 0;
+    if (n < 1 || !f || !x || max_iterations < 1 || !(tolerance >= 0.0)) return SQFFD_ERROR_INVALID_ARGUMENT;
+    nn = (size_t)n;
+    required = sqffd_ncg_workspace_size(n);
+    if (required == 0) return SQFFD_ERROR_TOO_LARGE;
+    sqffd__arena_init(&ar, workspace, workspace_size);
+    sqffd__la_ncg_layout(&ar, nn, &w);
+    if (ar.overflow) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
+    if (!sqffd__la_all_finite(x, nn)) return SQFFD_ERROR_NON_FINITE;
+    pr.n = nn; pr.f = f; pr.project = project; pr.user = user;
+    if (project) project(user, x);
+    value = f(user, x, w.g);
+    if (fx) *fx = value;
+    if (!isfinite(value) || !sqffd__la_all_finite(w.g, nn)) return SQFFD_ERROR_NON_FINITE;
+    for (it = 0; it < max_iterations; ++it) {
+        double gd, pgnorm = sqffd__la_ncg_reduce(&pr, x, &w);
+        if (pgnorm <= tolerance * (1.0 + fabs(value))) { result = SQFFD_OK; break; }
+        /* Polak-Ribiere+ on the reduced gradients, steepest descent on restart */
+        if (since_restart > 0 && since_restart < n) {
+            double num = 0.0, den = sqffd__la_dot(w.gr_old, w.gr_old, nn), beta;
+            for (i = 0; i < nn; ++i) num += w.gr[i] * (w.gr[i] - w.gr_old[i]);
+            beta = den > 0.0 && num > 0.0 ? num / den : 0.0;
+            for (i = 0; i < nn; ++i) w.d[i] = -w.gr[i] + beta * w.d[i];
+        } else {
+            for (i = 0; i < nn; ++i) w.d[i] = -w.gr[i];
+            since_restart = 0;
+        }
+        gd = sqffd__la_dot(w.g, w.d, nn);
+        if (!(gd < 0.0)) { /* lost descent: restart */
+            for (i = 0; i < nn; ++i) w.d[i] = -w.gr[i];
+            gd = -sqffd__la_dot(w.gr, w.gr, nn);
+            since_restart = 0;
+        }
+        /* first trial step: a unit move in x at the start, then the step that
+           repeats the last decrease predicted by the slope (Nocedal & Wright 3.5) */
+        if (step > 0.0) step = step * gd_old / gd;
+        if (!(step > 0.0) || !isfinite(step)) step = 1.0 / sqrt(sqffd__la_dot(w.d, w.d, nn));
+        memcpy(w.gr_old, w.gr, nn * sizeof(double));
+        gd_old = gd;
+        if (!sqffd__la_ncg_line_search(&pr, x, &value, &step, &w)) {
+            if (since_restart == 0) { result = SQFFD_OK; break; } /* no decrease possible */
+            since_restart = 0; /* retry along steepest descent */
+            step = 0.0;
+            continue;
+        }
+        ++since_restart;
+        if (fx) *fx = value;
+        if (iterations) *iterations = it + 1;
+        if (progress && progress(progress_user, SQFFD_STAGE_SUPERQUADRIC, it + 1, value)) {
+            result = SQFFD_ERROR_CANCELLED;
+            break;
+        }
+    }
+    if (fx) *fx = value;
+    return result;
+}
+/* ======================================================================
+   Layer 2: kd-tree
+   ====================================================================== */
+
+#define SQFFD__KD_LEAF_SIZE 10u /* a node with more points than this is split */
+#define SQFFD__KD_MIN_CHILD 5u  /* ... into children of at least this many points */
+
+/* Nodes for n points: every leaf but a lone root holds >= MIN_CHILD points. */
+static size_t sqffd__kd_max_nodes(size_t n)
+{
+    return n <= SQFFD__KD_LEAF_SIZE ? 1 : 2 * (n / SQFFD__KD_MIN_CHILD) - 1;
+}
+
+/* The one workspace layout: the permutation, then the nodes. */
+static void sqffd__kd_layout(sqffd__arena *a, size_t n, uint32_t **index, sqffd_kdtree_node **nodes)
+{
+    *index = (uint32_t *)sqffd__arena_take(a, n, sizeof(uint32_t));
+    *nodes = (sqffd_kdtree_node *)sqffd__arena_take(a, sqffd__kd_max_nodes(n), sizeof(sqffd_kdtree_node));
+}
+
+SQFFD_DEF size_t sqffd_kdtree_workspace_size(size_t n)
+{
+    sqffd__arena a;
+    uint32_t *index;
+    sqffd_kdtree_node *nodes;
+    if (n == 0 || n > (size_t)UINT32_MAX) return 0;
+    sqffd__arena_measure(&a);
+    sqffd__kd_layout(&a, n, &index, &nodes);
+    return sqffd__arena_required(&a);
+}
+
+/* ceil(log2(c)) for c >= 1: the depth a median-split subtree of c points needs. */
+static unsigned sqffd__kd_log2_ceil(size_t c)
+{
+    unsigned bits = 0;
+    size_t v = c - 1;
+    while (v) { bits++; v >>= 1; }
+    return bits;
+}
+
+/* Grows box ([0] = min corner, [1] = max corner) to hold p. */
+static void sqffd__kd_extend(double box[2][3], const double *p)
+{
+    int d;
+    for (d = 0; d < 3; d++) { /* conditional moves, not branches */
+        box[0][d] = p[d] < box[0][d] ? p[d] : box[0][d];
+        box[1][d] = p[d] > box[1][d] ? p[d] : box[1][d];
+    }
+}
+
+static void sqffd__kd_empty_box(double box[2][3])
+{
+    int d;
+    for (d = 0; d < 3; d++) { box[0][d] = HUGE_VAL; box[1][d] = -HUGE_VAL; }
+}
+
+/* Tight bounding box of the points index[begin..end). */
+static void sqffd__kd_bounds(const double *points, const uint32_t *index, size_t begin, size_t end,
+                             double box[2][3])
+{
+    size_t i;
+    sqffd__kd_empty_box(box);
+    for (i = begin; i < end; i++) sqffd__kd_extend(box, points + 3 * (size_t)index[i]);
+}
+
+/* Moves index[begin..end) so that position t holds the element of rank t
+   along axis, smaller-or-equal ones before it, larger-or-equal after.
+   Quickselect with Hoare partitions around a pivot at a pseudo-random
+   position (a fixed xorshift sequence: deterministic, yet no ordering of the
+   input makes it quadratic short of being built against that sequence). */
+static void sqffd__kd_select(const double *points, uint32_t *index, size_t begin, size_t end,
+                             size_t t, int axis)
+{
+    ptrdiff_t lo = (ptrdiff_t)begin, hi = (ptrdiff_t)end - 1, target = (ptrdiff_t)t;
+    uint32_t random = 2463534242u;
+    while (lo < hi) {
+        double pivot;
+        random ^= random << 13; random ^= random >> 17; random ^= random << 5;
+        pivot = points[3 * (size_t)index[lo + (ptrdiff_t)(random % (uint32_t)(hi - lo + 1))] + (size_t)axis];
+        ptrdiff_t i = lo, j = hi;
+        while (i <= j) {
+            uint32_t tmp;
+            while (points[3 * (size_t)index[i] + (size_t)axis] < pivot) i++;
+            while (points[3 * (size_t)index[j] + (size_t)axis] > pivot) j--;
+            if (i > j) break;
+            tmp = index[i]; index[i] = index[j]; index[j] = tmp;
+            i++; j--;
+        }
+        if (target <= j) hi = j;
+        else if (target >= i) lo = i;
+        else break;
+    }
+}
+
+/* A node waiting to be built: its point range, depth, tight box, and the
+   node whose high child it is (0 for a low child or the root: those are
+   simply the next node). */
+typedef struct sqffd__kd_pending {
+    size_t begin, end;
+    unsigned depth;
+    uint32_t parent_of_high;
+    double box[2][3];
+} sqffd__kd_pending;
+
+/* Splits index[begin..end) of a node with a positive extent on `axis`: at the
+   middle of the box (or the median), moved where needed so both children get
+   MIN_CHILD points. Returns the size of the low part; fills both children's
+   tight boxes. */
+static size_t sqffd__kd_split(const double *points, uint32_t *index, const sqffd__kd_pending *node,
+                              int axis, int median, double low_box[2][3], double high_box[2][3])
+{
+    size_t count = node->end - node->begin, low_count = count / 2;
+    int by_rank = median; /* the low part is the low_count smallest on axis */
+    if (!median) {
+        /* Branch-free partition (every step swaps; only the boundary k moves
+           by the comparison), so the point loads never wait on a branch. */
+        double cut = 0.5 * node->box[0][axis] + 0.5 * node->box[1][axis]; /* cannot overflow */
+        size_t i, k = node->begin;
+        for (i = node->begin; i < node->end; i++) {
+            uint32_t p = index[i];
+            index[i] = index[k];
+            index[k] = p;
+            k += (size_t)(points[3 * (size_t)p + (size_t)axis] < cut);
+        }
+        low_count = k - node->begin;
+        by_rank = low_count < SQFFD__KD_MIN_CHILD || count - low_count < SQFFD__KD_MIN_CHILD;
+        if (by_rank) low_count = low_count < SQFFD__KD_MIN_CHILD ? SQFFD__KD_MIN_CHILD : count - SQFFD__KD_MIN_CHILD;
+    }
+    if (by_rank) sqffd__kd_select(points, index, node->begin, node->end, node->begin + low_count, axis);
+    sqffd__kd_bounds(points, index, node->begin, node->begin + low_count, low_box);
+    sqffd__kd_bounds(points, index, node->begin + low_count, node->end, high_box);
+    return low_count;
+}
+
+SQFFD_DEF sqffd_result sqffd_kdtree_build(sqffd_kdtree *tree, const double *points, size_t n,
+                                          void *workspace, size_t workspace_size)
+{
+    sqffd__arena a;
+    uint32_t *index;
+    sqffd_kdtree_node *nodes;
+    sqffd__kd_pending stack[SQFFD_KDTREE_MAX_DEPTH + 1];
+    size_t top = 0, node_count = 0, i;
+
+    if (tree) memset(tree, 0, sizeof *tree);
+    if (!tree || !points || n == 0) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if (n > (size_t)UINT32_MAX) return SQFFD_ERROR_TOO_LARGE;
+    sqffd__arena_init(&a, workspace, workspace_size);
+    sqffd__kd_layout(&a, n, &index, &nodes);
+    if (a.overflow) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
+
+    sqffd__kd_empty_box(stack[0].box);
+    for (i = 0; i < n; i++) {
+        if (!sqffd__finite3(points + 3 * i)) return SQFFD_ERROR_NON_FINITE;
+        sqffd__kd_extend(stack[0].box, points + 3 * i);
+        index[i] = (uint32_t)i;
+    }
+    stack[0].begin = 0;
+    stack[0].end = n;
+    stack[0].depth = 0;
+    stack[0].parent_of_high = 0;
+    memcpy(tree->bbox, stack[0].box, sizeof tree->bbox);
+    top = 1;
+    while (top > 0) {
+        sqffd__kd_pending cur = stack[--top];
+        sqffd_kdtree_node *node = &nodes[node_count];
+        size_t count = cur.end - cur.begin, low_count;
+        double extent = -1.0;
+        int axis = 0, d, median;
+
+        SQFFD_ASSERT(node_count < sqffd__kd_max_nodes(n));
+        memset(node, 0, sizeof *node); /* no stale bytes: equal inputs give equal trees */
+        if (cur.parent_of_high) nodes[cur.parent_of_high - 1].high_child = (uint32_t)node_count;
+        node_count++;
+        for (d = 0; d < 3; d++) {
+            double e = cur.box[1][d] - cur.box[0][d];
+            if (e > extent) { extent = e; axis = d; }
+        }
+        if (count <= SQFFD__KD_LEAF_SIZE || !(extent > 0.0)) { /* small, or all points identical */
+            node->u.leaf.begin = (uint32_t)cur.begin;
+            node->u.leaf.end = (uint32_t)cur.end;
+            node->axis = SQFFD_KDTREE_LEAF;
+            continue;
+        }
+        /* Midpoint cuts while they cannot break the depth bound, else the
+           median, whose subtree needs only ceil(log2(count)) more levels. */
+        median = cur.depth + 1 + sqffd__kd_log2_ceil(count) > SQFFD_KDTREE_MAX_DEPTH;
+        SQFFD_ASSERT(top + 2 <= SQFFD_KDTREE_MAX_DEPTH + 1);
+        low_count = sqffd__kd_split(points, index, &cur, axis, median, stack[top + 1].box, stack[top].box);
+        node->axis = (uint32_t)axis;
+        node->u.split.low = stack[top + 1].box[1][axis];
+        node->u.split.high = stack[top].box[0][axis]; /* high_child is set when that child is built */
+        /* High child below the low one on the stack: the low child is built next. */
+        stack[top].begin = cur.begin + low_count;
+        stack[top].end = cur.end;
+        stack[top].depth = cur.depth + 1;
+        stack[top].parent_of_high = (uint32_t)node_count; /* this node's number + 1 */
+        stack[top + 1].begin = cur.begin;
+        stack[top + 1].end = cur.begin + low_count;
+        stack[top + 1].depth = cur.depth + 1;
+        stack[top + 1].parent_of_high = 0;
+        top += 2;
+    }
+    tree->points = points;
+    tree->count = n;
+    tree->index = index;
+    tree->nodes = nodes;
+    tree->node_count = node_count;
+    return SQFFD_OK;
+}
+
+/* ---- Queries --------------------------------------------------------------
+   Results live in the caller's arrays as a max-heap on squared distance
+   (the worst kept point on top), sorted once at the end. */
+typedef struct sqffd__kd_results {
+    size_t *index;
+    double *dist2;
+    size_t capacity, size;
+    size_t within;  /* points seen at distance^2 <= reach (the radius count) */
+    double reach;   /* points and subtrees farther than this (squared) cannot change the answer */
+    int counting;   /* radius: every point within reach counts, so a full heap keeps reach */
+} sqffd__kd_results;
+
+static void sqffd__kd_sift_down(size_t *index, double *dist2, size_t size, size_t i)
+{
+    size_t moving = index[i];
+    double d = dist2[i];
+    for (;;) {
+        size_t c = 2 * i + 1;
+        if (c >= size) break;
+        if (c + 1 < size && dist2[c + 1] > dist2[c]) c++;
+        if (!(dist2[c] > d)) break;
+        index[i] = index[c]; dist2[i] = dist2[c];
+        i = c;
+    }
+    index[i] = moving; dist2[i] = d;
+}
+
+/* Keeps point (at squared distance d <= reach) if it is among the nearest
+   `capacity` seen so far. */
+static void sqffd__kd_offer(sqffd__kd_results *r, size_t point, double d)
+{
+    if (r->size < r->capacity) { /* not full: sift up from the end */
+        size_t i = r->size++;
+        while (i > 0 && r->dist2[(i - 1) / 2] < d) {
+            r->index[i] = r->index[(i - 1) / 2]; r->dist2[i] = r->dist2[(i - 1) / 2];
+            i = (i - 1) / 2;
+        }
+        r->index[i] = point; r->dist2[i] = d;
+    } else if (r->size && d < r->dist2[0]) {
+        r->index[0] = point; r->dist2[0] = d;
+        sqffd__kd_sift_down(r->index, r->dist2, r->size, 0);
+    } else {
+        return;
+    }
+    if (!r->counting && r->size == r->capacity) r->reach = r->dist2[0];
+}
+
+/* Scans a leaf. A leaf bigger than the leaf size holds identical points only:
+   one distance serves them all, and offering stops once it cannot be kept. */
+static void sqffd__kd_scan_leaf(const sqffd_kdtree *tree, const sqffd_kdtree_node *leaf, const double q[3],
+                                sqffd__kd_results *r)
+{
+    const uint32_t *index = tree->index;
+    size_t i, begin = leaf->u.leaf.begin, end = leaf->u.leaf.end;
+    if (end - begin > SQFFD__KD_LEAF_SIZE) {
+        double d = sqffd__dist2_3(tree->points + 3 * (size_t)index[begin], q);
+        if (!(d <= r->reach)) return;
+        r->within += end - begin;
+        for (i = begin; i < end && (r->size < r->capacity || (r->size && d < r->dist2[0])); i++)
+            sqffd__kd_offer(r, index[i], d);
+        return;
+    }
+    for (i = begin; i < end; i++) {
+        double d = sqffd__dist2_3(tree->points + 3 * (size_t)index[i], q);
+        if (d <= r->reach) {
+            r->within++;
+            sqffd__kd_offer(r, index[i], d);
+        }
+    }
+}
+
+/* Depth-first walk, nearest child first. sq0..sq2 hold the squared per-axis
+   distances from the query to the region known to hold a subtree's points;
+   their sum (added in the same order as a point's distance, so it never
+   exceeds any of those points' computed distances) prunes the far child. */
+static void sqffd__kd_search(const sqffd_kdtree *tree, const double q[3], sqffd__kd_results *r)
+{
+    struct { double sq[3]; double bound; uint32_t node; } stack[SQFFD_KDTREE_MAX_DEPTH];
+    const sqffd_kdtree_node *nodes = tree->nodes;
+    size_t top = 0;
+    double sq0, sq1, sq2, off[3];
+    uint32_t node = 0;
+    int d;
+
+    for (d = 0; d < 3; d++)
+        off[d] = q[d] < tree->bbox[0][d] ? tree->bbox[0][d] - q[d]
+               : q[d] > tree->bbox[1][d] ? q[d] - tree->bbox[1][d] : 0.0;
+    sq0 = off[0] * off[0]; sq1 = off[1] * off[1]; sq2 = off[2] * off[2];
+    if (!(sq0 + sq1 + sq2 <= r->reach)) return;
+    for (;;) {
+        const sqffd_kdtree_node *n = &nodes[node];
+        if (n->axis != SQFFD_KDTREE_LEAF) {
+            /* Branch-free step: the far child's entry is written in place
+               and kept (top advances) only when it is within reach. */
+            uint32_t axis = n->axis;
+            double above_low = q[axis] - n->u.split.low, below_high = n->u.split.high - q[axis];
+            int go_high = !(above_low < below_high);
+            double gap = go_high ? above_low : below_high;
+            SQFFD_ASSERT(top < SQFFD_KDTREE_MAX_DEPTH);
+            stack[top].sq[0] = sq0; stack[top].sq[1] = sq1; stack[top].sq[2] = sq2;
+            stack[top].sq[axis] = gap * gap;
+            stack[top].bound = stack[top].sq[0] + stack[top].sq[1] + stack[top].sq[2];
+            stack[top].node = go_high ? node + 1 : n->high_child;
+            node = go_high ? n->high_child : node + 1;
+            top += (size_t)(stack[top].bound <= r->reach);
+            continue;
+        }
+        sqffd__kd_scan_leaf(tree, n, q, r);
+        for (;;) { /* next pending subtree still within reach */
+            if (top == 0) return;
+            top--;
+            if (stack[top].bound <= r->reach) break;
+        }
+        sq0 = stack[top].sq[0]; sq1 = stack[top].sq[1]; sq2 = stack[top].sq[2];
+        node = stack[top].node;
+    }
+}
+
+/* Sorts the heap by increasing distance. */
+static void sqffd__kd_sort(sqffd__kd_results *r)
+{
+    size_t end = r->size;
+    while (end > 1) {
+        size_t i0 = r->index[0];
+        double d0 = r->dist2[0];
+        end--;
+        r->index[0] = r->index[end]; r->dist2[0] = r->dist2[end];
+        r->index[end] = i0; r->dist2[end] = d0;
+        sqffd__kd_sift_down(r->index, r->dist2, end, 0);
+    }
+}
+
+static size_t sqffd__kd_query(const sqffd_kdtree *tree, const double q[3], double limit, int counting,
+                              size_t *indices, double *dist2, size_t capacity)
+{
+    sqffd__kd_results r;
+    r.index = indices;
+    r.dist2 = dist2;
+    r.capacity = capacity;
+    r.size = 0;
+    r.within = 0;
+    r.reach = limit;
+    r.counting = counting;
+    sqffd__kd_search(tree, q, &r);
+    sqffd__kd_sort(&r);
+    return counting ? r.within : r.size;
+}
+
+static int sqffd__kd_queryable(const sqffd_kdtree *tree, const double q[3])
+{
+    return tree && tree->count && tree->nodes && q && sqffd__finite3(q);
+}
+
+SQFFD_DEF size_t sqffd_kdtree_nearest(const sqffd_kdtree *tree, const double query[3], double *dist2)
+{
+    size_t nearest = 0;
+    double d = NAN;
+    if (sqffd__kd_queryable(tree, query)) sqffd__kd_query(tree, query, HUGE_VAL, 0, &nearest, &d, 1);
+    if (dist2) *dist2 = d;
+    return nearest;
+}
+
+SQFFD_DEF size_t sqffd_kdtree_knn(const sqffd_kdtree *tree, const double query[3], size_t k,
+                                  size_t *indices, double *dist2)
+{
+    if (!sqffd__kd_queryable(tree, query) || !indices || !dist2 || k == 0) return 0;
+    return sqffd__kd_query(tree, query, HUGE_VAL, 0, indices, dist2, k < tree->count ? k : tree->count);
+}
+
+SQFFD_DEF size_t sqffd_kdtree_radius(const sqffd_kdtree *tree, const double query[3], double radius,
+                                     size_t *indices, double *dist2, size_t capacity)
+{
+    if (!sqffd__kd_queryable(tree, query) || !(radius >= 0.0)) return 0;
+    if (!indices || !dist2) capacity = 0;
+    return sqffd__kd_query(tree, query, radius * radius, 1, indices, dist2, capacity);
+}
+/* ======================================================================
+   Layer 3: superquadric with global tapering
+   ====================================================================== */
+
+#define SQFFD__SQ_PI 3.14159265358979323846
+/* Magnitudes below this count as 0 before a logarithm (keeps logs finite). */
+#define SQFFD__SQ_TINY 1e-300
+/* Floor of the tapering factors 1 + K z / a3: they are >= 1 - |K| > 0 on the
+   shape itself; only points far beyond the poles reach the floor. */
+#define SQFFD__SQ_MIN_TAPER 1e-3
+
+/* ---- geometry ----------------------------------------------------------- */
+
+/* sign(v) |v|^e, 0 for v = 0 */
+static double sqffd__sq_spow(double v, double e)
+{
+    if (v == 0.0) return 0.0;
+    return v > 0.0 ? pow(v, e) : -pow(-v, e);
+}
+
+/* log(e^a + e^b) and the shares frac[0] = e^a / (e^a + e^b), frac[1] = e^b / (...),
+   each computed directly so that a vanishing share is exactly 0. */
+static double sqffd__sq_logsum(double a, double b, double frac[2])
+{
+    double hi = a > b ? a : b, t = exp(-fabs(a - b)); /* e^(lo - hi) */
+    double s = 1.0 + t;
+    frac[0] = a > b ? 1.0 / s : t / s;
+    frac[1] = a > b ? t / s : 1.0 / s;
+    return hi + log(s);
+}
+
+static double sqffd__sq_log_abs(double v)
+{
+    double m = fabs(v);
+    return log(m > SQFFD__SQ_TINY ? m : SQFFD__SQ_TINY);
+}
+
+/* Tapered local coordinates q = R^T (p - c). */
+static void sqffd__sq_to_local(const sqffd_superquadric *sq, const double p[3], double q[3])
+{
+    double d[3];
+    sqffd__sub3(p, sq->center, d);
+    sqffd__mat3t_vec(sq->rotation, d, q);
+}
+
+/* The tapering factors 1 + K z / a3 at local height z (floored). */
+static void sqffd__sq_taper_factors(const sqffd_superquadric *sq, double z, double f[2])
+{
+    int k;
+    for (k = 0; k < 2; k++) {
+        f[k] = 1.0 + sq->taper[k] * z / sq->size[2];
+        if (f[k] < SQFFD__SQ_MIN_TAPER) f[k] = SQFFD__SQ_MIN_TAPER;
+    }
+}
+
+/* Untapered local coordinates of a world point. */
+static void sqffd__sq_untapered(const sqffd_superquadric *sq, const double p[3], double u[3])
+{
+    double f[2];
+    sqffd__sq_to_local(sq, p, u);
+    sqffd__sq_taper_factors(sq, u[2], f);
+    u[0] /= f[0];
+    u[1] /= f[1];
+}
+
+/* log F at untapered local coordinates u (log_size = ln a1, ln a2, ln a3),
+   computed in logarithms so that far points and small exponents neither
+   overflow nor underflow:
+   F = (|x/a1|^(2/e2) + |y/a2|^(2/e2))^(e2/e1) + |z/a3|^(2/e1) = G + H,
+   G = A^(e2/e1), A = U + V. If parts is not NULL it receives what the
+   derivatives need (SQFFD__SQ_PART_* indices). */
+#define SQFFD__SQ_PART_LU 0    /* ln U */
+#define SQFFD__SQ_PART_LV 1    /* ln V */
+#define SQFFD__SQ_PART_LA 2    /* ln A */
+#define SQFFD__SQ_PART_LG 3    /* ln G */
+#define SQFFD__SQ_PART_LH 4    /* ln H */
+#define SQFFD__SQ_PART_FU 5    /* U / A (then V / A) */
+#define SQFFD__SQ_PART_FG 7    /* G / F (then H / F) */
+#define SQFFD__SQ_PARTS 9
+typedef struct sqffd__sq_exponents {
+    double two_e1, two_e2, ratio; /* 2/e1, 2/e2, e2/e1 */
+} sqffd__sq_exponents;
+
+static sqffd__sq_exponents sqffd__sq_exponents_of(const sqffd_superquadric *sq)
+{
+    sqffd__sq_exponents x;
+    x.two_e1 = 2.0 / sq->shape[0];
+    x.two_e2 = 2.0 / sq->shape[1];
+    x.ratio = sq->shape[1] / sq->shape[0];
+    return x;
+}
+
+static double sqffd__sq_log_f(const double u[3], const double log_size[3], const sqffd__sq_exponents *x, double *parts)
+{
+    double lu = x->two_e2 * (sqffd__sq_log_abs(u[0]) - log_size[0]);
+    double lv = x->two_e2 * (sqffd__sq_log_abs(u[1]) - log_size[1]);
+    double lh = x->two_e1 * (sqffd__sq_log_abs(u[2]) - log_size[2]);
+    double frac_u[2], frac_g[2], la, lg, lf;
+    la = sqffd__sq_logsum(lu, lv, frac_u);
+    lg = x->ratio * la;
+    lf = sqffd__sq_logsum(lg, lh, frac_g);
+    if (parts) {
+        parts[SQFFD__SQ_PART_LU] = lu; parts[SQFFD__SQ_PART_LV] = lv; parts[SQFFD__SQ_PART_LA] = la;
+        parts[SQFFD__SQ_PART_LG] = lg; parts[SQFFD__SQ_PART_LH] = lh;
+        parts[SQFFD__SQ_PART_FU] = frac_u[0]; parts[SQFFD__SQ_PART_FU + 1] = frac_u[1];
+        parts[SQFFD__SQ_PART_FG] = frac_g[0]; parts[SQFFD__SQ_PART_FG + 1] = frac_g[1];
+    }
+    return lf;
+}
+
+static double sqffd__sq_log_f_at(const sqffd_superquadric *sq, const double u[3])
+{
+    double log_size[3];
+    sqffd__sq_exponents x = sqffd__sq_exponents_of(sq);
+    log_size[0] = log(sq->size[0]); log_size[1] = log(sq->size[1]); log_size[2] = log(sq->size[2]);
+    return sqffd__sq_log_f(u, log_size, &x, NULL);
+}
+
+SQFFD_DEF double sqffd_sq_inside_outside(const sqffd_superquadric *sq, const double point[3])
+{
+    double u[3];
+    SQFFD_ASSERT(sq && point);
+    sqffd__sq_untapered(sq, point, u);
+    return exp(sqffd__sq_log_f_at(sq, u));
+}
+
+SQFFD_DEF double sqffd_sq_radial_distance(const sqffd_superquadric *sq, const double point[3])
+{
+    double u[3], lf;
+    SQFFD_ASSERT(sq && point);
+    sqffd__sq_untapered(sq, point, u);
+    lf = sqffd__sq_log_f_at(sq, u);
+    return sqrt(sqffd__dot3(u, u)) * fabs(1.0 - exp(-0.5 * sq->shape[0] * lf));
+}
+
+/* Untapered local surface point at (eta, omega). */
+static void sqffd__sq_local_point(const sqffd_superquadric *sq, double eta, double omega, double s[3])
+{
+    double ce = sqffd__sq_spow(cos(eta), sq->shape[0]);
+    s[0] = sq->size[0] * ce * sqffd__sq_spow(cos(omega), sq->shape[1]);
+    s[1] = sq->size[1] * ce * sqffd__sq_spow(sin(omega), sq->shape[1]);
+    s[2] = sq->size[2] * sqffd__sq_spow(sin(eta), sq->shape[0]);
+}
+
+/* Apply the tapering to an untapered local point (in place). */
+static void sqffd__sq_taper(const sqffd_superquadric *sq, double s[3])
+{
+    double f[2];
+    sqffd__sq_taper_factors(sq, s[2], f);
+    s[0] *= f[0];
+    s[1] *= f[1];
+}
+
+SQFFD_DEF void sqffd_sq_point(const sqffd_superquadric *sq, double eta, double omega, double point[3], double normal[3])
+{
+    double s[3], q[3];
+    SQFFD_ASSERT(sq && point);
+    sqffd__sq_local_point(sq, eta, omega, s);
+    q[0] = s[0]; q[1] = s[1]; q[2] = s[2];
+    sqffd__sq_taper(sq, q);
+    sqffd__mat3_vec(sq->rotation, q, point);
+    point[0] += sq->center[0]; point[1] += sq->center[1]; point[2] += sq->center[2];
+    if (normal) {
+        /* Untapered normal: the direction of grad F, which on the surface is
+           (C^(2-e1) C^(2-e2) / a1, C^(2-e1) S^(2-e2) / a2, S^(2-e1) / a3);
+           the exponents are positive, so it is finite at the poles too.
+           The tapering X = fx x, Y = fy y has the Jacobian
+           J = [fx 0 Kx x/a3; 0 fy Ky y/a3; 0 0 1]; normals map by J^-T,
+           here scaled by fx fy > 0 to avoid divisions. */
+        double e1 = sq->shape[0], e2 = sq->shape[1], f[2], n[3], len;
+        double ce = sqffd__sq_spow(cos(eta), 2.0 - e1);
+        n[0] = ce * sqffd__sq_spow(cos(omega), 2.0 - e2) / sq->size[0];
+        n[1] = ce * sqffd__sq_spow(sin(omega), 2.0 - e2) / sq->size[1];
+        n[2] = sqffd__sq_spow(sin(eta), 2.0 - e1) / sq->size[2];
+        sqffd__sq_taper_factors(sq, s[2], f);
+        q[0] = n[0] * f[1];
+        q[1] = n[1] * f[0];
+        q[2] = n[2] * f[0] * f[1] - (sq->taper[0] * s[0] * n[0] * f[1] + sq->taper[1] * s[1] * n[1] * f[0]) / sq->size[2];
+        sqffd__mat3_vec(sq->rotation, q, normal);
+        len = sqrt(sqffd__dot3(normal, normal));
+        if (len > 0.0) { normal[0] /= len; normal[1] /= len; normal[2] /= len; }
+    }
+}
+
+SQFFD_DEF sqffd_result sqffd_sq_sample_grid(const sqffd_superquadric *sq, int n_eta, int n_omega, double *points, double *normals)
+{
+    int i, j;
+    if (!sq || !points || n_eta < 2 || n_omega < 1) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if ((size_t)n_eta > ((size_t)-1 / 3 / sizeof(double)) / (size_t)n_omega) return SQFFD_ERROR_TOO_LARGE;
+    for (i = 0; i < n_eta; i++) {
+        double eta = -0.5 * SQFFD__SQ_PI + SQFFD__SQ_PI * (double)i / (double)(n_eta - 1);
+        for (j = 0; j < n_omega; j++) {
+            double omega = -SQFFD__SQ_PI + 2.0 * SQFFD__SQ_PI * (double)j / (double)n_omega;
+            size_t k = 3 * ((size_t)i * (size_t)n_omega + (size_t)j);
+            sqffd_sq_point(sq, eta, omega, points + k, normals ? normals + k : NULL);
+        }
+    }
+    return SQFFD_OK;
+}
+
+/* ---- near-equal-distance sampling ----
+   Pilu & Fisher step the parameter by spacing / |dP/dt|; near the points
+   where the signed powers are singular (|dP/dt| infinite for e < 1) that
+   formula needs special cases, so each step here instead searches for the
+   parameter increment whose chord is `spacing`. Rows of constant eta are
+   spaced by the largest chord over eight meridians, then each row is walked
+   in omega, one quadrant at a time (a quadrant is a convex arc, so its chord
+   grows monotonically). Tapered local coordinates: the rigid motion does not
+   change lengths. */
+#define SQFFD__SQ_MERIDIANS 8
+
+/* An arc being walked: along omega at eta = fixed (one curve), or along eta
+   (eight meridians at once); start holds the curve points at the current
+   parameter. */
+typedef struct sqffd__sq_arc {
+    const sqffd_superquadric *sq;
+    int along_omega;
+    double fixed;
+    double start[SQFFD__SQ_MERIDIANS][3];
+    double end[SQFFD__SQ_MERIDIANS][3]; /* the curve points at t_end */
+} sqffd__sq_arc;
+
+static int sqffd__sq_arc_curves(const sqffd__sq_arc *arc)
+{
+    return arc->along_omega ? 1 : SQFFD__SQ_MERIDIANS;
+}
+
+static void sqffd__sq_arc_point(const sqffd__sq_arc *arc, int curve, double t, double p[3])
+{
+    if (arc->along_omega) sqffd__sq_local_point(arc->sq, arc->fixed, t, p);
+    else sqffd__sq_local_point(arc->sq, t, -SQFFD__SQ_PI + 2.0 * SQFFD__SQ_PI * curve / SQFFD__SQ_MERIDIANS, p);
+    sqffd__sq_taper(arc->sq, p);
+}
+
+/* Longest chord from the start points to parameter t (to the end points
+   when to_end). */
+static double sqffd__sq_arc_chord(const sqffd__sq_arc *arc, double t, int to_end)
+{
+    double best = 0.0, p[3];
+    int k;
+    for (k = 0; k < sqffd__sq_arc_curves(arc); k++) {
+        double d;
+        if (to_end) memcpy(p, arc->end[k], sizeof p);
+        else sqffd__sq_arc_point(arc, k, t, p);
+        d = sqffd__dist2_3(arc->start[k], p);
+        if (d > best) best = d;
+    }
+    return sqrt(best);
+}
+
+/* Begin walking the arc towards t_end. */
+static void sqffd__sq_arc_begin(sqffd__sq_arc *arc, double t_end)
+{
+    int k;
+    for (k = 0; k < sqffd__sq_arc_curves(arc); k++) sqffd__sq_arc_point(arc, k, t_end, arc->end[k]);
+}
+
+/* Next parameter after t on the arc towards t_end (t < t_end): a chord of
+   `spacing` within 10%; the last two steps share the remainder evenly;
+   t_end when the remainder is at most one spacing. *guess carries the
+   previous increment: a safeguarded secant search from it (near the
+   singular points the increments span many orders of magnitude when e is
+   small, so the bracket shrinks geometrically when the secant step fails). */
+static double sqffd__sq_next(sqffd__sq_arc *arc, double t, double t_end, double spacing, double *guess)
+{
+    double rest, target = spacing, lo = 0.0, hi = t_end - t, d = *guess;
+    int it, k;
+    for (k = 0; k < sqffd__sq_arc_curves(arc); k++) sqffd__sq_arc_point(arc, k, t, arc->start[k]);
+    rest = sqffd__sq_arc_chord(arc, t_end, 1);
+    if (rest <= spacing) return t_end;
+    if (rest < 2.0 * spacing) target = 0.5 * rest;
+    if (!(d > 0.0 && d < hi)) d = 0.5 * hi;
+    for (it = 0; it < 100; it++) { /* chord(lo) < target < chord(hi) */
+        double c = sqffd__sq_arc_chord(arc, t + d, 0), next;
+        if (fabs(c - target) <= 0.1 * target && t + d > t) break;
+        if (c < target) lo = d; else hi = d;
+        next = c > 0.0 ? d * target / c : 4.0 * d; /* secant through the origin */
+        if (!(next > lo && next < hi)) next = lo > 0.0 ? sqrt(lo * hi) : 0.125 * hi;
+        d = next;
+    }
+    if (it == 100) d = hi;
+    *guess = d;
+    return t + d > t ? t + d : t_end; /* no representable progress: finish the arc */
+}
+
+/* Emit the samples of one row (constant eta). Returns the new count. */
+static size_t sqffd__sq_sample_row(const sqffd_superquadric *sq, double eta, double spacing, double *points,
+                                   size_t capacity, size_t count)
+{
+    sqffd__sq_arc arc;
+    double ring = 0.0, p[3];
+    int quadrant;
+    arc.sq = sq;
+    arc.along_omega = 1;
+    arc.fixed = eta;
+    sqffd__sq_arc_point(&arc, 0, -SQFFD__SQ_PI, arc.start[0]);
+    for (quadrant = 1; quadrant <= 4; quadrant++) { /* the ring's perimeter, roughly */
+        sqffd__sq_arc_point(&arc, 0, -SQFFD__SQ_PI + 0.5 * SQFFD__SQ_PI * quadrant, p);
+        ring += sqrt(sqffd__dist2_3(arc.start[0], p));
+        memcpy(arc.start[0], p, sizeof p);
+    }
+    for (quadrant = 0; quadrant < 4; quadrant++) {
+        double t = -SQFFD__SQ_PI + 0.5 * SQFFD__SQ_PI * quadrant, t_end = t + 0.5 * SQFFD__SQ_PI, guess = 0.0;
+        sqffd__sq_arc_begin(&arc, t_end);
+        while (t < t_end) {
+            if (count < capacity) sqffd_sq_point(sq, eta, t, points + 3 * count, NULL);
+            count++;
+            if (ring < spacing) return count; /* a ring smaller than the spacing (a pole): one point */
+            t = sqffd__sq_next(&arc, t, t_end, spacing, &guess);
+        }
+    }
+    return count;
+}
+
+/* Upper bound of the samples sqffd_sq_sample_uniform makes: rows of
+   constant eta at most (meridian length) / spacing, each with at most
+   (ring perimeter) / spacing points; a convex arc is no longer than the
+   two legs of its bounding rectangle. */
+static double sqffd__sq_sample_bound(const sqffd_superquadric *sq, double spacing)
+{
+    double x = sq->size[0] * (1.0 + fabs(sq->taper[0])), y = sq->size[1] * (1.0 + fabs(sq->taper[1]));
+    double r = x > y ? x : y, z = sq->size[2];
+    return (2.0 * (2.0 * (r + z)) / spacing + 2.0) * (4.0 * (x + y) / spacing + 4.0);
+}
+
+static int sqffd__sq_valid(const sqffd_superquadric *sq)
+{
+    int k;
+    for (k = 0; k < 3; k++)
+        if (!(sq->size[k] > 0.0) || !isfinite(sq->size[k]) || !isfinite(sq->center[k])) return 0;
+    for (k = 0; k < 2; k++)
+        if (!(sq->shape[k] > 0.0) || !(sq->shape[k] <= 4.0) || !(fabs(sq->taper[k]) < 1.0)) return 0;
+    for (k = 0; k < 9; k++)
+        if (!isfinite(sq->rotation[k])) return 0;
+    return 1;
+}
+
+SQFFD_DEF size_t sqffd_sq_sample_uniform(const sqffd_superquadric *sq, double spacing, double *points, size_t capacity)
+{
+    sqffd__sq_arc arc;
+    size_t count = 0;
+    int half;
+    arc.sq = sq;
+    arc.along_omega = 0;
+    arc.fixed = 0.0;
+    if (!sq || !sqffd__sq_valid(sq) || !(spacing > 0.0) || !isfinite(spacing)) return 0;
+    if (!points) capacity = 0;
+    /* refuse samplings beyond ~1e8 points rather than run for minutes */
+    if (sqffd__sq_sample_bound(sq, spacing) > 1e8) return 0;
+    for (half = 0; half < 2; half++) { /* eta in [-pi/2, 0), then [0, pi/2) */
+        double t = -0.5 * SQFFD__SQ_PI + 0.5 * SQFFD__SQ_PI * half, t_end = t + 0.5 * SQFFD__SQ_PI, guess = 0.0;
+        sqffd__sq_arc_begin(&arc, t_end);
+        while (t < t_end) {
+            count = sqffd__sq_sample_row(sq, t, spacing, points, capacity, count);
+            t = sqffd__sq_next(&arc, t, t_end, spacing, &guess);
+        }
+    }
+    return sqffd__sq_sample_row(sq, 0.5 * SQFFD__SQ_PI, spacing, points, capacity, count);
+}
+
+/* ---- volume and IoU ----
+   Cross-section of the untapered shape at height z = a3 t:
+   area a1 a2 e2 B(e2/2, e2/2) (1 - |t|^(2/e1))^e1, and
+   int_0^1 t^k (1 - t^(2/e1))^e1 dt = (e1/2) B((k+1) e1/2, e1 + 1).
+   Tapering scales the section by (1 + Kx t)(1 + Ky t); the odd term
+   vanishes by symmetry, so
+   V = a1 a2 a3 e1 e2 B(e2/2, e2/2) [B(e1/2, e1+1) + Kx Ky B(3 e1/2, e1+1)]
+   (B(e1/2, e1+1) = 2 B(e1/2+1, e1): the textbook form). */
+static double sqffd__sq_beta(double x, double y)
+{
+    return tgamma(x) * tgamma(y) / tgamma(x + y);
+}
+
+SQFFD_DEF double sqffd_sq_volume(const sqffd_superquadric *sq)
+{
+    double e1, e2;
+    SQFFD_ASSERT(sq);
+    e1 = sq->shape[0]; e2 = sq->shape[1];
+    return sq->size[0] * sq->size[1] * sq->size[2] * e1 * e2 * sqffd__sq_beta(0.5 * e2, 0.5 * e2) *
+           (sqffd__sq_beta(0.5 * e1, e1 + 1.0) + sq->taper[0] * sq->taper[1] * sqffd__sq_beta(1.5 * e1, e1 + 1.0));
+}
+
+/* World axis-aligned box around the tapered shape. */
+static void sqffd__sq_bounds(const sqffd_superquadric *sq, double lo[3], double hi[3])
+{
+    double ext[3];
+    int i;
+    ext[0] = sq->size[0] * (1.0 + fabs(sq->taper[0]));
+    ext[1] = sq->size[1] * (1.0 + fabs(sq->taper[1]));
+    ext[2] = sq->size[2];
+    for (i = 0; i < 3; i++) {
+        double h = fabs(sq->rotation[3 * i]) * ext[0] + fabs(sq->rotation[3 * i + 1]) * ext[1] +
+                   fabs(sq->rotation[3 * i + 2]) * ext[2];
+        lo[i] = sq->center[i] - h;
+        hi[i] = sq->center[i] + h;
+    }
+}
+
+/* Inside test at a world point, cheap rejection by the local box first. */
+static int sqffd__sq_contains(const sqffd_superquadric *sq, const double p[3])
+{
+    double q[3], f[2], x, y, z, e1 = sq->shape[0], e2 = sq->shape[1];
+    sqffd__sq_to_local(sq, p, q);
+    z = fabs(q[2]) / sq->size[2];
+    if (z > 1.0) return 0;
+    sqffd__sq_taper_factors(sq, q[2], f);
+    x = fabs(q[0]) / (f[0] * sq->size[0]);
+    y = fabs(q[1]) / (f[1] * sq->size[1]);
+    if (x > 1.0 || y > 1.0) return 0;
+    return pow(pow(x, 2.0 / e2) + pow(y, 2.0 / e2), e2 / e1) + pow(z, 2.0 / e1) <= 1.0;
+}
+
+SQFFD_DEF double sqffd_sq_iou(const sqffd_superquadric *a, const sqffd_superquadric *b, int resolution)
+{
+    double lo[3], hi[3], lo_b[3], hi_b[3], step[3];
+    size_t in_a = 0, in_b = 0, in_both = 0;
+    int i, j, k;
+    if (!a || !b || resolution < 1 || !sqffd__sq_valid(a) || !sqffd__sq_valid(b)) return -1.0;
+    sqffd__sq_bounds(a, lo, hi);
+    sqffd__sq_bounds(b, lo_b, hi_b);
+    for (i = 0; i < 3; i++) {
+        if (lo_b[i] < lo[i]) lo[i] = lo_b[i];
+        if (hi_b[i] > hi[i]) hi[i] = hi_b[i];
+        step[i] = (hi[i] - lo[i]) / (double)resolution;
+    }
+    for (i = 0; i < resolution; i++)
+        for (j = 0; j < resolution; j++)
+            for (k = 0; k < resolution; k++) {
+                double p[3];
+                int ia, ib;
+                p[0] = lo[0] + ((double)i + 0.5) * step[0];
+                p[1] = lo[1] + ((double)j + 0.5) * step[1];
+                p[2] = lo[2] + ((double)k + 0.5) * step[2];
+                ia = sqffd__sq_contains(a, p);
+                ib = sqffd__sq_contains(b, p);
+                in_a += (size_t)ia;
+                in_b += (size_t)ib;
+                in_both += (size_t)(ia & ib);
+            }
+    if (in_a + in_b == 0) return 0.0;
+    return (double)in_both / (double)(in_a + in_b - in_both);
+}
+
+/* ---- fit ------------------------------------------------------------------
+   The data are centred on their centroid and scaled to unit RMS radius; the
+   fit runs in those coordinates and is mapped back at the end.
+   Parameters (SQFFD__SQ_P_*): a rotation increment w around the current
+   rotation (R_new = R exp([w]x), derivatives at w = 0), the centre, the log
+   sizes (sizes stay positive), e1, e2, Kx, Ky (last, so the 11-parameter
+   model is the leading block). */
+#define SQFFD__SQ_P_ROT 0
+#define SQFFD__SQ_P_CENTER 3
+#define SQFFD__SQ_P_LOGSIZE 6
+#define SQFFD__SQ_P_E1 9
+#define SQFFD__SQ_P_E2 10
+#define SQFFD__SQ_P_TAPER 11
+#define SQFFD__SQ_NPAR 13
+/* Row stride of J^T W J: padded to 16 so that the per-point row update has a
+   fixed length and vectorises (the padding columns stay 0). */
+#define SQFFD__SQ_ROW 16
+/* The starts and how much work each gets (measured on issue 3's random
+   shapes: fewer or smaller cost accuracy, more cost time). */
+#define SQFFD__SQ_SCREEN 48            /* subsample every start is screened on */
+#define SQFFD__SQ_START_ITERATIONS 4   /* LM iterations per start on it */
+#define SQFFD__SQ_KEEP 2               /* best starts run to convergence (robust mode: ranked) ... */
+#define SQFFD__SQ_POLISH 384           /* ... on this subsample */
+#define SQFFD__SQ_CLEAR_WIN 1e-2       /* a start this much costlier than the best is not polished */
+#define SQFFD__SQ_CLOSE_RATIO 0.7      /* eigenvalues or sizes this close count as ambiguous axes */
+#define SQFFD__SQ_HISTOGRAM 512        /* bins per axis for the robust initial sizes */
+#define SQFFD__SQ_SIZE_QUANTILE 0.95
+#define SQFFD__SQ_BOX_MARGIN 1.25      /* the fit stays within the data's box enlarged this much */
+#define SQFFD__SQ_MIN_STEP 1e-10       /* parameter steps below this (normalised units) end the LM */
+#define SQFFD__SQ_EXACT 1e-24          /* mean squared residual counted as an exact fit */
+#define SQFFD__SQ_TURNED_SEEDS 3        /* shape seeds tried on a turned basis */
+#define SQFFD__SQ_CLOSE_FIT 0.05   /* RMS radial distance / mean size of a fit allowed past the data's box */
+#define SQFFD__SQ_FLAT_RATIO 1e-10 /* covariance eigenvalue ratio below which data are flat */
+
+/* Per-evaluation constants of the residual. */
+typedef struct sqffd__sq_eval {
+    const sqffd_superquadric *sq;
+    sqffd__sq_exponents x;
+    double log_size[3];
+    double volume_scale;  /* sqrt(a1 a2 a3) */
+    double taper_over_a3[2]; /* Kx / a3, Ky / a3 */
+    double e1, inv_e1;
+    int cost;
+} sqffd__sq_eval;
+
+static void sqffd__sq_eval_init(sqffd__sq_eval *ev, const sqffd_superquadric *sq, int cost)
+{
+    int k;
+    ev->sq = sq;
+    ev->x = sqffd__sq_exponents_of(sq);
+    for (k = 0; k < 3; k++) ev->log_size[k] = log(sq->size[k]);
+    ev->volume_scale = sqrt(sq->size[0] * sq->size[1] * sq->size[2]);
+    ev->taper_over_a3[0] = sq->taper[0] / sq->size[2];
+    ev->taper_over_a3[1] = sq->taper[1] / sq->size[2];
+    ev->e1 = sq->shape[0];
+    ev->inv_e1 = 1.0 / sq->shape[0];
+    ev->cost = cost;
+}
+
+/* Residual of one point, and (grad not NULL) its derivatives with respect to
+   the 13 parameters. Chain: world p -> tapered local q = R^T (p - c) ->
+   untapered u = (q0 / fx, q1 / fy, q2) -> ln F(u) -> residual. */
+static double sqffd__sq_residual(const sqffd__sq_eval *ev, const double p[3], double *grad)
+{
+    const sqffd_superquadric *sq = ev->sq;
+    double e1 = ev->e1;
+    double q[3], f[2], inv_f[2], u[3], parts[SQFFD__SQ_PARTS], lf, r, kf, extra_e1, extra_size, t[3], gq[3], h[3];
+    int k, clamped[2];
+    sqffd__sq_to_local(sq, p, q);
+    for (k = 0; k < 2; k++) {
+        f[k] = 1.0 + ev->taper_over_a3[k] * q[2];
+        clamped[k] = f[k] < SQFFD__SQ_MIN_TAPER;
+        if (clamped[k]) f[k] = SQFFD__SQ_MIN_TAPER;
+        inv_f[k] = 1.0 / f[k];
+        u[k] = q[k] * inv_f[k];
+    }
+    u[2] = q[2];
+    lf = sqffd__sq_log_f(u, ev->log_size, &ev->x, grad ? parts : NULL);
+    if (ev->cost == SQFFD_SQ_COST_SOLINA) { /* sqrt(a1 a2 a3) (F^e1 - 1) */
+        double pw = exp(e1 * lf < 700.0 ? e1 * lf : 700.0);
+        r = ev->volume_scale * (pw - 1.0);
+        if (!grad) return r;
+        kf = ev->volume_scale * pw * e1; /* d r / d ln F */
+        extra_e1 = ev->volume_scale * pw * lf;
+        extra_size = 0.5 * r; /* from d sqrt(a1 a2 a3) / d ln a_i */
+        t[0] = t[1] = t[2] = 0.0;
+    } else { /* |u| (1 - F^(-e1/2)) */
+        double rho = sqrt(sqffd__dot3(u, u)), qm = exp(-0.5 * e1 * lf), along = rho > 0.0 ? (1.0 - qm) / rho : 0.0;
+        r = rho * (1.0 - qm);
+        if (!grad) return r;
+        kf = 0.5 * rho * qm * e1;
+        extra_e1 = 0.5 * rho * qm * lf;
+        extra_size = 0.0;
+        for (k = 0; k < 3; k++) t[k] = along * u[k];
+    }
+    /* h_k = d ln F / d ln|u_k| */
+    h[0] = ev->x.two_e1 * parts[SQFFD__SQ_PART_FG] * parts[SQFFD__SQ_PART_FU];
+    h[1] = ev->x.two_e1 * parts[SQFFD__SQ_PART_FG] * parts[SQFFD__SQ_PART_FU + 1];
+    h[2] = ev->x.two_e1 * parts[SQFFD__SQ_PART_FG + 1];
+    for (k = 0; k < 3; k++) /* t = d r / d u; h_k / u_k -> 0 as u_k -> 0 (exponents 2/e > 1) */
+        t[k] += fabs(u[k]) > SQFFD__SQ_TINY ? kf * h[k] / u[k] : 0.0;
+    /* through the tapering: dx/dX = 1/fx, dx/dZ = -x Kx / (a3 fx),
+       dx/dKx = -x Z / (a3 fx), dx/d ln a3 = x Kx Z / (a3 fx) */
+    gq[0] = t[0] * inv_f[0];
+    gq[1] = t[1] * inv_f[1];
+    gq[2] = t[2];
+    grad[SQFFD__SQ_P_LOGSIZE] = grad[SQFFD__SQ_P_LOGSIZE + 1] = grad[SQFFD__SQ_P_LOGSIZE + 2] = 0.0;
+    for (k = 0; k < 2; k++) {
+        double s = clamped[k] ? 0.0 : t[k] * u[k] * inv_f[k]; /* times 1/a3 below */
+        gq[2] -= s * ev->taper_over_a3[k];
+        grad[SQFFD__SQ_P_TAPER + k] = -s * q[2] / sq->size[2];
+        grad[SQFFD__SQ_P_LOGSIZE + 2] += s * ev->taper_over_a3[k] * q[2];
+    }
+    sqffd__cross3(gq, q, grad + SQFFD__SQ_P_ROT); /* dq/dw = [q]x */
+    sqffd__mat3_vec(sq->rotation, gq, grad + SQFFD__SQ_P_CENTER);
+    for (k = 0; k < 3; k++) {
+        grad[SQFFD__SQ_P_CENTER + k] = -grad[SQFFD__SQ_P_CENTER + k];
+        grad[SQFFD__SQ_P_LOGSIZE + k] += extra_size - kf * h[k];
+    }
+    grad[SQFFD__SQ_P_E1] = extra_e1 - kf * ev->inv_e1 * (parts[SQFFD__SQ_PART_FG] * parts[SQFFD__SQ_PART_LG] +
+                                                         parts[SQFFD__SQ_PART_FG + 1] * parts[SQFFD__SQ_PART_LH]);
+    grad[SQFFD__SQ_P_E2] = kf * ev->inv_e1 * parts[SQFFD__SQ_PART_FG] *
+                           (parts[SQFFD__SQ_PART_LA] - parts[SQFFD__SQ_PART_FU] * parts[SQFFD__SQ_PART_LU] -
+                            parts[SQFFD__SQ_PART_FU + 1] * parts[SQFFD__SQ_PART_LV]);
+    return r;
+}
+
+/* ---- robust mode's mixture ----
+   "Gaussian in the radial distance around the surface (its density spread
+   over the area) + uniform over the data box". An E-step gives each point
+   its inlier probability from the current sigma^2 and prior; the M-step
+   then re-estimates both from those weights. */
+typedef struct sqffd__sq_mixture {
+    double sigma2;   /* variance of the inlier distances */
+    double prior;    /* inlier fraction */
+    double *weights; /* the points' inlier probabilities (the E-step's output) */
+    double peak, outlier, sum_w, sum_wd2; /* one E-step's densities and sums */
+} sqffd__sq_mixture;
+
+/* Approximate surface area (Thomsen's ellipsoid formula): only the density
+   of the inlier model needs it. */
+static double sqffd__sq_area(const sqffd_superquadric *sq)
+{
+    const double p = 1.6075;
+    double x = pow(sq->size[0], p), y = pow(sq->size[1], p), z = pow(sq->size[2], p);
+    return 4.0 * SQFFD__SQ_PI * pow((x * y + y * z + z * x) / 3.0, 1.0 / p);
+}
+
+static void sqffd__sq_estep_begin(sqffd__sq_mixture *mix, const sqffd_superquadric *sq, double box_volume)
+{
+    if (mix->sigma2 < 1e-12) mix->sigma2 = 1e-12;
+    mix->peak = mix->prior / (sqrt(2.0 * SQFFD__SQ_PI * mix->sigma2) * sqffd__sq_area(sq));
+    mix->outlier = (1.0 - mix->prior) / box_volume;
+    mix->sum_w = mix->sum_wd2 = 0.0;
+}
+
+/* The E-step for point k at radial distance d: its weight, also summed for the M-step. */
+static double sqffd__sq_estep_point(sqffd__sq_mixture *mix, size_t k, double d)
+{
+    double d2 = d * d, inlier = mix->peak * exp(-0.5 * d2 / mix->sigma2);
+    double w = inlier / (inlier + mix->outlier);
+    mix->weights[k] = w;
+    mix->sum_w += w;
+    mix->sum_wd2 += w * d2;
+    return w;
+}
+
+/* The M-step after an E-step over m points. */
+static void sqffd__sq_mstep(sqffd__sq_mixture *mix, size_t m)
+{
+    mix->prior = mix->sum_w / (double)m;
+    if (mix->prior < 0.05) mix->prior = 0.05;
+    if (mix->prior > 0.999) mix->prior = 0.999;
+    if (mix->sum_w > 0.0) mix->sigma2 = mix->sum_wd2 / mix->sum_w;
+}
+
+/* State shared by the stages of one fit. */
+typedef struct sqffd__sq_fit {
+    const sqffd_sq_fit_options *opt;
+    int npar;             /* 13, or 11 without tapering */
+    int cost;             /* residual in use (sqffd_sq_cost) */
+    double box_volume;
+    double box_mid[3];    /* normalised data box: centre and half-extents */
+    double box_half[3];
+    double size_min;
+    int iterations;       /* optimiser iterations so far */
+    void *ncg_work;       /* CG optimiser scratch */
+    size_t ncg_size;
+    sqffd_result status;  /* SQFFD_ERROR_CANCELLED once the callback asked */
+    sqffd__sq_mixture *estep; /* robust mode: the next sqffd__sq_accumulate starts with this E-step
+                                 (cost must be the radial distance, the mixture's own residual) */
+} sqffd__sq_fit;
+
+/* Weighted cost sum w r^2 over m points (weights NULL = 1); with jtr also
+   J^T W r, and with jtj too the first npar rows of J^T W J (the Gauss-Newton
+   normal equations; row stride SQFFD__SQ_ROW). With fit->estep set (robust
+   mode) the weights come from an E-step at sq on the way, then the M-step:
+   the optimiser's first evaluation does the E-step without a pass of its own. */
+static double sqffd__sq_accumulate(sqffd__sq_fit *fit, const sqffd_superquadric *sq, const double *pts,
+                                   const double *weights, size_t m, double *jtj, double *jtr)
+{
+    sqffd__sq_mixture *mix = fit->estep;
+    sqffd__sq_eval ev;
+    double cost = 0.0, g[SQFFD__SQ_ROW];
+    int np = fit->npar, i, j;
+    size_t k;
+    sqffd__sq_eval_init(&ev, sq, fit->cost);
+    memset(g, 0, sizeof g);
+    if (jtj) memset(jtj, 0, sizeof(double) * SQFFD__SQ_NPAR * SQFFD__SQ_ROW);
+    if (jtr) memset(jtr, 0, sizeof(double) * SQFFD__SQ_NPAR);
+    fit->estep = NULL;
+    if (mix) sqffd__sq_estep_begin(mix, sq, fit->box_volume);
+    for (k = 0; k < m; k++) {
+        double w = weights && !mix ? weights[k] : 1.0, r;
+        if (w <= 0.0) continue;
+        r = sqffd__sq_residual(&ev, pts + 3 * k, jtr ? g : NULL);
+        if (mix) w = sqffd__sq_estep_point(mix, k, r);
+        cost += w * r * r;
+        if (!jtr) continue;
+        for (i = 0; i < np; i++) {
+            double wg = w * g[i];
+            jtr[i] += wg * r;
+            if (jtj)
+                for (j = 0; j < SQFFD__SQ_ROW; j++) jtj[i * SQFFD__SQ_ROW + j] += wg * g[j];
+        }
+    }
+    if (mix) sqffd__sq_mstep(mix, m);
+    return cost;
+}
+
+/* R <- R exp([w]x) (Rodrigues). */
+static void sqffd__sq_rotate(double rot[9], const double w[3])
+{
+    double th2 = sqffd__dot3(w, w), th = sqrt(th2), s, c, e[9], out[9];
+    int i, j;
+    if (th < 1e-8) { s = 1.0 - th2 / 6.0; c = 0.5 - th2 / 24.0; }
+    else { s = sin(th) / th; c = (1.0 - cos(th)) / th2; }
+    /* exp = I + s [w]x + c [w]x^2, [w]x^2 = w w^T - |w|^2 I */
+    for (i = 0; i < 3; i++)
+        for (j = 0; j < 3; j++) e[3 * i + j] = c * w[i] * w[j] + (i == j ? 1.0 - c * th2 : 0.0);
+    e[1] -= s * w[2]; e[2] += s * w[1];
+    e[3] += s * w[2]; e[5] -= s * w[0];
+    e[6] -= s * w[1]; e[7] += s * w[0];
+    for (i = 0; i < 3; i++)
+        for (j = 0; j < 3; j++)
+            out[3 * i + j] = rot[3 * i] * e[j] + rot[3 * i + 1] * e[3 + j] + rot[3 * i + 2] * e[6 + j];
+    memcpy(rot, out, sizeof out);
+}
+
+/* Clamp into the feasible set: e and K within their bounds, the centre in
+   the data's box, each size at most SQFFD__SQ_BOX_MARGIN times the box's
+   half-extent along that local axis (this stops the runaway of the F-based
+   cost on data that are no superquadric; sqffd__sq_contain finishes the job). */
+static void sqffd__sq_project(const sqffd__sq_fit *fit, sqffd_superquadric *sq)
+{
+    const sqffd_sq_fit_options *o = fit->opt;
+    int k;
+    for (k = 0; k < 2; k++) {
+        if (sq->shape[k] < o->shape_min) sq->shape[k] = o->shape_min;
+        if (sq->shape[k] > o->shape_max) sq->shape[k] = o->shape_max;
+        if (fit->npar < SQFFD__SQ_NPAR) sq->taper[k] = 0.0;
+        if (sq->taper[k] > o->taper_max) sq->taper[k] = o->taper_max;
+        if (sq->taper[k] < -o->taper_max) sq->taper[k] = -o->taper_max;
+    }
+    for (k = 0; k < 3; k++) {
+        double lo = fit->box_mid[k] - fit->box_half[k], hi = fit->box_mid[k] + fit->box_half[k];
+        double reach = SQFFD__SQ_BOX_MARGIN * (fabs(sq->rotation[k]) * fit->box_half[0] +
+                                               fabs(sq->rotation[3 + k]) * fit->box_half[1] +
+                                               fabs(sq->rotation[6 + k]) * fit->box_half[2]);
+        if (sq->center[k] < lo) sq->center[k] = lo;
+        if (sq->center[k] > hi) sq->center[k] = hi;
+        if (reach < fit->size_min) reach = fit->size_min;
+        if (sq->size[k] > reach) sq->size[k] = reach;
+        if (sq->size[k] < fit->size_min) sq->size[k] = fit->size_min;
+    }
+}
+
+/* ||(x, y)||_q for x, y >= 0, scaled so that a large q cannot overflow. */
+static double sqffd__sq_qnorm(double x, double y, double q)
+{
+    double m = x > y ? x : y;
+    if (m <= 0.0) return 0.0;
+    return m * pow(pow(x / m, q) + pow(y / m, q), 1.0 / q);
+}
+
+/* How far the shape reaches from its centre along +dir (a world unit
+   vector). Each cross-section at height z = a3 S^e1 (S = sin eta, signed
+   power) is a superellipse with half-axes fx a1 C^e1, fy a2 C^e1, whose
+   support is the dual norm with q = 2/(2 - e2) (e2 > 2 shapes lie inside
+   the e2 = 2 ones); the reach is the largest over SQFFD__SQ_REACH_ROWS
+   heights. */
+#define SQFFD__SQ_REACH_ROWS 256
+static double sqffd__sq_reach(const sqffd_superquadric *sq, const double dir[3])
+{
+    double v[3], best = -HUGE_VAL, q = 2.0 / (2.0 - (sq->shape[1] < 1.99 ? sq->shape[1] : 1.99));
+    int i;
+    sqffd__mat3t_vec(sq->rotation, dir, v);
+    for (i = 0; i <= SQFFD__SQ_REACH_ROWS; i++) {
+        double eta = -0.5 * SQFFD__SQ_PI + SQFFD__SQ_PI * i / SQFFD__SQ_REACH_ROWS, f[2], h;
+        double c = sqffd__sq_spow(cos(eta), sq->shape[0]), z = sq->size[2] * sqffd__sq_spow(sin(eta), sq->shape[0]);
+        sqffd__sq_taper_factors(sq, z, f);
+        h = c * sqffd__sq_qnorm(f[0] * sq->size[0] * fabs(v[0]), f[1] * sq->size[1] * fabs(v[1]), q) + v[2] * z;
+        if (h > best) best = h;
+    }
+    return best;
+}
+
+/* The last guard against a runaway: when the fitted shape reaches out of
+   the data's box enlarged by SQFFD__SQ_BOX_MARGIN, shrink it about its
+   centre (all sizes by one factor: the shape scales, K is scale-free) until
+   it fits. The per-size bounds of the projection leave a rotated or
+   off-centre shape room to stick out; this closes it. */
+static void sqffd__sq_contain(const sqffd__sq_fit *fit, sqffd_superquadric *sq)
+{
+    double shrink = 1.0;
+    int k, side;
+    for (k = 0; k < 3; k++)
+        for (side = -1; side <= 1; side += 2) {
+            double dir[3] = {0.0, 0.0, 0.0}, reach, room;
+            dir[k] = (double)side;
+            reach = 1.001 * sqffd__sq_reach(sq, dir); /* the rows sample the reach from below */
+            room = SQFFD__SQ_BOX_MARGIN * fit->box_half[k] - side * (sq->center[k] - fit->box_mid[k]);
+            if (reach > 0.0 && reach * shrink > room) shrink = room / reach;
+        }
+    for (k = 0; k < 3; k++) sq->size[k] *= shrink;
+}
+
+/* sq <- project(sq + delta) */
+static void sqffd__sq_step(const sqffd__sq_fit *fit, sqffd_superquadric *sq, const double *delta)
+{
+    int k;
+    sqffd__sq_rotate(sq->rotation, delta + SQFFD__SQ_P_ROT);
+    for (k = 0; k < 3; k++) {
+        sq->center[k] += delta[SQFFD__SQ_P_CENTER + k];
+        sq->size[k] *= exp(delta[SQFFD__SQ_P_LOGSIZE + k]);
+    }
+    sq->shape[0] += delta[SQFFD__SQ_P_E1];
+    sq->shape[1] += delta[SQFFD__SQ_P_E2];
+    if (fit->npar == SQFFD__SQ_NPAR) {
+        sq->taper[0] += delta[SQFFD__SQ_P_TAPER];
+        sq->taper[1] += delta[SQFFD__SQ_P_TAPER + 1];
+    }
+    sqffd__sq_project(fit, sq);
+}
+
+/* One optimiser iteration done: count it, report it, honour a cancel. */
+static int sqffd__sq_tick(sqffd__sq_fit *fit, double cost)
+{
+    fit->iterations++;
+    if (fit->opt->progress &&
+        fit->opt->progress(fit->opt->progress_user, SQFFD_STAGE_SUPERQUADRIC, fit->iterations, cost)) {
+        fit->status = SQFFD_ERROR_CANCELLED;
+        return 0;
+    }
+    return 1;
+}
+
+/* Levenberg-Marquardt (Marquardt's diagonal scaling) with projection onto
+   the bounds. Returns non-zero when converged; *cost gets the final cost. */
+static int sqffd__sq_lm(sqffd__sq_fit *fit, sqffd_superquadric *sq, const double *pts, const double *weights,
+                        size_t m, int max_iterations, double *cost)
+{
+    double jtj[SQFFD__SQ_NPAR * SQFFD__SQ_ROW], jtr[SQFFD__SQ_NPAR];
+    double tjtj[SQFFD__SQ_NPAR * SQFFD__SQ_ROW], tjtr[SQFFD__SQ_NPAR];
+    double a[SQFFD__SQ_NPAR * SQFFD__SQ_NPAR], delta[SQFFD__SQ_NPAR], lambda = 1e-3, step;
+    int np = fit->npar, it, i, j;
+    double c0 = sqffd__sq_accumulate(fit, sq, pts, weights, m, jtj, jtr);
+    if (c0 < SQFFD__SQ_EXACT * (double)m) { *cost = c0; return 1; }
+    for (it = 0; it < max_iterations; it++) {
+        sqffd_superquadric trial = *sq;
+        int last = it + 1 == max_iterations; /* no use for the trial's Jacobian */
+        double c1;
+        for (i = 0; i < np; i++) {
+            for (j = 0; j < np; j++)
+                a[i * np + j] = i <= j ? jtj[i * SQFFD__SQ_ROW + j] : jtj[j * SQFFD__SQ_ROW + i];
+            a[i * np + i] += lambda * jtj[i * SQFFD__SQ_ROW + i] + 1e-12 * (1.0 + c0);
+            delta[i] = -jtr[i];
+        }
+        for (i = np; i < SQFFD__SQ_NPAR; i++) delta[i] = 0.0;
+        if (sqffd_cholesky_factor(a, np) != SQFFD_OK) {
+            lambda *= 10.0;
+            if (!sqffd__sq_tick(fit, c0)) break;
+            continue;
+        }
+        sqffd_cholesky_solve(a, np, delta);
+        step = 0.0;
+        for (i = 0; i < np; i++) step = fabs(delta[i]) > step ? fabs(delta[i]) : step;
+        sqffd__sq_step(fit, &trial, delta);
+        c1 = sqffd__sq_accumulate(fit, &trial, pts, weights, m, last ? NULL : tjtj, last ? NULL : tjtr);
+        if (!sqffd__sq_tick(fit, c1 < c0 ? c1 : c0)) break;
+        if (c1 < c0) {
+            double gain = (c0 - c1) / c0;
+            *sq = trial;
+            if (!last) {
+                memcpy(jtj, tjtj, sizeof jtj);
+                memcpy(jtr, tjtr, sizeof jtr);
+            }
+            c0 = c1;
+            lambda = lambda * 0.2 > 1e-9 ? lambda * 0.2 : 1e-9;
+            if (gain < fit->opt->tolerance || step < SQFFD__SQ_MIN_STEP || c0 < SQFFD__SQ_EXACT * (double)m) {
+                *cost = c0;
+                return 1;
+            }
+        } else {
+            lambda *= 10.0;
+            /* no descent even along a tiny step: a (constrained) minimum */
+            if (lambda > 1e6 || step < SQFFD__SQ_MIN_STEP) { *cost = c0; return 1; }
+        }
+    }
+    *cost = c0;
+    return 0;
+}
+
+/* ---- the paper's optimiser, nonlinear conjugate gradients ----
+   Parameters x = (w, centre, log sizes, e1, e2, Kx, Ky) with R = R0 exp([w]x).
+   The gradient is 2 J^T r from the same analytic Jacobian as the LM; its
+   rotation part (taken at the current R) maps to w through the transposed
+   right Jacobian of the exponential map,
+   J_r(w)^T g = g + a w x g + b w x (w x g), a = (1 - cos t)/t^2, b = (t - sin t)/t^3. */
+typedef struct sqffd__sq_cg {
+    sqffd__sq_fit *fit;
+    const sqffd_superquadric *base; /* R0 */
+    const double *pts, *weights;
+    size_t m;
+} sqffd__sq_cg;
+
+static void sqffd__sq_cg_model(const sqffd__sq_cg *cg, const double *x, sqffd_superquadric *sq)
+{
+    int k;
+    *sq = *cg->base;
+    sqffd__sq_rotate(sq->rotation, x + SQFFD__SQ_P_ROT);
+    for (k = 0; k < 3; k++) {
+        sq->center[k] = x[SQFFD__SQ_P_CENTER + k];
+        sq->size[k] = exp(x[SQFFD__SQ_P_LOGSIZE + k]);
+    }
+    sq->shape[0] = x[SQFFD__SQ_P_E1];
+    sq->shape[1] = x[SQFFD__SQ_P_E2];
+    if (cg->fit->npar == SQFFD__SQ_NPAR) {
+        sq->taper[0] = x[SQFFD__SQ_P_TAPER];
+        sq->taper[1] = x[SQFFD__SQ_P_TAPER + 1];
+    }
+}
+
+/* The non-rotation parameters of sq into x (x[0..2] untouched). */
+static void sqffd__sq_cg_params(const sqffd__sq_fit *fit, const sqffd_superquadric *sq, double *x)
+{
+    int k;
+    for (k = 0; k < 3; k++) {
+        x[SQFFD__SQ_P_CENTER + k] = sq->center[k];
+        x[SQFFD__SQ_P_LOGSIZE + k] = log(sq->size[k]);
+    }
+    x[SQFFD__SQ_P_E1] = sq->shape[0];
+    x[SQFFD__SQ_P_E2] = sq->shape[1];
+    if (fit->npar == SQFFD__SQ_NPAR) {
+        x[SQFFD__SQ_P_TAPER] = sq->taper[0];
+        x[SQFFD__SQ_P_TAPER + 1] = sq->taper[1];
+    }
+}
+
+static double sqffd__sq_cg_objective(void *user, const double *x, double *gradient)
+{
+    const sqffd__sq_cg *cg = (const sqffd__sq_cg *)user;
+    sqffd_superquadric sq;
+    double jtr[SQFFD__SQ_NPAR], g[3], wg[3], wwg[3], cost, t2, a, b;
+    int k;
+    sqffd__sq_cg_model(cg, x, &sq);
+    cost = sqffd__sq_accumulate(cg->fit, &sq, cg->pts, cg->weights, cg->m, NULL, jtr);
+    for (k = 0; k < cg->fit->npar; k++) gradient[k] = 2.0 * jtr[k];
+    t2 = sqffd__dot3(x, x);
+    if (t2 < 1e-8) { a = 0.5 - t2 / 24.0; b = 1.0 / 6.0 - t2 / 120.0; }
+    else {
+        double t = sqrt(t2);
+        a = (1.0 - cos(t)) / t2;
+        b = (t - sin(t)) / (t2 * t);
+    }
+    memcpy(g, gradient + SQFFD__SQ_P_ROT, sizeof g);
+    sqffd__cross3(x, g, wg);
+    sqffd__cross3(x, wg, wwg);
+    for (k = 0; k < 3; k++) gradient[SQFFD__SQ_P_ROT + k] = g[k] + a * wg[k] + b * wwg[k];
+    return cost;
+}
+
+static void sqffd__sq_cg_project(void *user, double *x)
+{
+    const sqffd__sq_cg *cg = (const sqffd__sq_cg *)user;
+    sqffd_superquadric sq;
+    sqffd__sq_cg_model(cg, x, &sq);
+    sqffd__sq_project(cg->fit, &sq);
+    sqffd__sq_cg_params(cg->fit, &sq, x);
+}
+
+static int sqffd__sq_cg_progress(void *user, int stage, int iteration, double error)
+{
+    (void)stage;
+    (void)iteration;
+    return !sqffd__sq_tick((sqffd__sq_fit *)user, error);
+}
+
+static int sqffd__sq_cg_minimize(sqffd__sq_fit *fit, sqffd_superquadric *sq, const double *pts, const double *weights,
+                                 size_t m, int max_iterations, double *cost)
+{
+    sqffd__sq_cg cg;
+    sqffd_superquadric base = *sq;
+    double x[SQFFD__SQ_NPAR], gradient[SQFFD__SQ_NPAR], f0;
+    sqffd_result r;
+    cg.fit = fit;
+    cg.base = &base;
+    cg.pts = pts;
+    cg.weights = weights;
+    cg.m = m;
+    x[0] = x[1] = x[2] = 0.0;
+    sqffd__sq_cg_params(fit, sq, x);
+    f0 = sqffd__sq_cg_objective(&cg, x, gradient);
+    r = sqffd_ncg_minimize(fit->npar, sqffd__sq_cg_objective, sqffd__sq_cg_project, &cg, x, max_iterations,
+                           fit->opt->tolerance * (f0 > 1.0 ? f0 : 1.0), NULL, cost, sqffd__sq_cg_progress, fit,
+                           fit->ncg_work, fit->ncg_size);
+    sqffd__sq_cg_model(&cg, x, sq);
+    if (r == SQFFD_ERROR_CANCELLED) fit->status = SQFFD_ERROR_CANCELLED;
+    return r == SQFFD_OK;
+}
+
+/* The configured optimiser; the CG needs more, cheaper iterations. */
+#define SQFFD__SQ_CG_FACTOR 4
+static int sqffd__sq_optimize(sqffd__sq_fit *fit, sqffd_superquadric *sq, const double *pts, const double *weights,
+                              size_t m, int max_iterations, double *cost)
+{
+    if (fit->opt->optimizer == SQFFD_SQ_OPTIMIZER_CG)
+        return sqffd__sq_cg_minimize(fit, sq, pts, weights, m, SQFFD__SQ_CG_FACTOR * max_iterations, cost);
+    return sqffd__sq_lm(fit, sq, pts, weights, m, max_iterations, cost);
+}
+
+/* Workspace blocks of one fit. */
+typedef struct sqffd__sq_work {
+    double *points;  /* 3n normalised points */
+    double *weights; /* n robust weights (robust mode only) */
+    double *screen;  /* 3 * min(n, SQFFD__SQ_SCREEN) subsample */
+    double *polish;  /* 3 * min(n, SQFFD__SQ_POLISH) subsample */
+    double *dense;   /* robust mode: the polish points that are not isolated */
+    void *tree;      /* robust mode: kd-tree over the polish points */
+    size_t tree_size;
+    double *hist;    /* 3 * SQFFD__SQ_HISTOGRAM */
+    void *ncg;       /* CG optimiser scratch */
+    size_t ncg_size;
+} sqffd__sq_work;
+
+static void sqffd__sq_fit_layout(sqffd__arena *a, size_t n, const sqffd_sq_fit_options *o, sqffd__sq_work *w)
+{
+    w->points = (double *)sqffd__arena_take(a, n, 3 * sizeof(double));
+    /* robust weights; also the 2 * min(n, SQFFD__SQ_POLISH) scratch of the density filter */
+    w->weights = o->robust ? (double *)sqffd__arena_take(a, n > 2 * SQFFD__SQ_POLISH ? n : 2 * SQFFD__SQ_POLISH, sizeof(double)) : NULL;
+    w->screen = (double *)sqffd__arena_take(a, n < SQFFD__SQ_SCREEN ? n : SQFFD__SQ_SCREEN, 3 * sizeof(double));
+    w->polish = (double *)sqffd__arena_take(a, n < SQFFD__SQ_POLISH ? n : SQFFD__SQ_POLISH, 3 * sizeof(double));
+    w->dense = o->robust ? (double *)sqffd__arena_take(a, n < SQFFD__SQ_POLISH ? n : SQFFD__SQ_POLISH, 3 * sizeof(double)) : NULL;
+    w->tree_size = o->robust ? sqffd_kdtree_workspace_size(n < SQFFD__SQ_POLISH ? n : SQFFD__SQ_POLISH) : 0;
+    w->tree = w->tree_size ? sqffd__arena_take(a, w->tree_size, 1) : NULL;
+    w->hist = (double *)sqffd__arena_take(a, 3 * SQFFD__SQ_HISTOGRAM, sizeof(double));
+    w->ncg_size = o->optimizer == SQFFD_SQ_OPTIMIZER_CG ? sqffd_ncg_workspace_size(SQFFD__SQ_NPAR) : 0;
+    w->ncg = w->ncg_size ? sqffd__arena_take(a, w->ncg_size, 1) : NULL;
+}
+
+SQFFD_DEF sqffd_sq_fit_options sqffd_sq_fit_options_default(void)
+{
+    sqffd_sq_fit_options o;
+    memset(&o, 0, sizeof o);
+    o.cost = SQFFD_SQ_COST_SOLINA;
+    o.optimizer = SQFFD_SQ_OPTIMIZER_LM;
+    o.taper = 1;
+    o.shape_min = 0.1;
+    o.shape_max = 1.9;
+    o.taper_max = 0.95;
+    o.max_iterations = 100;
+    o.tolerance = 1e-5;
+    o.robust = 0;
+    o.robust_rounds = 4;
+    o.progress = NULL;
+    o.progress_user = NULL;
+    return o;
+}
+
+static int sqffd__sq_options_valid(const sqffd_sq_fit_options *o)
+{
+    return (o->cost == SQFFD_SQ_COST_SOLINA || o->cost == SQFFD_SQ_COST_RADIAL) &&
+           (o->optimizer == SQFFD_SQ_OPTIMIZER_LM || o->optimizer == SQFFD_SQ_OPTIMIZER_CG) &&
+           o->shape_min >= 0.01 && o->shape_min <= o->shape_max && o->shape_max <= 4.0 &&
+           o->taper_max >= 0.0 && o->taper_max < 1.0 && o->max_iterations >= 1 &&
+           o->tolerance >= 0.0 && isfinite(o->tolerance) && (!o->robust || o->robust_rounds >= 1);
+}
+
+SQFFD_DEF size_t sqffd_sq_fit_workspace_size(size_t n, const sqffd_sq_fit_options *options)
+{
+    sqffd_sq_fit_options defaults = sqffd_sq_fit_options_default();
+    sqffd__arena a;
+    sqffd__sq_work w;
+    sqffd__arena_measure(&a);
+    sqffd__sq_fit_layout(&a, n, options ? options : &defaults, &w);
+    return sqffd__arena_required(&a);
+}
+
+/* An EM step (E, then M) at sq over m points in a pass of its own. */
+static void sqffd__sq_reweight(sqffd__sq_mixture *mix, const sqffd_superquadric *sq, const double *pts, size_t m,
+                               double box_volume)
+{
+    sqffd__sq_eval ev;
+    size_t k;
+    sqffd__sq_eval_init(&ev, sq, SQFFD_SQ_COST_RADIAL);
+    sqffd__sq_estep_begin(mix, sq, box_volume);
+    for (k = 0; k < m; k++) sqffd__sq_estep_point(mix, k, sqffd__sq_residual(&ev, pts + 3 * k, NULL));
+    sqffd__sq_mstep(mix, m);
+}
+
+/* Weighted mean of the squared radial distance (weights NULL = 1). */
+static double sqffd__sq_mean_d2(const sqffd_superquadric *sq, const double *pts, const double *weights, size_t m)
+{
+    double sum = 0.0, sum_w = 0.0;
+    sqffd__sq_eval ev;
+    size_t k;
+    sqffd__sq_eval_init(&ev, sq, SQFFD_SQ_COST_RADIAL);
+    for (k = 0; k < m; k++) {
+        double w = weights ? weights[k] : 1.0, d = sqffd__sq_residual(&ev, pts + 3 * k, NULL);
+        sum += w * d * d;
+        sum_w += w;
+    }
+    return sum_w > 0.0 ? sum / sum_w : 0.0;
+}
+
+/* m of the n points, evenly spread over the input order (deterministic). */
+static void sqffd__sq_subsample(const double *pts, size_t n, double *out, size_t m)
+{
+    size_t i;
+    for (i = 0; i < m; i++) memcpy(out + 3 * i, pts + 3 * (i * n / m), 3 * sizeof(double));
+}
+
+/* Normalise: centroid, then scale to unit RMS radius (dividing by the
+   largest offset first so that squares cannot overflow). Returns 0 when all
+   points coincide. */
+static int sqffd__sq_normalize(const double *points, size_t n, double *out, double centroid[3], double *scale)
+{
+    double big = 0.0, sum2 = 0.0;
+    size_t i;
+    int k;
+    for (k = 0; k < 3; k++) {
+        double s = 0.0;
+        for (i = 0; i < n; i++) s += points[3 * i + (size_t)k];
+        centroid[k] = s / (double)n;
+    }
+    for (i = 0; i < 3 * n; i++) {
+        double d = fabs(points[i] - centroid[i % 3]);
+        if (d > big) big = d;
+    }
+    if (!(big > 0.0) || !isfinite(big)) return 0;
+    for (i = 0; i < 3 * n; i++) {
+        out[i] = (points[i] - centroid[i % 3]) / big;
+        sum2 += out[i] * out[i];
+    }
+    *scale = big * sqrt(sum2 / (double)n);
+    for (i = 0; i < 3 * n; i++) out[i] *= big / *scale;
+    return 1;
+}
+
+/* Robust initial half-sizes along the columns of axes, about centre: the
+   SQFFD__SQ_SIZE_QUANTILE quantile of |projection| (a fixed histogram, no
+   sort), divided by the quantile (exact for a sphere sampled evenly). */
+static void sqffd__sq_initial_sizes(const double *pts, size_t n, const double centre[3], const double axes[9],
+                                    double *hist, double size[3])
+{
+    double top[3] = {0.0, 0.0, 0.0}, proj[3], d[3];
+    size_t i;
+    int k, b;
+    memset(hist, 0, sizeof(double) * 3 * SQFFD__SQ_HISTOGRAM);
+    for (i = 0; i < n; i++) {
+        sqffd__sub3(pts + 3 * i, centre, d);
+        sqffd__mat3t_vec(axes, d, proj);
+        for (k = 0; k < 3; k++)
+            if (fabs(proj[k]) > top[k]) top[k] = fabs(proj[k]);
+    }
+    for (i = 0; i < n; i++) {
+        sqffd__sub3(pts + 3 * i, centre, d);
+        sqffd__mat3t_vec(axes, d, proj);
+        for (k = 0; k < 3; k++) {
+            b = top[k] > 0.0 ? (int)(fabs(proj[k]) / top[k] * SQFFD__SQ_HISTOGRAM) : 0;
+            hist[k * SQFFD__SQ_HISTOGRAM + (b < SQFFD__SQ_HISTOGRAM ? b : SQFFD__SQ_HISTOGRAM - 1)] += 1.0;
+        }
+    }
+    for (k = 0; k < 3; k++) {
+        double need = SQFFD__SQ_SIZE_QUANTILE * (double)n, seen = 0.0;
+        for (b = 0; b < SQFFD__SQ_HISTOGRAM - 1; b++) {
+            seen += hist[k * SQFFD__SQ_HISTOGRAM + b];
+            if (seen >= need) break;
+        }
+        size[k] = top[k] * ((double)b + 1.0) / SQFFD__SQ_HISTOGRAM / SQFFD__SQ_SIZE_QUANTILE;
+        if (size[k] > top[k]) size[k] = top[k];
+    }
+}
+
+/* Centroid and covariance (row-major 3x3) of m points. */
+static void sqffd__sq_moments(const double *pts, size_t m, double centre[3], double cov[9])
+{
+    size_t i;
+    int k;
+    memset(cov, 0, 9 * sizeof(double));
+    centre[0] = centre[1] = centre[2] = 0.0;
+    for (i = 0; i < m; i++)
+        for (k = 0; k < 3; k++) centre[k] += pts[3 * i + (size_t)k] / (double)m;
+    for (i = 0; i < m; i++) {
+        double d[3];
+        sqffd__sub3(pts + 3 * i, centre, d);
+        for (k = 0; k < 9; k++) cov[k] += d[k / 3] * d[k % 3] / (double)m;
+    }
+}
+
+static void sqffd__sq_swap(double *a, size_t i, size_t j)
+{
+    double t = a[i];
+    a[i] = a[j];
+    a[j] = t;
+}
+
+/* The k-th smallest of a[0..n-1] (quickselect, median-of-three pivot,
+   Lomuto partition; reorders a). */
+static double sqffd__sq_select(double *a, size_t n, size_t k)
+{
+    size_t lo = 0, hi = n - 1;
+    while (hi > lo) {
+        size_t mid = lo + (hi - lo) / 2, store = lo, i;
+        if (a[mid] < a[lo]) sqffd__sq_swap(a, lo, mid);
+        if (a[hi] < a[lo]) sqffd__sq_swap(a, lo, hi);
+        if (a[mid] < a[hi]) sqffd__sq_swap(a, mid, hi); /* a[hi]: the median of the three */
+        for (i = lo; i < hi; i++)
+            if (a[i] < a[hi]) sqffd__sq_swap(a, i, store++);
+        sqffd__sq_swap(a, store, hi);
+        if (k == store) break;
+        if (k < store) hi = store - 1;
+        else lo = store + 1;
+    }
+    return a[k];
+}
+
+/* Robust mode's start set: of every other point, those whose
+   SQFFD__SQ_NEIGHBOURS-th nearest neighbour among all m (a kd-tree over
+   them) is at most 1.2 times the median such distance. Outliers away from
+   the surface are isolated and drop out; so do some surface points, which
+   the starts can spare. dist: m doubles of scratch. Returns the count
+   written to out (0 if the tree cannot be built). */
+#define SQFFD__SQ_NEIGHBOURS 6
+static size_t sqffd__sq_dense_points(const double *pts, size_t m, double *out, double *dist, void *tree_work,
+                                     size_t tree_size)
+{
+    sqffd_kdtree tree;
+    size_t i, kept = 0, half = (m + 1) / 2, index[SQFFD__SQ_NEIGHBOURS + 1];
+    double d2[SQFFD__SQ_NEIGHBOURS + 1], limit;
+    if (sqffd_kdtree_build(&tree, pts, m, tree_work, tree_size) != SQFFD_OK) return 0;
+    for (i = 0; i < half; i++) { /* the point itself is the first of the k + 1 nearest */
+        size_t found = sqffd_kdtree_knn(&tree, pts + 6 * i, SQFFD__SQ_NEIGHBOURS + 1, index, d2);
+        dist[i] = dist[half + i] = d2[found - 1];
+    }
+    limit = 1.44 * sqffd__sq_select(dist + half, half, half / 2); /* squared: 1.2 times the median distance */
+    for (i = 0; i < half; i++)
+        if (dist[i] <= limit) memcpy(out + 3 * kept++, pts + 6 * i, 3 * sizeof(double));
+    return kept;
+}
+
+/* Robust variance of the radial distances of m points: (1.4826 median |d|)^2.
+   scratch: m doubles. */
+static double sqffd__sq_robust_d2(const sqffd_superquadric *sq, const double *pts, size_t m, double *scratch)
+{
+    double mad;
+    size_t k;
+    sqffd__sq_eval ev;
+    sqffd__sq_eval_init(&ev, sq, SQFFD_SQ_COST_RADIAL);
+    for (k = 0; k < m; k++) scratch[k] = fabs(sqffd__sq_residual(&ev, pts + 3 * k, NULL));
+    mad = 1.4826 * sqffd__sq_select(scratch, m, m / 2);
+    return mad * mad;
+}
+
+#define SQFFD__SQ_ROBUST_COST SQFFD_SQ_COST_RADIAL /* the mixture's own residual */
+/* Optimiser iterations per EM round but the last (the CG's get multiplied by
+   SQFFD__SQ_CG_FACTOR too): one LM step lets the weights follow; the CG's
+   steps do less (measured on issue 3's shapes). */
+#define SQFFD__SQ_ROUND_ITERATIONS(o) ((o)->optimizer == SQFFD_SQ_OPTIMIZER_CG ? 3 : 1)
+#define SQFFD__SQ_FULL_ROUNDS 1      /* EM rounds on all points after the polish subsample */
+/* Field by field: the core may not call memcmp. */
+static int sqffd__sq_equal(const sqffd_superquadric *a, const sqffd_superquadric *b)
+{
+    int k;
+    for (k = 0; k < 9; k++)
+        if (a->rotation[k] != b->rotation[k]) return 0;
+    for (k = 0; k < 3; k++)
+        if (a->size[k] != b->size[k] || a->center[k] != b->center[k]) return 0;
+    for (k = 0; k < 2; k++)
+        if (a->shape[k] != b->shape[k] || a->taper[k] != b->taper[k]) return 0;
+    return 1;
+}
+
+/* Robust mode: `rounds` EM rounds on m points, each an E-step and M-step
+   (fused into the optimiser's first evaluation), then a few weighted LM
+   iterations of the mixture's own residual, the radial distance; the last
+   round runs the LM to convergence. Returns non-zero when that moved sq
+   (else the last E-step's weights are those at the result). */
+static int sqffd__sq_em(sqffd__sq_fit *fit, sqffd_superquadric *sq, const double *pts, size_t m,
+                        sqffd__sq_mixture *mix, int rounds, int *converged)
+{
+    sqffd_superquadric at_estep = *sq;
+    double cost;
+    int r;
+    fit->cost = SQFFD__SQ_ROBUST_COST;
+    for (r = 0; r < rounds && fit->status == SQFFD_OK; r++) {
+        at_estep = *sq;
+        fit->estep = mix;
+        *converged = sqffd__sq_optimize(fit, sq, pts, mix->weights, m,
+                                        r + 1 < rounds ? SQFFD__SQ_ROUND_ITERATIONS(fit->opt) : fit->opt->max_iterations, &cost);
+    }
+    fit->cost = (int)fit->opt->cost;
+    return !sqffd__sq_equal(&at_estep, sq);
+}
+
+/* Keep the SQFFD__SQ_KEEP cheapest starts, sorted by cost. */
+typedef struct sqffd__sq_shortlist {
+    sqffd_superquadric sq[SQFFD__SQ_KEEP];
+    double cost[SQFFD__SQ_KEEP];
+    int id[SQFFD__SQ_KEEP];
+    int count;
+} sqffd__sq_shortlist;
+
+static void sqffd__sq_shortlist_add(sqffd__sq_shortlist *list, const sqffd_superquadric *sq, double cost, int id)
+{
+    int slot;
+    for (slot = list->count; slot > 0 && cost < list->cost[slot - 1]; slot--)
+        if (slot < SQFFD__SQ_KEEP) {
+            list->sq[slot] = list->sq[slot - 1];
+            list->cost[slot] = list->cost[slot - 1];
+            list->id[slot] = list->id[slot - 1];
+        }
+    if (slot >= SQFFD__SQ_KEEP) return;
+    list->sq[slot] = *sq;
+    list->cost[slot] = cost;
+    list->id[slot] = id;
+    if (list->count < SQFFD__SQ_KEEP) list->count++;
+}
+
+/* Starts: each principal axis of the start set as the local z, times the
+   shape seeds; when two eigenvalues are close their axes are arbitrary
+   within their plane, so that basis is also tried turned by 45 degrees in
+   it. Each start gets a few LM iterations on the screening subsample. */
+static void sqffd__sq_screen(sqffd__sq_fit *fit, const double *pts, size_t m, const double *screen, size_t m_screen,
+                             double *hist, sqffd__sq_shortlist *list)
+{
+    /* (e1, e2) seeds: round, then the pairs a start cannot get to from there */
+    static const double shape_seeds[][2] = {{1.0, 1.0}, {1.7, 0.3}, {0.3, 1.7}, {1.7, 1.7}};
+    const int n_seeds = (int)(sizeof shape_seeds / sizeof shape_seeds[0]);
+    double centre[3], cov[9], values[3], axes[9];
+    int basis, s, id = 0;
+    sqffd__sq_moments(pts, m, centre, cov);
+    sqffd_sym3_eigen(cov, values, axes);
+    list->count = 0;
+    for (basis = 0; basis < 3 && fit->status == SQFFD_OK; basis++) {
+        double b_axes[9], b_size[3];
+        memcpy(b_axes, axes, sizeof b_axes);
+        if (basis > 0) { /* basis 1: eigenvalues 0 and 1 close, turn about axis 2; basis 2: 1 and 2, about 0 */
+            double ratio = basis == 1 ? values[0] / values[1] : values[1] / values[2], turn[3] = {0.0, 0.0, 0.0};
+            if (!(ratio >= SQFFD__SQ_CLOSE_RATIO)) continue;
+            turn[basis == 1 ? 2 : 0] = 0.25 * SQFFD__SQ_PI;
+            sqffd__sq_rotate(b_axes, turn);
+        }
+        sqffd__sq_initial_sizes(pts, m, centre, b_axes, hist, b_size);
+        for (s = 0; s < 3 * (basis ? SQFFD__SQ_TURNED_SEEDS : n_seeds) && fit->status == SQFFD_OK; s++, id++) {
+            sqffd_superquadric cur;
+            double cost;
+            int j;
+            memset(&cur, 0, sizeof cur);
+            for (j = 0; j < 3; j++) { /* cyclic column permutation: still a rotation */
+                int col = (j + s) % 3;
+                cur.rotation[j] = b_axes[col];
+                cur.rotation[3 + j] = b_axes[3 + col];
+                cur.rotation[6 + j] = b_axes[6 + col];
+                cur.size[j] = b_size[col];
+                cur.center[j] = centre[j];
+            }
+            cur.shape[0] = shape_seeds[s / 3][0];
+            cur.shape[1] = shape_seeds[s / 3][1];
+            sqffd__sq_project(fit, &cur);
+            sqffd__sq_optimize(fit, &cur, screen, NULL, m_screen, SQFFD__SQ_START_ITERATIONS, &cost);
+            sqffd__sq_shortlist_add(list, &cur, cost, id);
+            if (cost < SQFFD__SQ_EXACT * (double)m_screen) return; /* exact: no start can do better */
+        }
+    }
+}
+
+/* The twin of a fit whose a1 and a2 are close: turned 45 degrees about its
+   z, with e2 -> 2 - e2 (a square cross-section and a diamond are the same
+   shape turned, and the LM cannot get from one to the other). Sizes scale
+   by 2^((1 - e2)/2): sqrt 2 from square to diamond, 1 for a circle.
+   Returns 0 when a1 and a2 differ too much for a twin. */
+static int sqffd__sq_twin(const sqffd__sq_fit *fit, const sqffd_superquadric *sq, sqffd_superquadric *twin)
+{
+    double lo = sq->size[0] < sq->size[1] ? sq->size[0] : sq->size[1];
+    double hi = sq->size[0] < sq->size[1] ? sq->size[1] : sq->size[0];
+    double turn[3] = {0.0, 0.0, 0.25 * SQFFD__SQ_PI};
+    if (lo < SQFFD__SQ_CLOSE_RATIO * hi) return 0;
+    *twin = *sq;
+    sqffd__sq_rotate(twin->rotation, turn);
+    twin->size[0] = twin->size[1] = 0.5 * (lo + hi) * pow(2.0, 0.5 * (1.0 - sq->shape[1]));
+    twin->shape[1] = 2.0 - sq->shape[1];
+    twin->taper[0] = twin->taper[1] = 0.5 * (sq->taper[0] + sq->taper[1]);
+    sqffd__sq_project(fit, twin);
+    return 1;
+}
+
+/* Point sets of one fit. */
+typedef struct sqffd__sq_sets {
+    const double *polish;  /* an even subsample of all points */
+    size_t m_polish;
+    const double *start;   /* the points the starts came from (robust mode: the dense polish points) */
+    size_t m_start;
+} sqffd__sq_sets;
+
+/* Run a candidate to convergence on the polish points. Robust mode only
+   ranks it by its cost on the start set (the polish points without the
+   isolated ones): the EM rounds that follow do the fitting. Returns its cost. */
+static double sqffd__sq_polish(sqffd__sq_fit *fit, sqffd_superquadric *sq, const sqffd__sq_sets *sets, int *converged)
+{
+    double cost;
+    if (fit->opt->robust) {
+        *converged = 0;
+        return sqffd__sq_accumulate(fit, sq, sets->start, NULL, sets->m_start, NULL, NULL);
+    }
+    *converged = sqffd__sq_optimize(fit, sq, sets->polish, NULL, sets->m_polish, fit->opt->max_iterations, &cost);
+    return cost;
+}
+
+SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_sq_fit_options *options,
+                                    sqffd_superquadric *sq, sqffd_sq_fit_report *report,
+                                    void *workspace, size_t workspace_size)
+{
+    sqffd_sq_fit_options defaults = sqffd_sq_fit_options_default();
+    const sqffd_sq_fit_options *o = options ? options : &defaults;
+    size_t m_polish = n < SQFFD__SQ_POLISH ? n : SQFFD__SQ_POLISH, m_start, m_screen, i;
+    sqffd__sq_shortlist list;
+    sqffd__sq_sets sets;
+    sqffd__arena arena;
+    sqffd__sq_work w;
+    sqffd__sq_fit fit;
+    sqffd_superquadric best, twin;
+    sqffd__sq_mixture mix; /* robust mode's mixture */
+    double centroid[3], scale, centre[3], cov[9], values[3], axes[9], best_cost = 0.0;
+    const double *start_pts, *weights;
+    double rms;
+    int k, best_start = 0, converged = 0;
+    if (!points || !sq || !sqffd__sq_options_valid(o)) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if (n < SQFFD_SQ_FIT_MIN_POINTS) return SQFFD_ERROR_TOO_FEW_POINTS;
+    sqffd__arena_init(&arena, workspace, workspace_size);
+    sqffd__sq_fit_layout(&arena, n, o, &w);
+    if (arena.overflow) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
+    for (i = 0; i < n; i++)
+        if (!sqffd__finite3(points + 3 * i)) return SQFFD_ERROR_NON_FINITE;
+    if (!sqffd__sq_normalize(points, n, w.points, centroid, &scale)) return SQFFD_ERROR_DEGENERATE;
+    sqffd__sq_moments(w.points, n, centre, cov);
+    sqffd_sym3_eigen(cov, values, axes);
+    if (!(values[0] > SQFFD__SQ_FLAT_RATIO * values[2])) return SQFFD_ERROR_DEGENERATE; /* coplanar or collinear */
+
+    memset(&fit, 0, sizeof fit);
+    fit.opt = o;
+    fit.npar = o->taper ? SQFFD__SQ_NPAR : SQFFD__SQ_P_TAPER;
+    fit.cost = (int)o->cost;
+    fit.status = SQFFD_OK;
+    fit.size_min = 1e-3;
+    fit.ncg_work = w.ncg;
+    fit.ncg_size = w.ncg_size;
+    for (k = 0; k < 3; k++) {
+        double lo = w.points[k], hi = w.points[k];
+        for (i = 1; i < n; i++) {
+            double v = w.points[3 * i + (size_t)k];
+            if (v < lo) lo = v;
+            if (v > hi) hi = v;
+        }
+        fit.box_mid[k] = 0.5 * (lo + hi);
+        fit.box_half[k] = 0.5 * (hi - lo);
+    }
+    fit.box_volume = 8.0 * fit.box_half[0] * fit.box_half[1] * fit.box_half[2];
+
+    /* The starts come from all points, or in robust mode from the polish
+       subsample without its isolated points. Every start is screened on a
+       small subsample, the best few run to convergence on a larger one
+       (polish), and the winner on all points. */
+    sqffd__sq_subsample(w.points, n, w.polish, m_polish);
+    start_pts = w.points;
+    m_start = n;
+    if (o->robust) {
+        m_start = sqffd__sq_dense_points(w.polish, m_polish, w.dense, w.weights, w.tree, w.tree_size);
+        start_pts = w.dense;
+        if (m_start < SQFFD_SQ_FIT_MIN_POINTS) { start_pts = w.polish; m_start = m_polish; }
+    }
+    m_screen = m_start < SQFFD__SQ_SCREEN ? m_start : SQFFD__SQ_SCREEN;
+    sqffd__sq_subsample(start_pts, m_start, w.screen, m_screen);
+    sqffd__sq_screen(&fit, start_pts, m_start, w.screen, m_screen, w.hist, &list);
+
+    sets.polish = w.polish;
+    sets.m_polish = m_polish;
+    sets.start = start_pts;
+    sets.m_start = m_start;
+    for (k = 0; k < list.count && fit.status == SQFFD_OK; k++) {
+        double cost = list.cost[k];
+        int polished = 0;
+        if (k > 0 && (list.cost[0] < SQFFD__SQ_CLEAR_WIN * list.cost[k] || best_cost < SQFFD__SQ_EXACT * (double)m_polish))
+            break; /* the rest are far behind, or the best is exact */
+        if (m_polish > m_screen || o->robust) cost = sqffd__sq_polish(&fit, &list.sq[k], &sets, &polished);
+        if (k == 0 || cost < best_cost) {
+            best = list.sq[k];
+            best_cost = cost;
+            best_start = list.id[k];
+            converged = polished;
+        }
+    }
+    if (fit.status == SQFFD_OK && sqffd__sq_twin(&fit, &best, &twin)) {
+        int twin_converged;
+        double cost = sqffd__sq_polish(&fit, &twin, &sets, &twin_converged);
+        if (cost < best_cost) {
+            best = twin;
+            best_cost = cost;
+            converged = twin_converged;
+        }
+    }
+    if (o->robust && fit.status == SQFFD_OK) {
+        /* EM from the fit's robust spread on the start set: on the polish
+           subsample, then on all points */
+        int moved;
+        mix.sigma2 = sqffd__sq_robust_d2(&best, start_pts, m_start, w.weights);
+        mix.prior = (double)m_start / (double)m_polish;
+        mix.weights = w.weights;
+        moved = sqffd__sq_em(&fit, &best, w.polish, m_polish, &mix, o->robust_rounds, &converged);
+        if (m_polish < n) moved = sqffd__sq_em(&fit, &best, w.points, n, &mix, SQFFD__SQ_FULL_ROUNDS, &converged);
+        if (moved) sqffd__sq_reweight(&mix, &best, w.points, n, fit.box_volume); /* the weights at the result */
+    } else if (fit.status == SQFFD_OK && m_polish < n) {
+        converged = sqffd__sq_optimize(&fit, &best, w.points, NULL, n, o->max_iterations, &best_cost);
+    }
+    if (fit.status != SQFFD_OK) return fit.status;
+
+    /* A fit that describes the data closely may reach past their box (a
+       partial view: the data show part of the shape); any other is kept
+       within the box enlarged by the margin. */
+    weights = o->robust ? w.weights : NULL;
+    /* robust mode: the last EM step's sigma^2 is this weighted mean already */
+    rms = sqrt(o->robust ? mix.sigma2 : sqffd__sq_mean_d2(&best, w.points, weights, n));
+    if (rms > SQFFD__SQ_CLOSE_FIT * (best.size[0] + best.size[1] + best.size[2]) / 3.0) {
+        sqffd__sq_contain(&fit, &best);
+        rms = sqrt(sqffd__sq_mean_d2(&best, w.points, weights, n));
+    }
+    if (report) {
+        double sum_w = 0.0, final = sqffd__sq_accumulate(&fit, &best, w.points, weights, n, NULL, NULL);
+        for (i = 0; i < n; i++) sum_w += weights ? weights[i] : 1.0;
+        report->iterations = fit.iterations;
+        report->cost = final * (o->cost == SQFFD_SQ_COST_SOLINA ? scale * scale * scale : scale * scale);
+        report->rms_radial = scale * rms;
+        report->start = best_start;
+        report->converged = converged;
+        report->inlier_fraction = sum_w / (double)n;
+    }
+    *sq = best;
+    for (k = 0; k < 3; k++) {
+        sq->size[k] *= scale;
+        sq->center[k] = centroid[k] + scale * best.center[k];
+    }
+    return SQFFD_OK;
+}
+/* ======================================================================
+   Layer 4: free-form deformation (Bernstein lattice)
+   ====================================================================== */
+
+/* The degree+1 Bernstein polynomials B_i^degree(s), i = 0..degree, by the
+   de Casteljau recurrence (each step splits every value into (1-s) and s
+   parts): the weights sum to 1 up to rounding for any s, and at s = 0 or 1
+   they are exactly one unit vector. */
+static void sqffd__ffd_bernstein(int degree, double s, double *b)
+{
+    int d, i;
+    double r = 1.0 - s;
+    b[0] = 1.0;
+    for (d = 1; d <= degree; ++d) {
+        b[d] = s * b[d - 1];
+        for (i = d - 1; i > 0; --i) b[i] = r * b[i] + s * b[i - 1];
+        b[0] *= r;
+    }
+}
+
+/* The three 1-D weight vectors of (s, t, u): w[0..l), w[l..l+m), w[l+m..l+m+n).
+   B's row at (s, t, u) is their tensor product; the model fit stores these
+   l+m+n numbers per point instead of the l*m*n products. */
+static void sqffd__ffd_axis_weights(const int dims[3], const double stu[3], double *w)
+{
+    sqffd__ffd_bernstein(dims[0] - 1, stu[0], w);
+    sqffd__ffd_bernstein(dims[1] - 1, stu[1], w + dims[0]);
+    sqffd__ffd_bernstein(dims[2] - 1, stu[2], w + dims[0] + dims[1]);
+}
+
+/* q_ij = sum_k wu_k P_ijk for every (i, j) (l*m entries): the first of the
+   sums in sum_ijk ws_i wt_j wu_k P_ijk. The model fit shares it between the
+   points with the same u. */
+static void sqffd__ffd_sum_u(const int dims[3], const double (*control)[3], const double *wu, double (*q)[3])
+{
+    int ij, k;
+    for (ij = 0; ij < dims[0] * dims[1]; ++ij) {
+        const double (*p)[3] = control + (size_t)ij * (size_t)dims[2];
+        double x = 0.0, y = 0.0, z = 0.0;
+        for (k = 0; k < dims[2]; ++k) {
+            x += wu[k] * p[k][0];
+            y += wu[k] * p[k][1];
+            z += wu[k] * p[k][2];
+        }
+        q[ij][0] = x; q[ij][1] = y; q[ij][2] = z;
+    }
+}
+
+/* sum_ij ws_i wt_j q_ij: the rest of the sums. */
+static void sqffd__ffd_sum_st(const int dims[3], const double (*q)[3], const double *ws, const double *wt, double out[3])
+{
+    double x = 0.0, y = 0.0, z = 0.0;
+    int i, j;
+    for (i = 0; i < dims[0]; ++i) {
+        const double (*qi)[3] = q + i * dims[1];
+        double xi = 0.0, yi = 0.0, zi = 0.0;
+        for (j = 0; j < dims[1]; ++j) {
+            xi += wt[j] * qi[j][0]; yi += wt[j] * qi[j][1]; zi += wt[j] * qi[j][2];
+        }
+        x += ws[i] * xi; y += ws[i] * yi; z += ws[i] * zi;
+    }
+    out[0] = x; out[1] = y; out[2] = z;
+}
+
+static int sqffd__ffd_dims_valid(const int dims[3])
+{
+    int a;
+    for (a = 0; a < 3; ++a)
+        if (dims[a] < 2 || dims[a] > SQFFD_MAX_LATTICE) return 0;
+    return 1;
+}
+
+SQFFD_DEF sqffd_result sqffd_ffd_init(sqffd_ffd *ffd, const int dims[3], const double origin[3], const double edges[9])
+{
+    double det, scale;
+    int a, i, j, k;
+    if (!ffd || !dims || !origin || !edges || !sqffd__ffd_dims_valid(dims)) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if (!sqffd__finite3(origin) || !sqffd__finite3(edges) || !sqffd__finite3(edges + 3) || !sqffd__finite3(edges + 6))
+        return SQFFD_ERROR_NON_FINITE;
+    memset(ffd, 0, sizeof *ffd);
+    /* Sederberg & Parry's local coordinates: s = (T x U).(X - X0) / (T x U).S
+       and cyclically, so the rows of `inverse` are T x U, U x S, S x T over
+       the determinant S.(T x U). */
+    sqffd__cross3(edges + 3, edges + 6, ffd->inverse);
+    sqffd__cross3(edges + 6, edges, ffd->inverse + 3);
+    sqffd__cross3(edges, edges + 3, ffd->inverse + 6);
+    det = sqffd__dot3(edges, ffd->inverse);
+    scale = sqrt(sqffd__dot3(edges, edges) * sqffd__dot3(edges + 3, edges + 3) * sqffd__dot3(edges + 6, edges + 6));
+    if (!(fabs(det) > 1e-12 * scale) || !isfinite(det)) return SQFFD_ERROR_DEGENERATE;
+    for (a = 0; a < 9; ++a) ffd->inverse[a] /= det;
+    for (a = 0; a < 3; ++a) ffd->dims[a] = dims[a];
+    memcpy(ffd->origin, origin, sizeof ffd->origin);
+    memcpy(ffd->edges, edges, sizeof ffd->edges);
+    for (i = 0; i < dims[0]; ++i)
+        for (j = 0; j < dims[1]; ++j)
+            for (k = 0; k < dims[2]; ++k) {
+                double s = (double)i / (double)(dims[0] - 1);
+                double t = (double)j / (double)(dims[1] - 1);
+                double u = (double)k / (double)(dims[2] - 1);
+                double *p = ffd->control[(i * dims[1] + j) * dims[2] + k];
+                for (a = 0; a < 3; ++a) p[a] = origin[a] + s * edges[a] + t * edges[3 + a] + u * edges[6 + a];
+            }
+    return SQFFD_OK;
+}
+
+SQFFD_DEF void sqffd_ffd_local(const sqffd_ffd *ffd, const double point[3], double stu[3])
+{
+    double d[3];
+    sqffd__sub3(point, ffd->origin, d);
+    sqffd__mat3_vec(ffd->inverse, d, stu);
+}
+
+SQFFD_DEF void sqffd_ffd_eval(const sqffd_ffd *ffd, const double stu[3], double out[3])
+{
+    double w[3 * SQFFD_MAX_LATTICE], q[SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE][3];
+    const int *d = ffd->dims;
+    SQFFD_ASSERT(sqffd__ffd_dims_valid(d));
+    sqffd__ffd_axis_weights(d, stu, w);
+    sqffd__ffd_sum_u(d, (const double (*)[3])ffd->control, w + d[0] + d[1], q);
+    sqffd__ffd_sum_st(d, (const double (*)[3])q, w, w + d[0], out);
+}
+
+SQFFD_DEF void sqffd_ffd_deform(const sqffd_ffd *ffd, const double point[3], double out[3])
+{
+    double stu[3];
+    sqffd_ffd_local(ffd, point, stu);
+    sqffd_ffd_eval(ffd, stu, out);
+}
+
+/* The l*m*n products of the three 1-D weight vectors, in control-point order. */
+static void sqffd__ffd_expand(const int dims[3], const double *w, double *weights)
+{
+    const double *ws = w, *wt = w + dims[0], *wu = w + dims[0] + dims[1];
+    int i, j, k;
+    for (i = 0; i < dims[0]; ++i)
+        for (j = 0; j < dims[1]; ++j) {
+            double wij = ws[i] * wt[j];
+            for (k = 0; k < dims[2]; ++k) *weights++ = wij * wu[k];
+        }
+}
+
+SQFFD_DEF void sqffd_ffd_weights(const int dims[3], const double stu[3], double *weights)
+{
+    double w[3 * SQFFD_MAX_LATTICE];
+    SQFFD_ASSERT(sqffd__ffd_dims_valid(dims));
+    sqffd__ffd_axis_weights(dims, stu, w);
+    sqffd__ffd_expand(dims, w, weights);
+}
+/* ======================================================================
+   Layer 5: model fit (superquadric + FFD, the paper's two-step algorithm)
+   ====================================================================== */
+
+#define SQFFD__FIT_PI 3.14159265358979323846
+#define SQFFD__FIT_MAX_GRID 65536     /* per grid axis */
+#define SQFFD__FIT_MIN_POINTS 4       /* sqffd_fit_ffd; sqffd_fit defers to the superquadric fit */
+#define SQFFD__FIT_FILL_SWEEPS 8      /* smoothing sweeps over the unreached model points */
+#define SQFFD__FIT_MAX_WALK 8         /* fan-to-fan moves of the closest-point search */
+#define SQFFD__FIT_SVD_RCOND 1e-10    /* singular values below this fraction of the largest are dropped */
+#define SQFFD__FIT_SNAP 1e-14         /* u this close to its run's first is that u (rounding: the runs' B rows factor) */
+
+/* ---- the (eta, omega) grid and its closed mesh ----------------------------
+   Vertex i * n_omega + j is (eta_i, omega_j) with eta_i = -pi/2 + (i + 1) pi /
+   (n_eta + 1) (rows strictly between the poles, evenly spaced with them) and
+   omega_j = -pi + 2 pi j / n_omega; then the south pole (eta = -pi/2), then
+   the north pole. Each quad (i, j), (i, j+1), (i+1, j+1), (i+1, j) is split
+   along its (i, j)-(i+1, j+1) diagonal; the pole caps are fans. */
+
+static sqffd_result sqffd__fit_grid_check(const int grid[2])
+{
+    if (grid[0] < 2 || grid[1] < 3) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if (grid[0] > SQFFD__FIT_MAX_GRID || grid[1] > SQFFD__FIT_MAX_GRID ||
+        (double)grid[0] * (double)grid[1] + 2.0 > 4294967295.0)
+        return SQFFD_ERROR_TOO_LARGE;
+    return SQFFD_OK;
+}
+
+static size_t sqffd__fit_grid_count(const int grid[2])
+{
+    return (size_t)grid[0] * (size_t)grid[1] + 2;
+}
+
+static void sqffd__fit_grid_angles(const int grid[2], size_t v, double *eta, double *omega)
+{
+    size_t rows = (size_t)grid[0] * (size_t)grid[1];
+    if (v >= rows) {
+        *eta = v == rows ? -0.5 * SQFFD__FIT_PI : 0.5 * SQFFD__FIT_PI;
+        *omega = 0.0;
+        return;
+    }
+    *eta = -0.5 * SQFFD__FIT_PI + SQFFD__FIT_PI * (double)(v / (size_t)grid[1] + 1) / (double)(grid[0] + 1);
+    *omega = -SQFFD__FIT_PI + 2.0 * SQFFD__FIT_PI * (double)(v % (size_t)grid[1]) / (double)grid[1];
+}
+
+/* The mesh neighbours of a vertex in cyclic order: the triangles around v are
+   (v, ring k, ring k+1 mod count). A pole's ring is its whole adjacent row. */
+typedef struct sqffd__fit_ring {
+    size_t count;
+    size_t base;    /* pole: first vertex of the adjacent row */
+    int pole;
+    size_t v[6];    /* other vertices */
+} sqffd__fit_ring;
+
+static void sqffd__fit_ring_of(const int grid[2], size_t v, sqffd__fit_ring *r)
+{
+    size_t ne = (size_t)grid[1], rows = (size_t)grid[0] * ne;
+    size_t south = rows, north = rows + 1, i, j, jp, jm, c, cand[6];
+    r->count = 0;
+    r->pole = v >= rows;
+    if (r->pole) {
+        r->base = v == south ? 0 : rows - ne;
+        r->count = ne;
+        return;
+    }
+    i = (size_t)((uint32_t)v / (uint32_t)ne); /* the grid check keeps vertex numbers below 2^32: a faster division */
+    j = v - i * ne; jp = j + 1 < ne ? j + 1 : 0; jm = j > 0 ? j - 1 : ne - 1;
+    cand[0] = i * ne + jp;
+    cand[1] = i + 1 < (size_t)grid[0] ? (i + 1) * ne + jp : north;
+    cand[2] = i + 1 < (size_t)grid[0] ? (i + 1) * ne + j : north;
+    cand[3] = i * ne + jm;
+    cand[4] = i > 0 ? (i - 1) * ne + jm : south;
+    cand[5] = i > 0 ? (i - 1) * ne + j : south;
+    for (c = 0; c < 6; ++c) /* a pole appears twice in a row next to it */
+        if (r->count == 0 || cand[c] != r->v[r->count - 1]) r->v[r->count++] = cand[c];
+    r->base = 0;
+}
+
+static size_t sqffd__fit_ring_at(const sqffd__fit_ring *r, size_t k)
+{
+    return r->pole ? r->base + k : r->v[k];
+}
+
+/* Closest point to q on the triangle (v, v + ea, v + eb), from ap = q - v:
+   its barycentric weights w (of v, a, b; w[0] is exactly 0 on the edge ab
+   and its ends), by the Voronoi regions of the vertices, edges and face
+   (Ericson, Real-Time Collision Detection, 5.1.5), and its squared distance.
+   A flat triangle falls back on its nearest vertex, a zero-length edge on
+   its end. */
+static double sqffd__fit_triangle(const double ap[3], const double ea[3], const double eb[3], double w[3])
+{
+    double pa = sqffd__dot3(ea, ap), pb = sqffd__dot3(eb, ap);
+    double aa = sqffd__dot3(ea, ea), bb = sqffd__dot3(eb, eb), ab = sqffd__dot3(ea, eb);
+    double d3 = pa - aa, d4 = pb - ab, d5 = pa - ab, d6 = pb - bb;
+    double vc = pa * d4 - d3 * pb, vb = d5 * pb - pa * d6, va = d3 * d6 - d5 * d4, sum, r[3];
+    int k;
+    w[0] = w[1] = w[2] = 0.0;
+    if (pa <= 0.0 && pb <= 0.0) w[0] = 1.0;                               /* vertex v */
+    else if (d3 >= 0.0 && d4 <= d3) w[1] = 1.0;                           /* vertex a */
+    else if (d6 >= 0.0 && d5 <= d6) w[2] = 1.0;                           /* vertex b */
+    else if (vc <= 0.0 && pa >= 0.0 && d3 <= 0.0) {                       /* edge va */
+        w[1] = aa > 0.0 ? pa / aa : 0.0; w[0] = 1.0 - w[1];
+    } else if (vb <= 0.0 && pb >= 0.0 && d6 <= 0.0) {                     /* edge vb */
+        w[2] = bb > 0.0 ? pb / bb : 0.0; w[0] = 1.0 - w[2];
+    } else if (va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0) {           /* edge ab */
+        double len2 = (d4 - d3) + (d5 - d6); /* |eb - ea|^2 */
+        w[2] = len2 > 0.0 ? (d4 - d3) / len2 : 0.0; w[1] = 1.0 - w[2];
+    } else if ((sum = va + vb + vc) > 0.0) {                              /* face */
+        double inv = 1.0 / sum;
+        w[1] = vb * inv; w[2] = vc * inv; w[0] = va * inv;
+    } else {                                                              /* flat */
+        double da = aa - 2.0 * pa, db = bb - 2.0 * pb; /* |q - a|^2 - |q - v|^2, same for b */
+        w[da < 0.0 && da <= db ? 1 : db < 0.0 ? 2 : 0] = 1.0;
+    }
+    for (k = 0; k < 3; ++k) r[k] = ap[k] - w[1] * ea[k] - w[2] * eb[k];
+    return sqffd__dot3(r, r);
+}
+
+/* The mesh triangle tri (corner tri[0] first, as in a fan around it) against
+   q: the closest point's squared distance and barycentric weights. The fan
+   search and the warm start's re-measurement of one triangle both come
+   here, so they agree to the bit. */
+static double sqffd__fit_corner_triangle(const double *x, const size_t tri[3], const double q[3], double w[3])
+{
+    double ap[3], ea[3], eb[3];
+    const double *v = x + 3 * tri[0];
+    sqffd__sub3(q, v, ap);
+    sqffd__sub3(x + 3 * tri[1], v, ea);
+    sqffd__sub3(x + 3 * tri[2], v, eb);
+    return sqffd__fit_triangle(ap, ea, eb, w);
+}
+
+/* The closest point to q on the fan of triangles (v, ring k, ring k+1 mod
+   count) around vertex v: its squared distance, triangle (tri[0] = v) and
+   barycentric weights (the first of equally close triangles), and the
+   squared distance of the runner-up triangle (*second >= the result). */
+static double sqffd__fit_fan_closest(const double *x, const int grid[2], size_t v, const double q[3], size_t tri[3],
+                                     double w[3], double *second)
+{
+    sqffd__fit_ring r;
+    double best = HUGE_VAL, tw[3];
+    size_t k, t[3];
+    sqffd__fit_ring_of(grid, v, &r);
+    *second = HUGE_VAL;
+    t[0] = v;
+    for (k = 0; k < r.count; ++k) {
+        double d;
+        t[1] = sqffd__fit_ring_at(&r, k);
+        t[2] = sqffd__fit_ring_at(&r, k + 1 < r.count ? k + 1 : 0);
+        d = sqffd__fit_corner_triangle(x, t, q, tw);
+        if (d < best) {
+            *second = best;
+            best = d;
+            memcpy(tri, t, sizeof t);
+            memcpy(w, tw, sizeof tw);
+        } else if (d < *second) {
+            *second = d;
+        }
+    }
+    return best;
+}
+
+/* "The error" of q from the closest point (best, tri, w) on the fan of its
+   nearest mesh vertex: while that lies on the fan's outer rim (v's weight
+   0), the fan around the rim vertex nearer to it is searched too (at most
+   SQFFD__FIT_MAX_WALK moves, never getting farther). */
+static double sqffd__fit_walk(const double *x, const int grid[2], const double q[3], double best, size_t tri[3], double w[3])
+{
+    int step;
+    for (step = 0; step < SQFFD__FIT_MAX_WALK && w[0] == 0.0; ++step) {
+        size_t t2[3];
+        double w2[3], second, d = sqffd__fit_fan_closest(x, grid, w[1] >= w[2] ? tri[1] : tri[2], q, t2, w2, &second);
+        if (!(d < best)) break;
+        best = d;
+        memcpy(tri, t2, sizeof t2);
+        memcpy(w, w2, sizeof w2);
+    }
+    return best;
+}
+
+/* ---- the closest-point search, with a warm start -------------------------
+   A data point's answer (its nearest mesh vertex, and the closest triangle of
+   that vertex's fan) rarely changes between two iterations, whose model
+   points move little, and a distance to a vertex or to a triangle changes by
+   at most the largest move of the vertices involved. So each point keeps
+   three bounds, each less the moves summed since it was taken:
+   - the gap between its nearest and runner-up vertex: while twice the moves
+     stay below it, the nearest vertex is the same;
+   - a lower bound on the distance to every vertex outside the anchor's
+     closed ring (anchor: the nearest vertex at its last tree query): while
+     the nearest vertex of that ring is nearer, it is the nearest of all;
+   - the gap between the fan's closest and runner-up triangles (moves of the
+     fan's own vertices): while twice those stay below it, only that triangle
+     is measured again.
+   Only when the first two fail is the tree asked; it is kept over a snapshot
+   of the vertices and asked with their drift since as slack, and rebuilt when
+   that leaves the answer open. Every way the answer is the one a fresh
+   search gives (ties aside, which any search breaks arbitrarily). */
+#define SQFFD__FIT_KNN 4 /* neighbours a tree query fetches (measured: fewer repeat queries vs dearer ones) */
+
+typedef struct sqffd__fit_search {
+    const double *x;         /* mesh vertices (the model points) */
+    int grid[2];
+    sqffd_kdtree tree;       /* over snapshot (NULL: x itself), once built */
+    void *tree_ws;
+    size_t tree_size;
+    int built;
+    double *snapshot;        /* x when the tree was built (the warm start keeps the tree while it can) */
+    double drift;            /* the vertices' largest moves summed since */
+    /* the warm start (anchor NULL: none), per data point */
+    uint32_t *anchor;        /* the nearest vertex at the last tree query */
+    double *outside;         /* lower bound on the distance to any vertex outside the anchor's closed ring */
+    double *vertex_slack;    /* the gap between the nearest vertex and the runner-up less twice the largest moves since */
+    uint32_t (*triangle)[3]; /* the closest triangle of the last fan search (its corner 0: the fan's vertex) */
+    double *triangle_slack;  /* that fan's gap less twice its largest moves since (< 0: search the fan) */
+    double moved;            /* largest vertex move since the previous pass */
+    double *fan_moved;       /* per mesh vertex: largest move of its fan's vertices since the previous pass */
+    double margin;           /* allowance for rounding in the distances */
+} sqffd__fit_search;
+
+/* Whether vertex u is in the closed ring (v and its ring r). */
+static int sqffd__fit_in_ring(const sqffd__fit_ring *r, size_t v, size_t u)
+{
+    size_t k;
+    if (u == v) return 1;
+    if (r->pole) return u >= r->base && u < r->base + r->count;
+    for (k = 0; k < r->count; ++k)
+        if (r->v[k] == u) return 1;
+    return 0;
+}
+
+/* The nearest mesh vertex to data point i at q. */
+static sqffd_result sqffd__fit_nearest_vertex(sqffd__fit_search *s, size_t i, const double q[3], size_t *nearest)
+{
+    size_t near[SQFFD__FIT_KNN], k, count;
+    double d2[SQFFD__FIT_KNN], d[SQFFD__FIT_KNN];
+    sqffd__fit_ring r;
+    if (s->anchor) {
+        s->outside[i] -= s->moved;
+        s->vertex_slack[i] -= 2.0 * s->moved;
+        if (s->vertex_slack[i] > s->margin) { /* still the last pass's nearest vertex */
+            *nearest = s->triangle[i][0];
+            return SQFFD_OK;
+        }
+        if (s->outside[i] > s->margin) { /* the nearest of the anchor's closed ring, if nearer than the rest */
+            size_t v = s->anchor[i];
+            double best = sqffd__dist2_3(q, s->x + 3 * v), second = HUGE_VAL;
+            sqffd__fit_ring_of(s->grid, v, &r);
+            *nearest = v;
+            for (k = 0; k < r.count; ++k) {
+                size_t u = sqffd__fit_ring_at(&r, k);
+                double du = sqffd__dist2_3(q, s->x + 3 * u);
+                if (du < best) { second = best; best = du; *nearest = u; }
+                else if (du < second) second = du;
+            }
+            best = sqrt(best);
+            if (best < s->outside[i] - s->margin) {
+                second = sqrt(second);
+                s->vertex_slack[i] = (second < s->outside[i] ? second : s->outside[i]) - best;
+                return SQFFD_OK;
+            }
+        }
+    }
+    for (;;) { /* a tree query, from a tree built over the vertices as they were `drift` ago */
+        size_t b = 0;
+        double rest, second = HUGE_VAL;
+        if (!s->built) {
+            size_t m = sqffd__fit_grid_count(s->grid);
+            const double *at = s->snapshot ? (const double *)memcpy(s->snapshot, s->x, 3 * m * sizeof(double)) : s->x;
+            sqffd_result res = sqffd_kdtree_build(&s->tree, at, m, s->tree_ws, s->tree_size);
+            if (res != SQFFD_OK) return res;
+            s->built = 1;
+            s->drift = 0.0;
+        }
+        count = sqffd_kdtree_knn(&s->tree, q, s->anchor ? SQFFD__FIT_KNN : 1, near, d2);
+        if (count == 0) return SQFFD_ERROR_NON_FINITE;
+        rest = count == (s->anchor ? SQFFD__FIT_KNN : 1) ? sqrt(d2[count - 1]) - s->drift : HUGE_VAL; /* the vertices not returned */
+        for (k = 0; k < count; ++k) { /* the returned ones as they are now */
+            d[k] = sqrt(s->drift != 0.0 ? sqffd__dist2_3(q, s->x + 3 * near[k]) : d2[k]);
+            if (d[k] < d[b]) { second = d[b]; b = k; }
+            else if (k > 0 && d[k] < second) second = d[k];
+        }
+        if (s->drift != 0.0 && !(d[b] < rest - s->margin)) { /* too stale to tell: rebuild */
+            s->built = 0;
+            continue;
+        }
+        *nearest = near[b];
+        if (s->anchor) {
+            s->anchor[i] = (uint32_t)near[b];
+            s->vertex_slack[i] = (second < rest ? second : rest) - d[b];
+            s->outside[i] = rest;
+            sqffd__fit_ring_of(s->grid, near[b], &r);
+            for (k = 0; k < count; ++k)
+                if (d[k] < s->outside[i] && !sqffd__fit_in_ring(&r, near[b], near[k])) s->outside[i] = d[k];
+        }
+        return SQFFD_OK;
+    }
+}
+
+/* The closest point on the mesh to data point i at q ("the error"): squared
+   distance, triangle and barycentric weights. */
+static sqffd_result sqffd__fit_closest(sqffd__fit_search *s, size_t i, const double q[3], double *dist2, size_t tri[3],
+                                       double w[3])
+{
+    size_t v, k;
+    double second, d;
+    sqffd_result res = sqffd__fit_nearest_vertex(s, i, q, &v);
+    if (res != SQFFD_OK) return res;
+    if (s->anchor && s->triangle[i][0] == v && s->triangle_slack[i] - 2.0 * s->fan_moved[v] > s->margin) {
+        for (k = 0; k < 3; ++k) tri[k] = s->triangle[i][k];
+        d = sqffd__fit_corner_triangle(s->x, tri, q, w);
+        if (w[0] != 0.0) { /* (else the full search would walk on) */
+            s->triangle_slack[i] -= 2.0 * s->fan_moved[v];
+            *dist2 = d;
+            return SQFFD_OK;
+        }
+    }
+    d = sqffd__fit_fan_closest(s->x, s->grid, v, q, tri, w, &second);
+    if (s->anchor) {
+        for (k = 0; k < 3; ++k) s->triangle[i][k] = (uint32_t)tri[k];
+        s->triangle_slack[i] = w[0] == 0.0 ? -1.0 : sqrt(second) - sqrt(d);
+    }
+    *dist2 = sqffd__fit_walk(s->x, s->grid, q, d, tri, w);
+    return SQFFD_OK;
+}
+
+/* The moves from x to next into the search's warm start (largest overall and
+   per fan); returns the sum of their squares. */
+static double sqffd__fit_moves(sqffd__fit_search *s, const double *x, const double *next)
+{
+    size_t v, k, m = sqffd__fit_grid_count(s->grid);
+    double sum2 = 0.0, max2 = 0.0;
+    for (v = 0; v < m; ++v) {
+        sqffd__fit_ring r;
+        double move2 = sqffd__dist2_3(next + 3 * v, x + 3 * v), fan2 = move2;
+        sum2 += move2;
+        max2 = move2 > max2 ? move2 : max2;
+        sqffd__fit_ring_of(s->grid, v, &r);
+        for (k = 0; k < r.count; ++k) {
+            size_t u = sqffd__fit_ring_at(&r, k);
+            double d2 = sqffd__dist2_3(next + 3 * u, x + 3 * u);
+            fan2 = d2 > fan2 ? d2 : fan2;
+        }
+        s->fan_moved[v] = sqrt(fan2);
+    }
+    s->moved = sqrt(max2);
+    s->drift += s->moved;
+    return sum2;
+}
+
+/* ---- statistics ---------------------------------------------------------- */
+
+/* Diagonal of the points' bounding box; NON_FINITE for NaN/Inf. */
+static sqffd_result sqffd__fit_diagonal(const double *points, size_t n, double *diagonal)
+{
+    double lo[3], hi[3], d2 = 0.0;
+    size_t i;
+    int a;
+    for (a = 0; a < 3; ++a) { lo[a] = HUGE_VAL; hi[a] = -HUGE_VAL; }
+    for (i = 0; i < n; ++i) {
+        const double *p = points + 3 * i;
+        if (!sqffd__finite3(p)) return SQFFD_ERROR_NON_FINITE;
+        for (a = 0; a < 3; ++a) {
+            if (p[a] < lo[a]) lo[a] = p[a];
+            if (p[a] > hi[a]) hi[a] = p[a];
+        }
+    }
+    for (a = 0; a < 3; ++a) d2 += (hi[a] - lo[a]) * (hi[a] - lo[a]);
+    *diagonal = sqrt(d2);
+    return isfinite(*diagonal) ? SQFFD_OK : SQFFD_ERROR_NON_FINITE;
+}
+
+static void sqffd__fit_stats(double sum, double sum2, double max, size_t n, double diagonal, sqffd_distance_stats *s)
+{
+    s->rms = n ? sqrt(sum2 / (double)n) : 0.0;
+    s->mean = n ? sum / (double)n : 0.0;
+    s->max = max;
+    s->diagonal = diagonal;
+    s->rms_relative = diagonal > 0.0 ? s->rms / diagonal : 0.0;
+    s->mean_relative = diagonal > 0.0 ? s->mean / diagonal : 0.0;
+    s->max_relative = diagonal > 0.0 ? s->max / diagonal : 0.0;
+}
+
+/* A search over the mesh with vertices x (tree workspace given, built on
+   first need), without a warm start. */
+static void sqffd__fit_search_init(sqffd__fit_search *s, const double *x, const int grid[2], void *tree_ws, size_t tree_size)
+{
+    memset(s, 0, sizeof *s);
+    s->x = x;
+    s->grid[0] = grid[0];
+    s->grid[1] = grid[1];
+    s->tree_ws = tree_ws;
+    s->tree_size = tree_size;
+}
+
+/* One pass over the data against the search's mesh: each point's distance
+   to the mesh (the error) into the statistics and per_point (may be NULL).
+   With sums/weights (step 1 of the fit) each point's displacement to it from
+   its closest mesh point is also spread over that triangle's vertices with
+   the barycentric weights. */
+static sqffd_result sqffd__fit_pass(const double *points, size_t n, sqffd__fit_search *search, double diagonal,
+                                    double *per_point, double *sums, double *weights, sqffd_distance_stats *stats)
+{
+    const double *x = search->x;
+    double sum = 0.0, sum2 = 0.0, max = 0.0, w[3];
+    size_t i, tri[3];
+    int k;
+    for (i = 0; i < n; ++i) {
+        const double *q = points + 3 * i;
+        double d2, d;
+        sqffd_result res = sqffd__fit_closest(search, i, q, &d2, tri, w);
+        if (res != SQFFD_OK) return res;
+        d = sqrt(d2);
+        sum += d; sum2 += d2;
+        if (d > max) max = d;
+        if (per_point) per_point[i] = d;
+        if (sums) {
+            double c[3], dq[3];
+            const double *a = x + 3 * tri[0], *b = x + 3 * tri[1], *e = x + 3 * tri[2];
+            for (k = 0; k < 3; ++k) {
+                c[k] = w[0] * a[k] + w[1] * b[k] + w[2] * e[k];
+                dq[k] = q[k] - c[k];
+            }
+            for (k = 0; k < 3; ++k) {
+                double *s = sums + 3 * tri[k];
+                s[0] += w[k] * dq[0]; s[1] += w[k] * dq[1]; s[2] += w[k] * dq[2];
+                weights[tri[k]] += w[k];
+            }
+        }
+    }
+    sqffd__fit_stats(sum, sum2, max, n, diagonal, stats);
+    return SQFFD_OK;
+}
+
+/* ---- model geometry ------------------------------------------------------ */
+
+SQFFD_DEF void sqffd_model_point(const sqffd_model *model, double eta, double omega, double point[3])
+{
+    double p[3];
+    sqffd_sq_point(&model->sq, eta, omega, p, NULL);
+    sqffd_ffd_deform(&model->ffd, p, point);
+}
+
+/* The model's surface at every vertex of a grid. */
+static void sqffd__fit_surface(const sqffd_model *model, const int grid[2], double *x)
+{
+    size_t v, count = sqffd__fit_grid_count(grid);
+    for (v = 0; v < count; ++v) {
+        double eta, omega;
+        sqffd__fit_grid_angles(grid, v, &eta, &omega);
+        sqffd_model_point(model, eta, omega, x + 3 * v);
+    }
+}
+
+static int sqffd__fit_model_valid(const sqffd_model *model)
+{
+    return sqffd__ffd_dims_valid(model->ffd.dims) && sqffd__fit_grid_check(model->grid) == SQFFD_OK;
+}
+
+SQFFD_DEF sqffd_result sqffd_model_mesh_size(int n_eta, int n_omega, size_t *vertex_count, size_t *triangle_count)
+{
+    int grid[2];
+    sqffd_result r;
+    grid[0] = n_eta; grid[1] = n_omega;
+    r = sqffd__fit_grid_check(grid);
+    if (r != SQFFD_OK) return r;
+    if (vertex_count) *vertex_count = sqffd__fit_grid_count(grid);
+    if (triangle_count) *triangle_count = 2 * (size_t)n_eta * (size_t)n_omega;
+    return SQFFD_OK;
+}
+
+SQFFD_DEF sqffd_result sqffd_model_mesh(const sqffd_model *model, int n_eta, int n_omega, double *vertices, uint32_t *triangles)
+{
+    int grid[2];
+    size_t ne, rows, i, j, t = 0;
+    sqffd_result r;
+    if (!model || !sqffd__ffd_dims_valid(model->ffd.dims)) return SQFFD_ERROR_INVALID_ARGUMENT;
+    grid[0] = n_eta; grid[1] = n_omega;
+    r = sqffd__fit_grid_check(grid);
+    if (r != SQFFD_OK) return r;
+    if (vertices) sqffd__fit_surface(model, grid, vertices);
+    if (!triangles) return SQFFD_OK;
+    ne = (size_t)n_omega; rows = (size_t)n_eta * ne;
+    for (j = 0; j < ne; ++j) { /* south cap: (S, (0, j+1), (0, j)) */
+        triangles[t++] = (uint32_t)rows;
+        triangles[t++] = (uint32_t)((j + 1) % ne);
+        triangles[t++] = (uint32_t)j;
+    }
+    for (i = 0; i + 1 < (size_t)n_eta; ++i)
+        for (j = 0; j < ne; ++j) {
+            uint32_t a = (uint32_t)(i * ne + j), b = (uint32_t)(i * ne + (j + 1) % ne);
+            uint32_t c = (uint32_t)((i + 1) * ne + (j + 1) % ne), d = (uint32_t)((i + 1) * ne + j);
+            triangles[t++] = a; triangles[t++] = b; triangles[t++] = c;
+            triangles[t++] = a; triangles[t++] = c; triangles[t++] = d;
+        }
+    for (j = 0; j < ne; ++j) { /* north cap: ((n-1, j), (n-1, j+1), N) */
+        triangles[t++] = (uint32_t)(rows - ne + j);
+        triangles[t++] = (uint32_t)(rows - ne + (j + 1) % ne);
+        triangles[t++] = (uint32_t)(rows + 1);
+    }
+    return SQFFD_OK;
+}
+
+/* ---- distances ----------------------------------------------------------- */
+
+static void sqffd__fit_distances_layout(sqffd__arena *a, size_t n_tree, size_t vertices, double **x, void **tree_ws, size_t *tree_size)
+{
+    *x = (double *)sqffd__arena_take(a, vertices, 3 * sizeof(double));
+    *tree_size = sqffd_kdtree_workspace_size(n_tree);
+    if (*tree_size == 0) a->overflow = 1;
+    *tree_ws = sqffd__arena_take(a, *tree_size, 1);
+}
+
+static size_t sqffd__fit_distances_size(size_t n, const sqffd_model *model, int reverse)
+{
+    sqffd__arena a;
+    double *x;
+    void *tree_ws;
+    size_t tree_size, m;
+    if (!model || !sqffd__fit_model_valid(model) || n == 0) return 0;
+    m = sqffd__fit_grid_count(model->grid);
+    sqffd__arena_measure(&a);
+    sqffd__fit_distances_layout(&a, reverse ? n : m, m, &x, &tree_ws, &tree_size);
+    return sqffd__arena_required(&a);
+}
+
+SQFFD_DEF size_t sqffd_model_distances_workspace_size(size_t n, const sqffd_model *model)
+{
+    return sqffd__fit_distances_size(n, model, 0);
+}
+
+SQFFD_DEF size_t sqffd_model_reverse_distances_workspace_size(size_t n, const sqffd_model *model)
+{
+    return sqffd__fit_distances_size(n, model, 1);
+}
+
+/* Shared by both directions: validates, lays out and samples the model mesh;
+   the tree's workspace is for the mesh vertices (forward) or the data
+   (reverse). */
+static sqffd_result sqffd__fit_distances_setup(const sqffd_model *model, const double *points, size_t n, int reverse,
+                                              void *workspace, size_t workspace_size, double **x, void **tree_ws,
+                                              size_t *tree_size, double *diagonal)
+{
+    sqffd__arena a;
+    size_t m;
+    sqffd_result r;
+    if (!model || !points || !sqffd__fit_model_valid(model)) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if (n == 0) return SQFFD_ERROR_TOO_FEW_POINTS;
+    r = sqffd__fit_diagonal(points, n, diagonal);
+    if (r != SQFFD_OK) return r;
+    m = sqffd__fit_grid_count(model->grid);
+    sqffd__arena_init(&a, workspace, workspace_size);
+    sqffd__fit_distances_layout(&a, reverse ? n : m, m, x, tree_ws, tree_size);
+    if (a.overflow) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
+    sqffd__fit_surface(model, model->grid, *x);
+    return SQFFD_OK;
+}
+
+SQFFD_DEF sqffd_result sqffd_model_distances(const sqffd_model *model, const double *points, size_t n,
+                                             double *per_point, sqffd_distance_stats *stats,
+                                             void *workspace, size_t workspace_size)
+{
+    sqffd__fit_search search;
+    sqffd_distance_stats s;
+    double *x = NULL, diagonal = 0.0;
+    void *tree_ws = NULL;
+    size_t tree_size = 0;
+    sqffd_result r = sqffd__fit_distances_setup(model, points, n, 0, workspace, workspace_size, &x, &tree_ws, &tree_size,
+                                                &diagonal);
+    if (r != SQFFD_OK) return r;
+    sqffd__fit_search_init(&search, x, model->grid, tree_ws, tree_size);
+    r = sqffd__fit_pass(points, n, &search, diagonal, per_point, NULL, NULL, &s);
+    if (r == SQFFD_OK && stats) *stats = s;
+    return r;
+}
+
+SQFFD_DEF sqffd_result sqffd_model_reverse_distances(const sqffd_model *model, const double *points, size_t n,
+                                                     double *per_vertex, sqffd_distance_stats *stats,
+                                                     void *workspace, size_t workspace_size)
+{
+    sqffd_kdtree tree;
+    double *x = NULL, diagonal = 0.0, sum = 0.0, sum2 = 0.0, max = 0.0;
+    void *tree_ws = NULL;
+    size_t v, m, tree_size = 0;
+    sqffd_result r = sqffd__fit_distances_setup(model, points, n, 1, workspace, workspace_size, &x, &tree_ws, &tree_size,
+                                                &diagonal);
+    if (r == SQFFD_OK) r = sqffd_kdtree_build(&tree, points, n, tree_ws, tree_size);
+    if (r != SQFFD_OK) return r;
+    m = sqffd__fit_grid_count(model->grid);
+    for (v = 0; v < m; ++v) {
+        double d2, d;
+        if (!sqffd__finite3(x + 3 * v)) return SQFFD_ERROR_NON_FINITE;
+        sqffd_kdtree_nearest(&tree, x + 3 * v, &d2);
+        d = sqrt(d2);
+        sum += d; sum2 += d2;
+        if (d > max) max = d;
+        if (per_vertex) per_vertex[v] = d;
+    }
+    if (stats) sqffd__fit_stats(sum, sum2, max, m, diagonal, stats);
+    return SQFFD_OK;
+}
+
+/* ---- options and the box ------------------------------------------------- */
+
+SQFFD_DEF sqffd_fit_options sqffd_fit_options_default(void)
+{
+    sqffd_fit_options o;
+    memset(&o, 0, sizeof o);
+    o.sq = sqffd_sq_fit_options_default();
+    o.lattice[0] = o.lattice[1] = o.lattice[2] = 5;
+    o.box_margin = 0.1;
+    o.grid[0] = 32;
+    o.grid[1] = 64;
+    o.alpha = 1e-5;
+    o.regularization = SQFFD_REG_DISPLACEMENT;
+    o.solver = SQFFD_SOLVER_CHOLESKY;
+    o.max_iterations = 30;
+    o.tolerance = 1e-4;
+    o.symmetric = 0;
+    o.sq_max_points = 20000;
+    o.ffd_max_points = 200000;
+    o.progress = NULL;
+    o.progress_user = NULL;
+    return o;
+}
+
+/* The options the FFD stage reads (the lattice and grid are checked where
+   they are used: sqffd_fit takes them from the options, sqffd_fit_ffd from
+   the model). */
+static sqffd_result sqffd__fit_check_options(const sqffd_fit_options *o)
+{
+    if (!(o->alpha >= 0.0) || !isfinite(o->alpha)) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if (!(o->tolerance >= 0.0) || !isfinite(o->tolerance)) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if (o->max_iterations < 0) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if (o->regularization != SQFFD_REG_DISPLACEMENT && o->regularization != SQFFD_REG_POSITION)
+        return SQFFD_ERROR_INVALID_ARGUMENT;
+    if (o->solver != SQFFD_SOLVER_CHOLESKY && o->solver != SQFFD_SOLVER_SVD) return SQFFD_ERROR_INVALID_ARGUMENT;
+    return SQFFD_OK;
+}
+
+SQFFD_DEF sqffd_result sqffd_model_init(sqffd_model *model, const sqffd_superquadric *sq, const sqffd_fit_options *options)
+{
+    sqffd_superquadric shape;
+    double half[3], origin[3], edges[9], m;
+    int a, r;
+    sqffd_result res;
+    if (!model || !sq || !options || !sqffd__ffd_dims_valid(options->lattice)) return SQFFD_ERROR_INVALID_ARGUMENT;
+    res = sqffd__fit_grid_check(options->grid);
+    if (res != SQFFD_OK) return res;
+    m = options->box_margin;
+    if (!(m >= 0.0) || !isfinite(m)) return SQFFD_ERROR_INVALID_ARGUMENT;
+    for (a = 0; a < 3; ++a)
+        if (!(sq->size[a] > 0.0)) return isfinite(sq->size[a]) ? SQFFD_ERROR_INVALID_ARGUMENT : SQFFD_ERROR_NON_FINITE;
+    /* the tapered shape lies within |X| <= a1 (1 + |Kx|), |Y| <= a2 (1 + |Ky|), |Z| <= a3 */
+    half[0] = sq->size[0] * (1.0 + fabs(sq->taper[0])) * (1.0 + m);
+    half[1] = sq->size[1] * (1.0 + fabs(sq->taper[1])) * (1.0 + m);
+    half[2] = sq->size[2] * (1.0 + m);
+    memcpy(origin, sq->center, sizeof origin);
+    for (a = 0; a < 3; ++a)     /* edge a = 2 half_a (column a of the rotation) */
+        for (r = 0; r < 3; ++r) {
+            edges[3 * a + r] = 2.0 * half[a] * sq->rotation[3 * r + a];
+            origin[r] -= half[a] * sq->rotation[3 * r + a];
+        }
+    shape = *sq; /* sq may be model->sq */
+    memset(model, 0, sizeof *model);
+    model->sq = shape;
+    model->grid[0] = options->grid[0];
+    model->grid[1] = options->grid[1];
+    return sqffd_ffd_init(&model->ffd, options->lattice, origin, edges);
+}
+
+/* ---- the fixed part of the least-squares problem --------------------------
+   B (model points x control points) never changes during a fit, nor between
+   the frames of a sequence that keep the superquadric and the box, so the
+   normal matrix B^T B + a D^T D is built and factored once. B's row at a
+   model point is the tensor product a (x) b (x) c of three 1-D Bernstein
+   vectors (in s, t, u); only those l + m + n numbers are stored per point.
+
+   Runs: the model points of one grid row share eta, and when the box is
+   aligned with the superquadric's axes (as sqffd_model_init makes it) their
+   u, which then depends on eta alone, agrees to rounding; prepare makes it
+   agree exactly (SQFFD__FIT_SNAP), so over a run of consecutive points with
+   the same c, B's products factor:
+     (B P)_v   = sum_ij a_i b_j (sum_k c_k P_ijk), the inner sums once per run;
+     B^T y     = sum over runs of (sum_v (a (x) b) y_v) (x) c;
+     B^T B     = sum over runs of (sum_v (a (x) b)(a (x) b)^T) (x) c c^T.
+   That cuts the first two's cost about n-fold and B^T B's about n^2-fold. For
+   another box the runs are single points and the same code does the plain
+   products. */
+typedef struct sqffd__fit_system {
+    int dims[3];
+    int grid[2];
+    size_t lattice;      /* L = l m n control points */
+    size_t count;        /* M model points */
+    size_t stride;       /* l + m + n */
+    sqffd_solver solver;
+    double *weights;     /* M x stride */
+    uint32_t *run;       /* runs + 1: the first point of each run, then M */
+    size_t runs;
+    double *matrix;      /* L x L: Cholesky factor, or V of the stacked system's SVD */
+    double *inverse_s2;  /* SVD: 1 / s_k^2 for the kept singular values, 0 for the dropped */
+    double *rhs0;        /* 3 x L: a D^T D P0 (displacement springs), zero for the paper's springs */
+    double *stacked;     /* SVD, while preparing: [B; sqrt(a) D] */
+    void *svd_ws;
+    size_t svd_size;
+} sqffd__fit_system;
+
+/* The iteration's scratch: model-sized, plus the optional subsample and data tree. */
+typedef struct sqffd__fit_work {
+    double *x, *next;    /* M x 3: current and next model points */
+    double *target;      /* M x 3: sums of data points, then displacements, then X^a */
+    double *weights;     /* M: summed barycentric weights of the data points per model point */
+    uint32_t *order;     /* M: breadth-first order of the fill */
+    unsigned char *state;/* M */
+    double *rhs;         /* 3 x L, then the new control points */
+    double *scratch;     /* L */
+    double *pairs;       /* (l m)^2: a run's sum of (a (x) b)(a (x) b)^T while preparing */
+    void *tree_ws;       /* tree over the model points */
+    size_t tree_size;
+    double *snapshot;    /* M x 3: the model points the tree was built over */
+    uint32_t *anchor, (*triangle)[3]; /* per FFD data point: the closest-point search's warm start */
+    double *outside, *vertex_slack, *triangle_slack;
+    double *fan_moved;   /* M */
+    void *data_ws;       /* tree over the data (symmetric option) */
+    size_t data_size;
+    double *sample;      /* the FFD subsample (NULL: all points) */
+    size_t sample_count;
+} sqffd__fit_work;
+
+/* At most cap of n points (cap 0: all of them). */
+static size_t sqffd__fit_cap(size_t n, size_t cap)
+{
+    return cap && n > cap ? cap : n;
+}
+
+/* An even deterministic subsample of k of the n points: point i n / k,
+   computed without overflow. */
+static void sqffd__fit_subsample(const double *points, size_t n, size_t k, double *out)
+{
+    size_t i;
+    for (i = 0; i < k; ++i) memcpy(out + 3 * i, points + 3 * (i * (n / k) + i * (n % k) / k), 3 * sizeof(double));
+}
+
+static size_t sqffd__fit_spring_count(const int d[3])
+{
+    return (size_t)((d[0] - 1) * d[1] * d[2] + d[0] * (d[1] - 1) * d[2] + d[0] * d[1] * (d[2] - 1));
+}
+
+/* The lattice neighbour of control point p one step along axis; 0 if none. */
+static int sqffd__fit_spring(const int d[3], size_t p, int axis, size_t *other)
+{
+    size_t n = (size_t)d[2], mn = (size_t)d[1] * n;
+    size_t i = p / mn, j = (p / n) % (size_t)d[1], k = p % n;
+    if (axis == 0 && i + 1 < (size_t)d[0]) { *other = p + mn; return 1; }
+    if (axis == 1 && j + 1 < (size_t)d[1]) { *other = p + n; return 1; }
+    if (axis == 2 && k + 1 < n) { *other = p + 1; return 1; }
+    return 0;
+}
+
+static void sqffd__fit_layout(sqffd__arena *a, size_t n, const int dims[3], const int grid[2], const sqffd_fit_options *o,
+                              sqffd__fit_system *s, sqffd__fit_work *w)
+{
+    size_t m = sqffd__fit_grid_count(grid), l = (size_t)dims[0] * (size_t)dims[1] * (size_t)dims[2];
+    memset(s, 0, sizeof *s);
+    memset(w, 0, sizeof *w);
+    s->dims[0] = dims[0]; s->dims[1] = dims[1]; s->dims[2] = dims[2];
+    s->grid[0] = grid[0]; s->grid[1] = grid[1];
+    s->lattice = l;
+    s->count = m;
+    s->stride = (size_t)(dims[0] + dims[1] + dims[2]);
+    s->solver = o->solver;
+    s->weights = (double *)sqffd__arena_take(a, m, s->stride * sizeof(double));
+    s->run = (uint32_t *)sqffd__arena_take(a, m + 1, sizeof(uint32_t));
+    s->matrix = (double *)sqffd__arena_take(a, l * l, sizeof(double));
+    s->inverse_s2 = (double *)sqffd__arena_take(a, l, sizeof(double));
+    s->rhs0 = (double *)sqffd__arena_take(a, 3 * l, sizeof(double));
+    if (o->solver == SQFFD_SOLVER_SVD) {
+        size_t rows = m + sqffd__fit_spring_count(dims);
+        if (rows > 0x7fffffff) a->overflow = 1;
+        else {
+            s->stacked = (double *)sqffd__arena_take(a, rows, l * sizeof(double));
+            s->svd_size = sqffd_svd_workspace_size((int)rows, (int)l);
+            if (s->svd_size == 0) a->overflow = 1;
+            s->svd_ws = sqffd__arena_take(a, s->svd_size, 1);
+        }
+    }
+    w->x = (double *)sqffd__arena_take(a, m, 3 * sizeof(double));
+    w->next = (double *)sqffd__arena_take(a, m, 3 * sizeof(double));
+    w->target = (double *)sqffd__arena_take(a, m, 3 * sizeof(double));
+    w->weights = (double *)sqffd__arena_take(a, m, sizeof(double));
+    w->order = (uint32_t *)sqffd__arena_take(a, m, sizeof(uint32_t));
+    w->state = (unsigned char *)sqffd__arena_take(a, m, 1);
+    w->rhs = (double *)sqffd__arena_take(a, 3 * l, sizeof(double));
+    w->scratch = (double *)sqffd__arena_take(a, l, sizeof(double));
+    w->pairs = (double *)sqffd__arena_take(a, (size_t)(dims[0] * dims[1] * dims[0] * dims[1]), sizeof(double));
+    w->tree_size = sqffd_kdtree_workspace_size(m);
+    w->tree_ws = sqffd__arena_take(a, w->tree_size, 1);
+    w->sample_count = sqffd__fit_cap(n, o->ffd_max_points);
+    if (w->sample_count < n) w->sample = (double *)sqffd__arena_take(a, w->sample_count, 3 * sizeof(double));
+    w->snapshot = (double *)sqffd__arena_take(a, m, 3 * sizeof(double));
+    w->anchor = (uint32_t *)sqffd__arena_take(a, w->sample_count, sizeof(uint32_t));
+    w->outside = (double *)sqffd__arena_take(a, w->sample_count, sizeof(double));
+    w->vertex_slack = (double *)sqffd__arena_take(a, w->sample_count, sizeof(double));
+    w->triangle = (uint32_t (*)[3])sqffd__arena_take(a, w->sample_count, 3 * sizeof(uint32_t));
+    w->triangle_slack = (double *)sqffd__arena_take(a, w->sample_count, sizeof(double));
+    w->fan_moved = (double *)sqffd__arena_take(a, m, sizeof(double));
+    if (o->symmetric) {
+        w->data_size = sqffd_kdtree_workspace_size(w->sample_count);
+        if (w->data_size == 0) a->overflow = 1;
+        w->data_ws = sqffd__arena_take(a, w->data_size, 1);
+    }
+}
+
+/* The lower triangle of B^T B into matrix (L x L, zeroed), run by run. */
+static void sqffd__fit_gram(const sqffd__fit_system *s, double *pairs, double *matrix)
+{
+    const int *d = s->dims;
+    size_t l = s->lattice, lm = (size_t)(d[0] * d[1]), n = (size_t)d[2], r, v, e, f, k, h;
+    for (r = 0; r < s->runs; ++r) {
+        const double *c = s->weights + (size_t)s->run[r] * s->stride + d[0] + d[1];
+        memset(pairs, 0, lm * lm * sizeof(double));
+        for (v = s->run[r]; v < s->run[r + 1]; ++v) { /* pairs += (a (x) b)(a (x) b)^T, lower triangle */
+            const double *a = s->weights + v * s->stride, *b = a + d[0];
+            double ab[SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE];
+            for (e = 0; e < lm; ++e) ab[e] = a[e / (size_t)d[1]] * b[e % (size_t)d[1]];
+            for (e = 0; e < lm; ++e)
+                for (f = 0; f <= e; ++f) pairs[e * lm + f] += ab[e] * ab[f];
+        }
+        for (e = 0; e < lm; ++e) /* matrix += pairs (x) c c^T: rows e n + k, columns f n + h, f <= e */
+            for (f = 0; f <= e; ++f)
+                for (k = 0; k < n; ++k) {
+                    double *row = matrix + (e * n + k) * l + f * n, pk = pairs[e * lm + f] * c[k];
+                    size_t end = f < e ? n : k + 1;
+                    for (h = 0; h < end; ++h) row[h] += pk * c[h];
+                }
+    }
+}
+
+/* B's rows, the regularisation's right-hand side and the factor, from the
+   model's superquadric, box and grid. */
+static sqffd_result sqffd__fit_prepare(const sqffd_model *model, const sqffd_fit_options *o, sqffd__fit_system *s,
+                                       double *pairs)
+{
+    sqffd_ffd regular; /* P0 */
+    double alpha, root, run_u = 0.0;
+    size_t l = s->lattice, m = s->count, v, p, q, r, c;
+    int axis;
+    sqffd_result res = sqffd_ffd_init(&regular, model->ffd.dims, model->ffd.origin, model->ffd.edges);
+    if (res != SQFFD_OK) return res;
+    /* alpha weighs the mean spring energy per control point against the mean
+       squared residual per model point, whatever the grid and the lattice */
+    alpha = o->alpha * (double)m / (double)l;
+    root = sqrt(alpha);
+    s->runs = 0;
+    for (v = 0; v < m; ++v) {
+        double eta, omega, pt[3], stu[3];
+        sqffd__fit_grid_angles(s->grid, v, &eta, &omega);
+        sqffd_sq_point(&model->sq, eta, omega, pt, NULL);
+        if (!sqffd__finite3(pt)) return SQFFD_ERROR_NON_FINITE;
+        sqffd_ffd_local(&model->ffd, pt, stu);
+        if (v > 0 && fabs(stu[2] - run_u) <= SQFFD__FIT_SNAP) stu[2] = run_u;
+        else { s->run[s->runs++] = (uint32_t)v; run_u = stu[2]; }
+        sqffd__ffd_axis_weights(s->dims, stu, s->weights + v * s->stride);
+    }
+    s->run[s->runs] = (uint32_t)m;
+    memset(s->rhs0, 0, 3 * l * sizeof(double));
+    if (o->regularization == SQFFD_REG_DISPLACEMENT)
+        for (p = 0; p < l; ++p)
+            for (axis = 0; axis < 3; ++axis)
+                if (sqffd__fit_spring(s->dims, p, axis, &q))
+                    for (c = 0; c < 3; ++c) {
+                        double d = alpha * (regular.control[p][c] - regular.control[q][c]);
+                        s->rhs0[c * l + p] += d;
+                        s->rhs0[c * l + q] -= d;
+                    }
+    if (s->solver == SQFFD_SOLVER_CHOLESKY) {
+        memset(s->matrix, 0, l * l * sizeof(double));
+        sqffd__fit_gram(s, pairs, s->matrix);
+        for (p = 0; p < l; ++p) /* + alpha D^T D: the springs' graph Laplacian */
+            for (axis = 0; axis < 3; ++axis)
+                if (sqffd__fit_spring(s->dims, p, axis, &q)) {
+                    s->matrix[p * l + p] += alpha;
+                    s->matrix[q * l + q] += alpha;
+                    s->matrix[q * l + p] -= alpha; /* q > p: lower triangle */
+                }
+        return sqffd_cholesky_factor(s->matrix, (int)l);
+    }
+    /* SVD of the stacked system K = [B; sqrt(a) D]; its pseudo-inverse
+       solution K^+ b equals V diag(1 / s^2) V^T K^T b over the kept singular
+       values, and K^T b is the same right-hand side as the normal equations',
+       so U (model-sized) is never formed. */
+    r = m;
+    for (v = 0; v < m; ++v) sqffd__ffd_expand(s->dims, s->weights + v * s->stride, s->stacked + v * l);
+    for (p = 0; p < l; ++p)
+        for (axis = 0; axis < 3; ++axis)
+            if (sqffd__fit_spring(s->dims, p, axis, &q)) {
+                double *row = s->stacked + r++ * l;
+                memset(row, 0, l * sizeof(double));
+                row[p] = root;
+                row[q] = -root;
+            }
+    res = sqffd_svd(s->stacked, (int)r, (int)l, NULL, s->inverse_s2, s->matrix, s->svd_ws, s->svd_size);
+    if (res != SQFFD_OK) return res;
+    for (c = l; c-- > 0;) {
+        double sv = s->inverse_s2[c];
+        s->inverse_s2[c] = sv > SQFFD__FIT_SVD_RCOND * s->inverse_s2[0] ? 1.0 / (sv * sv) : 0.0;
+    }
+    return SQFFD_OK;
+}
+
+/* ---- the two-step iteration ---------------------------------------------- */
+
+/* Displacements of the model points no data point reached (weight 0),
+   interpolated over the mesh: first in breadth-first order from the reached
+   points (each takes the mean of its already known neighbours), then a few
+   Gauss-Seidel sweeps of neighbour averaging (a discrete harmonic fill). */
+static void sqffd__fit_fill(const int grid[2], size_t m, const double *weights, double *disp, uint32_t *order,
+                            unsigned char *state)
+{
+    size_t head = 0, tail = 0, first, v, k, t;
+    int sweep;
+    sqffd__fit_ring r;
+    for (v = 0; v < m; ++v) { /* 2 = known, 1 = queued, 0 = not yet seen */
+        state[v] = weights[v] > 0.0 ? 2 : 0;
+        if (state[v]) order[tail++] = (uint32_t)v;
+    }
+    first = tail;
+    if (first == 0 || first == m) return;
+    while (head < tail) {
+        sqffd__fit_ring_of(grid, order[head++], &r);
+        for (k = 0; k < r.count; ++k) {
+            size_t w = sqffd__fit_ring_at(&r, k);
+            if (state[w] == 0) { state[w] = 1; order[tail++] = (uint32_t)w; }
+        }
+    }
+    for (sweep = 0; sweep <= SQFFD__FIT_FILL_SWEEPS; ++sweep)
+        for (t = first; t < tail; ++t) {
+            double sum[3] = {0.0, 0.0, 0.0}, inverse;
+            size_t used = 0;
+            v = order[t];
+            sqffd__fit_ring_of(grid, v, &r);
+            for (k = 0; k < r.count; ++k) {
+                size_t w = sqffd__fit_ring_at(&r, k);
+                if (state[w] != 2) continue;
+                sum[0] += disp[3 * w]; sum[1] += disp[3 * w + 1]; sum[2] += disp[3 * w + 2];
+                used++;
+            }
+            inverse = 1.0 / (double)used;
+            disp[3 * v] = sum[0] * inverse;
+            disp[3 * v + 1] = sum[1] * inverse;
+            disp[3 * v + 2] = sum[2] * inverse;
+            state[v] = 2;
+        }
+}
+
+/* rhs (3 x L) = B^T y + rhs0, run by run. */
+static void sqffd__fit_project(const sqffd__fit_system *s, const double *y, double *rhs)
+{
+    const int *d = s->dims;
+    size_t l = s->lattice, lm = (size_t)(d[0] * d[1]), n = (size_t)d[2], r, v, e, k, i, j;
+    memcpy(rhs, s->rhs0, 3 * l * sizeof(double));
+    for (r = 0; r < s->runs; ++r) {
+        const double *c = s->weights + (size_t)s->run[r] * s->stride + d[0] + d[1];
+        double sum[SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE][3];
+        memset(sum, 0, sizeof sum);
+        for (v = s->run[r]; v < s->run[r + 1]; ++v) { /* sum += (a (x) b) y_v */
+            const double *a = s->weights + v * s->stride, *b = a + d[0], *yv = y + 3 * v;
+            for (i = 0; i < (size_t)d[0]; ++i) {
+                double ay[3];
+                ay[0] = a[i] * yv[0]; ay[1] = a[i] * yv[1]; ay[2] = a[i] * yv[2];
+                for (j = 0; j < (size_t)d[1]; ++j) {
+                    double *t = sum[i * (size_t)d[1] + j];
+                    t[0] += b[j] * ay[0]; t[1] += b[j] * ay[1]; t[2] += b[j] * ay[2];
+                }
+            }
+        }
+        for (e = 0; e < lm; ++e) /* rhs += sum (x) c */
+            for (k = 0; k < n; ++k) {
+                rhs[e * n + k] += c[k] * sum[e][0];
+                rhs[l + e * n + k] += c[k] * sum[e][1];
+                rhs[2 * l + e * n + k] += c[k] * sum[e][2];
+            }
+    }
+}
+
+/* rhs (3 x L) <- the normal equations' solution, coordinate by coordinate. */
+static void sqffd__fit_solve(const sqffd__fit_system *s, double *rhs, double *scratch)
+{
+    size_t l = s->lattice, c, r, k;
+    for (c = 0; c < 3; ++c) {
+        double *b = rhs + c * l;
+        if (s->solver == SQFFD_SOLVER_CHOLESKY) {
+            sqffd_cholesky_solve(s->matrix, (int)l, b);
+            continue;
+        }
+        for (k = 0; k < l; ++k) scratch[k] = 0.0; /* y = diag(1/s^2) V^T b */
+        for (r = 0; r < l; ++r) {
+            const double *vr = s->matrix + r * l;
+            for (k = 0; k < l; ++k) scratch[k] += vr[k] * b[r];
+        }
+        for (k = 0; k < l; ++k) scratch[k] *= s->inverse_s2[k];
+        for (r = 0; r < l; ++r) { /* b = V y */
+            const double *vr = s->matrix + r * l;
+            double sum = 0.0;
+            for (k = 0; k < l; ++k) sum += vr[k] * scratch[k];
+            b[r] = sum;
+        }
+    }
+}
+
+/* x = B P for every model point, run by run. */
+static void sqffd__fit_evaluate(const sqffd__fit_system *s, const sqffd_ffd *ffd, double *x)
+{
+    double q[SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE][3];
+    size_t r, v;
+    for (r = 0; r < s->runs; ++r) {
+        const double *c = s->weights + (size_t)s->run[r] * s->stride + s->dims[0] + s->dims[1];
+        sqffd__ffd_sum_u(s->dims, (const double (*)[3])ffd->control, c, q);
+        for (v = s->run[r]; v < s->run[r + 1]; ++v) {
+            const double *a = s->weights + v * s->stride;
+            sqffd__ffd_sum_st(s->dims, (const double (*)[3])q, a, a + s->dims[0], x + 3 * v);
+        }
+    }
+}
+
+/* The paper's two-step loop from the model's current control points, with
+   the system already prepared for its superquadric, box and grid (tracking
+   reuses it frame after frame). Each round: one pass over the data (error of
+   the current model, and step 1's sums), then step 1's displacement field,
+   step 2's solve and the new model points. rep->sq_error receives the error
+   of the starting model. */
+static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double diagonal, const sqffd_fit_options *o,
+                                       const sqffd__fit_system *s, const sqffd_kdtree *data_tree, sqffd__fit_work *w,
+                                       sqffd_model *model, sqffd_fit_report *rep)
+{
+    size_t m = s->count, l = s->lattice, v, p, i;
+    double *x = w->x, *next = w->next, *t = w->target, magnitude = 0.0;
+    sqffd__fit_search search;
+    int it;
+    sqffd__fit_evaluate(s, &model->ffd, x);
+    sqffd__fit_search_init(&search, x, s->grid, w->tree_ws, w->tree_size);
+    search.triangle = w->triangle;
+    search.snapshot = w->snapshot;
+    search.anchor = w->anchor;
+    search.outside = w->outside;
+    search.vertex_slack = w->vertex_slack;
+    search.triangle_slack = w->triangle_slack;
+    search.fan_moved = w->fan_moved;
+    for (i = 0; i < n; ++i) { /* no warm start yet */
+        w->anchor[i] = 0;
+        w->outside[i] = w->vertex_slack[i] = -HUGE_VAL;
+        w->triangle[i][0] = UINT32_MAX;
+        for (p = 0; p < 3; ++p) magnitude = fabs(points[3 * i + p]) > magnitude ? fabs(points[3 * i + p]) : magnitude;
+    }
+    search.margin = 1e-10 * (magnitude + diagonal); /* far above the rounding of distances between such points */
+    rep->iterations = 0;
+    rep->converged = 0;
+    rep->history_count = 0;
+    for (it = 0;; ++it) {
+        double step2;
+        sqffd_result res;
+        memset(t, 0, 3 * m * sizeof(double));
+        memset(w->weights, 0, m * sizeof(double));
+        search.x = x;
+        res = sqffd__fit_pass(points, n, &search, diagonal, NULL, t, w->weights, &rep->error);
+        if (res != SQFFD_OK) return res;
+        if (it == 0) rep->sq_error = rep->error;
+        else {
+            if (it <= SQFFD_FIT_HISTORY) rep->history[rep->history_count++] = rep->error.rms_relative;
+            if (o->progress && o->progress(o->progress_user, SQFFD_STAGE_FFD, it, rep->error.rms_relative))
+                return SQFFD_ERROR_CANCELLED;
+        }
+        if (it == o->max_iterations || rep->converged) break;
+        /* step 1: X^a = X + each model point's weighted mean displacement (each data
+           point pulls the three corners of its closest mesh triangle by their
+           barycentric weights), interpolated where no data point pulled */
+        for (v = 0; v < m; ++v)
+            if (w->weights[v] > 0.0)
+                for (p = 0; p < 3; ++p) t[3 * v + p] /= w->weights[v];
+        sqffd__fit_fill(s->grid, m, w->weights, t, w->order, w->state);
+        for (v = 0; v < 3 * m; ++v) t[v] += x[v];
+        if (data_tree)  /* symmetric: halfway to the model point's closest data point */
+            for (v = 0; v < m; ++v) {
+                const double *q = points + 3 * sqffd_kdtree_nearest(data_tree, x + 3 * v, NULL);
+                for (p = 0; p < 3; ++p) t[3 * v + p] = 0.5 * (t[3 * v + p] + q[p]);
+            }
+        /* step 2: P = argmin ||B P - X^a||^2 + alpha ||D (P - P0)||^2 (or ||D P||^2) */
+        sqffd__fit_project(s, t, w->rhs);
+        sqffd__fit_solve(s, w->rhs, w->scratch);
+        for (p = 0; p < l; ++p) {
+            model->ffd.control[p][0] = w->rhs[p];
+            model->ffd.control[p][1] = w->rhs[l + p];
+            model->ffd.control[p][2] = w->rhs[2 * l + p];
+            if (!sqffd__finite3(model->ffd.control[p])) return SQFFD_ERROR_NON_FINITE;
+        }
+        sqffd__fit_evaluate(s, &model->ffd, next);
+        step2 = sqffd__fit_moves(&search, x, next);
+        t = x; x = next; next = t; t = w->target;
+        rep->iterations = it + 1;
+        rep->step = sqrt(step2 / (double)m) / diagonal;
+        rep->converged = rep->step <= o->tolerance;
+    }
+    return SQFFD_OK;
+}
+
+/* ---- public entry points ------------------------------------------------- */
+
+static void sqffd__fit_whole_layout(sqffd__arena *a, size_t n, const sqffd_fit_options *o, double **sample, void **sq_ws,
+                                    size_t *sq_size, sqffd__fit_system *s, sqffd__fit_work *w)
+{
+    size_t k = sqffd__fit_cap(n, o->sq_max_points);
+    *sample = k < n ? (double *)sqffd__arena_take(a, k, 3 * sizeof(double)) : NULL;
+    *sq_size = sqffd_sq_fit_workspace_size(k, &o->sq);
+    if (*sq_size == 0) a->overflow = 1;
+    *sq_ws = sqffd__arena_take(a, *sq_size, 1);
+    sqffd__fit_layout(a, n, o->lattice, o->grid, o, s, w);
+}
+
+SQFFD_DEF size_t sqffd_fit_workspace_size(size_t n, const sqffd_fit_options *options)
+{
+    sqffd__arena a;
+    sqffd__fit_system s;
+    sqffd__fit_work w;
+    double *sample;
+    void *sq_ws;
+    size_t sq_size;
+    if (!options || n == 0 || !sqffd__ffd_dims_valid(options->lattice) || sqffd__fit_grid_check(options->grid) != SQFFD_OK)
+        return 0;
+    sqffd__arena_measure(&a);
+    sqffd__fit_whole_layout(&a, n, options, &sample, &sq_ws, &sq_size, &s, &w);
+    return sqffd__arena_required(&a);
+}
+
+SQFFD_DEF size_t sqffd_fit_ffd_workspace_size(size_t n, const sqffd_model *model, const sqffd_fit_options *options)
+{
+    sqffd__arena a;
+    sqffd__fit_system s;
+    sqffd__fit_work w;
+    if (!model || !options || n == 0 || !sqffd__fit_model_valid(model)) return 0;
+    sqffd__arena_measure(&a);
+    sqffd__fit_layout(&a, n, model->ffd.dims, model->grid, options, &s, &w);
+    return sqffd__arena_required(&a);
+}
+
+/* The error of the model over all n points (the iterations may run on a
+   subsample). */
+static sqffd_result sqffd__fit_error(const double *points, size_t n, double diagonal, const sqffd__fit_system *s,
+                                     const sqffd__fit_work *w, const sqffd_model *model, sqffd_distance_stats *stats)
+{
+    sqffd__fit_search search;
+    sqffd__fit_evaluate(s, &model->ffd, w->x);
+    sqffd__fit_search_init(&search, w->x, s->grid, w->tree_ws, w->tree_size);
+    return sqffd__fit_pass(points, n, &search, diagonal, NULL, NULL, NULL, stats);
+}
+
+/* Stage 2 with the system prepared (tracking prepares once for frame 0's
+   superquadric, box and grid, then runs this per frame from the previous
+   frame's control points): take the subsample, build the data tree when
+   symmetric, iterate; the start and final errors over all points. */
+static sqffd_result sqffd__fit_run(const double *points, size_t n, double diagonal, const sqffd_fit_options *o,
+                                   const sqffd__fit_system *s, sqffd__fit_work *w, sqffd_model *model,
+                                   sqffd_fit_report *rep)
+{
+    sqffd_kdtree data_tree;
+    sqffd_distance_stats start;
+    const double *data = w->sample ? w->sample : points;
+    sqffd_result res = SQFFD_OK;
+    if (w->sample) {
+        sqffd__fit_subsample(points, n, w->sample_count, w->sample);
+        res = sqffd__fit_error(points, n, diagonal, s, w, model, &start);
+    }
+    if (res == SQFFD_OK && o->symmetric) res = sqffd_kdtree_build(&data_tree, data, w->sample_count, w->data_ws, w->data_size);
+    if (res == SQFFD_OK)
+        res = sqffd__fit_iterate(data, w->sample_count, diagonal, o, s, o->symmetric ? &data_tree : NULL, w, model, rep);
+    if (res == SQFFD_OK && w->sample) {
+        rep->sq_error = start;
+        res = sqffd__fit_error(points, n, diagonal, s, w, model, &rep->error);
+    }
+    return res;
+}
+
+SQFFD_DEF sqffd_result sqffd_fit_ffd(const double *points, size_t n, const sqffd_fit_options *options, sqffd_model *model,
+                                     sqffd_fit_report *report, void *workspace, size_t workspace_size)
+{
+    sqffd__arena a;
+    sqffd__fit_system s;
+    sqffd__fit_work w;
+    sqffd_fit_report local;
+    double diagonal;
+    sqffd_result res;
+    if (!points || !options || !model || !sqffd__fit_model_valid(model)) return SQFFD_ERROR_INVALID_ARGUMENT;
+    res = sqffd__fit_check_options(options);
+    if (res != SQFFD_OK) return res;
+    if (n < SQFFD__FIT_MIN_POINTS) return SQFFD_ERROR_TOO_FEW_POINTS;
+    res = sqffd__fit_diagonal(points, n, &diagonal);
+    if (res != SQFFD_OK) return res;
+    if (!(diagonal > 0.0)) return SQFFD_ERROR_DEGENERATE;
+    sqffd__arena_init(&a, workspace, workspace_size);
+    sqffd__fit_layout(&a, n, model->ffd.dims, model->grid, options, &s, &w);
+    if (a.overflow) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
+    memset(&local, 0, sizeof local);
+    res = sqffd__fit_prepare(model, options, &s, w.pairs);
+    if (res == SQFFD_OK) res = sqffd__fit_run(points, n, diagonal, options, &s, &w, model, &local);
+    if (report) *report = local;
+    return res;
+}
+
+SQFFD_DEF sqffd_result sqffd_fit(const double *points, size_t n, const sqffd_fit_options *options,
+                                 sqffd_model *model, sqffd_fit_report *report,
+                                 void *workspace, size_t workspace_size)
+{
+    sqffd__arena a;
+    sqffd__fit_system s;
+    sqffd__fit_work w;
+    sqffd_fit_report local;
+    sqffd_sq_fit_options sq_options;
+    sqffd_superquadric sq;
+    double *sample, diagonal;
+    void *sq_ws;
+    size_t sq_size, k;
+    sqffd_result res;
+    if (!points || !options || !model || !sqffd__ffd_dims_valid(options->lattice))
+        return SQFFD_ERROR_INVALID_ARGUMENT;
+    res = sqffd__fit_grid_check(options->grid);
+    if (res == SQFFD_OK) res = sqffd__fit_check_options(options);
+    if (res != SQFFD_OK) return res;
+    if (!(options->box_margin >= 0.0) || !isfinite(options->box_margin)) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if (n < SQFFD__FIT_MIN_POINTS) return SQFFD_ERROR_TOO_FEW_POINTS;
+    res = sqffd__fit_diagonal(points, n, &diagonal);
+    if (res != SQFFD_OK) return res;
+    if (!(diagonal > 0.0)) return SQFFD_ERROR_DEGENERATE;
+    sqffd__arena_init(&a, workspace, workspace_size);
+    sqffd__fit_whole_layout(&a, n, options, &sample, &sq_ws, &sq_size, &s, &w);
+    if (a.overflow) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
+    memset(&local, 0, sizeof local);
+    /* stage 1: the superquadric */
+    k = sqffd__fit_cap(n, options->sq_max_points);
+    if (sample) sqffd__fit_subsample(points, n, k, sample);
+    sq_options = options->sq;
+    if (!sq_options.progress) {
+        sq_options.progress = options->progress;
+        sq_options.progress_user = options->progress_user;
+    }
+    res = sqffd_sq_fit(sample ? sample : points, k, &sq_options, &sq, &local.sq, sq_ws, sq_size);
+    if (res == SQFFD_OK) res = sqffd_model_init(model, &sq, options);
+    /* stage 2: the FFD */
+    if (res == SQFFD_OK) res = sqffd__fit_prepare(model, options, &s, w.pairs);
+    if (res == SQFFD_OK) res = sqffd__fit_run(points, n, diagonal, options, &s, &w, model, &local);
+    if (report) *report = local;
+    return res;
+}
 
 #ifdef __cplusplus
 }

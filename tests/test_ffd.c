@@ -787,7 +787,7 @@ static void test_fit_bad_input(void)
     bad = o; bad.solver = (sqffd_solver)7;
     CHECK_RESULT(sqffd_fit(pts, N, &bad, &m, &rep, ws, size), SQFFD_ERROR_INVALID_ARGUMENT);
     CHECK_RESULT(sqffd_fit(NULL, N, &o, &m, &rep, ws, size), SQFFD_ERROR_INVALID_ARGUMENT);
-    CHECK_RESULT(sqffd_fit(pts, N, &o, &m, &rep, NULL, size), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(sqffd_fit(pts, N, &o, &m, &rep, NULL, size), SQFFD_ERROR_WORKSPACE_TOO_SMALL);
     /* meshes too coarse or too big */
     CHECK_RESULT(sqffd_model_mesh_size(1, 10, NULL, NULL), SQFFD_ERROR_INVALID_ARGUMENT);
     CHECK_RESULT(sqffd_model_mesh_size(10, 2, NULL, NULL), SQFFD_ERROR_INVALID_ARGUMENT);

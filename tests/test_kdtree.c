@@ -336,7 +336,7 @@ static void test_kdtree_errors(void)
     CHECK_RESULT(sqffd_kdtree_build(&tree, p, 0, ws, size), SQFFD_ERROR_INVALID_ARGUMENT);
     CHECK_RESULT(sqffd_kdtree_build(NULL, p, 20, ws, size), SQFFD_ERROR_INVALID_ARGUMENT);
     CHECK_RESULT(sqffd_kdtree_build(&tree, NULL, 20, ws, size), SQFFD_ERROR_INVALID_ARGUMENT);
-    CHECK_RESULT(sqffd_kdtree_build(&tree, p, 20, NULL, size), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(sqffd_kdtree_build(&tree, p, 20, NULL, size), SQFFD_ERROR_WORKSPACE_TOO_SMALL);
     if (sizeof(size_t) > 4) {
         size_t huge = (size_t)UINT32_MAX + 1;
         CHECK(sqffd_kdtree_workspace_size(huge) == 0);
