@@ -276,20 +276,24 @@ static void la_check_svd(const double *a, int m, int n, double *s_out)
     unsigned char *work = la_workspace(size);
     double *u = la_alloc((size_t)m * (size_t)n), *s = la_alloc((size_t)n), *v = la_alloc((size_t)n * (size_t)n);
     double *s2 = la_alloc((size_t)n);
-    long double err = 0.0L, norm = 0.0L;
+    double err = 0.0, norm = 0.0, scale = 0.0;
     int i, j, k;
     CHECK(size > 0);
     CHECK_RESULT(sqffd_svd(a, m, n, u, s, v, work, size), SQFFD_OK);
     CHECK(la_canary_intact(work, size));
+    /* in units of max |a_ij|, so matrices near the ends of the double range square safely */
+    for (i = 0; i < m * n; ++i) scale = fabs(a[i]) > scale ? fabs(a[i]) : scale;
+    if (scale == 0.0) scale = 1.0; /* the zero matrix */
     for (i = 0; i < m; ++i)
         for (j = 0; j < n; ++j) {
-            long double sum = 0.0L;
-            for (k = 0; k < n; ++k) sum += (long double)u[i * n + k] * s[k] * v[j * n + k];
-            err += (sum - a[i * n + j]) * (sum - a[i * n + j]);
-            norm += (long double)a[i * n + j] * a[i * n + j];
+            double sum = 0.0, d;
+            for (k = 0; k < n; ++k) sum += (u[i * n + k] * (s[k] / scale)) * v[j * n + k];
+            d = sum - a[i * n + j] / scale;
+            err += d * d;
+            norm += (a[i * n + j] / scale) * (a[i * n + j] / scale);
         }
-    if (norm > 0.0L) CHECK_MSG(sqrtl(err / norm) <= 1e-13, "%dx%d reconstruction %.3g", m, n, (double)sqrtl(err / norm));
-    else CHECK(err == 0.0L);
+    if (norm > 0.0) CHECK_MSG(sqrt(err / norm) <= 1e-13, "%dx%d reconstruction %.3g", m, n, sqrt(err / norm));
+    else CHECK(err == 0.0);
     CHECK_MSG(la_orthogonality(u, m, n) <= 1e-13, "%dx%d U orthogonality %.3g", m, n, la_orthogonality(u, m, n));
     CHECK_MSG(la_orthogonality(v, n, n) <= 1e-13, "%dx%d V orthogonality %.3g", m, n, la_orthogonality(v, n, n));
     for (k = 0; k < n; ++k) CHECK(s[k] >= 0.0 && (k == 0 || s[k] <= s[k - 1]));
