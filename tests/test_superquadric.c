@@ -353,32 +353,19 @@ static void test_sq_fit_clean(void)
     CHECK_MSG(good >= CASES * 98 / 100, "clean: IoU >= 0.995 in only %d of %d cases", good, CASES);
 }
 
-static void test_sq_fit_noise(void)
+/* The median IoU over 60 random shapes of one kind of data reaches `floor`. */
+static void check_median_iou(int kind, int robust, uint64_t seed, const char *label, double floor)
 {
     enum { CASES = 60 };
     double iou[CASES];
-    fit_statistics(DATA_NOISE, CASES, 1000, 0, 40, iou, 200);
-    printf("    2%% noise: median IoU %.4f (10th percentile %.4f)\n", iou[CASES / 2], iou[CASES / 10]);
-    CHECK_MSG(iou[CASES / 2] >= 0.98, "2%% noise: median IoU %.4f", iou[CASES / 2]);
+    fit_statistics(kind, CASES, 1000, robust, 40, iou, seed);
+    printf("    %s: median IoU %.4f (10th percentile %.4f)\n", label, iou[CASES / 2], iou[CASES / 10]);
+    CHECK_MSG(iou[CASES / 2] >= floor, "%s: median IoU %.4f", label, iou[CASES / 2]);
 }
 
-static void test_sq_fit_cut(void)
-{
-    enum { CASES = 60 };
-    double iou[CASES];
-    fit_statistics(DATA_CUT, CASES, 1000, 0, 40, iou, 300);
-    printf("    40%% cut away: median IoU %.4f (10th percentile %.4f)\n", iou[CASES / 2], iou[CASES / 10]);
-    CHECK_MSG(iou[CASES / 2] >= 0.95, "40%% cut: median IoU %.4f", iou[CASES / 2]);
-}
-
-static void test_sq_fit_outliers_robust(void)
-{
-    enum { CASES = 60 };
-    double iou[CASES];
-    fit_statistics(DATA_OUTLIERS, CASES, 1000, 1, 40, iou, 400);
-    printf("    20%% outliers, robust: median IoU %.4f (10th percentile %.4f)\n", iou[CASES / 2], iou[CASES / 10]);
-    CHECK_MSG(iou[CASES / 2] >= 0.98, "outliers: median IoU %.4f", iou[CASES / 2]);
-}
+static void test_sq_fit_noise(void) { check_median_iou(DATA_NOISE, 0, 200, "2% noise", 0.98); }
+static void test_sq_fit_cut(void) { check_median_iou(DATA_CUT, 0, 300, "40% cut away", 0.95); }
+static void test_sq_fit_outliers_robust(void) { check_median_iou(DATA_OUTLIERS, 1, 400, "20% outliers, robust", 0.98); }
 
 /* The robust mode reports the inlier share and ignores the outliers. */
 static void test_sq_fit_robust_report(void)
