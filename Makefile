@@ -85,13 +85,15 @@ check: test
 	else echo "check: valgrind not installed, skipped"; fi
 
 # ---- make fuzz: libFuzzer (clang) on each target, FUZZ_SECONDS each
+# (FUZZ_FLAGS adds libFuzzer options, e.g. -seed=1 for a repeatable run)
 FUZZ_SECONDS ?= 60
+FUZZ_FLAGS ?=
 fuzz: | $(BUILD)
 	@command -v clang >/dev/null 2>&1 || { echo "fuzz: clang not installed, skipped"; exit 0; }; \
 	for t in $(FUZZ_TARGETS); do \
 	  clang -g -O1 -fsanitize=fuzzer,address,undefined -o $(BUILD)/libfuzzer_$$t fuzz/$$t.c -lm || exit 1; \
 	  mkdir -p $(BUILD)/corpus_$$t; \
-	  ./$(BUILD)/libfuzzer_$$t -max_total_time=$(FUZZ_SECONDS) -max_len=65536 $(BUILD)/corpus_$$t fuzz/corpus/$$t || exit 1; \
+	  ./$(BUILD)/libfuzzer_$$t -max_total_time=$(FUZZ_SECONDS) -max_len=65536 $(FUZZ_FLAGS) $(BUILD)/corpus_$$t fuzz/corpus/$$t || exit 1; \
 	done
 
 # ---- make demo: the embedded default run of the command-line tool
