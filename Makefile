@@ -11,9 +11,9 @@ TEST_DEP = sqffd.h $(wildcard tests/*.h) $(wildcard examples/*.h)
 FUZZ_TARGETS = $(patsubst fuzz/%.c,%,$(wildcard fuzz/fuzz_*.c))
 BENCHES = $(patsubst bench/%.c,%,$(wildcard bench/bench_*.c))
 
-.PHONY: all test check check-header check-symbols cli-test unit unit-asan fuzz-replay demo bench fuzz install clean
+.PHONY: all test check check-header check-symbols cli-test api-demo unit unit-asan fuzz-replay demo bench fuzz install clean
 
-all: $(BUILD)/sqffd
+all: $(BUILD)/sqffd $(BUILD)/demo_fit
 
 $(BUILD):
 	@mkdir -p $(BUILD)
@@ -21,8 +21,12 @@ $(BUILD):
 $(BUILD)/sqffd: examples/sqffd_cli.c $(TEST_DEP) | $(BUILD)
 	$(CC) $(CFLAGS) -std=c99 -Wall -Wextra -o $@ examples/sqffd_cli.c -lm
 
+# The API demo, built strict (it is the README's API tour as a program).
+$(BUILD)/demo_fit: examples/demo_fit.c $(TEST_DEP) | $(BUILD)
+	$(CC) $(CFLAGS) -std=c99 $(STRICT) -o $@ examples/demo_fit.c -lm
+
 # ---- make test: header checks, symbol check, fuzz corpus replay, unit tests twice
-test: check-header check-symbols fuzz-replay cli-test unit unit-asan
+test: check-header check-symbols fuzz-replay cli-test api-demo unit unit-asan
 
 # The header as C99/C11 (gcc, and clang when present) and C++ (g++, clang++),
 # strict warnings as errors; two translation units; an SQFFD_STATIC build.
@@ -56,6 +60,10 @@ $(BUILD)/sqffd_tests_asan: $(TEST_SRC) tests/test_main.c tests/test_impl.c $(TES
 # End-to-end checks of the command-line tool (exit codes, messages, output files).
 cli-test: $(BUILD)/sqffd
 	@sh tests/cli_test.sh $(BUILD)/sqffd
+
+api-demo: $(BUILD)/demo_fit
+	@./$(BUILD)/demo_fit > $(BUILD)/demo_fit.log && echo "api demo: fit, report, model point and mesh: ok" \
+	  || { cat $(BUILD)/demo_fit.log; exit 1; }
 
 unit: $(BUILD)/sqffd_tests
 	@echo "== unit tests (-O2)"
@@ -116,7 +124,7 @@ bench: | $(BUILD)
 	  ./$(BUILD)/$$b || exit 1; \
 	done
 
-install: $(BUILD)/sqffd
+install: $(BUILD)/sqffd $(BUILD)/demo_fit
 	install -d $(DESTDIR)$(PREFIX)/include $(DESTDIR)$(PREFIX)/bin
 	install -m 644 sqffd.h $(DESTDIR)$(PREFIX)/include/sqffd.h
 	install -m 755 $(BUILD)/sqffd $(DESTDIR)$(PREFIX)/bin/sqffd
