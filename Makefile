@@ -98,6 +98,9 @@ FUZZ_SECONDS ?= 60
 FUZZ_FLAGS ?=
 fuzz: | $(BUILD)
 	@command -v clang >/dev/null 2>&1 || { echo "fuzz: clang not installed, skipped"; exit 0; }; \
+	printf 'int LLVMFuzzerTestOneInput(const unsigned char *d, unsigned long n) { (void)d; (void)n; return 0; }\n' > $(BUILD)/fuzz_probe.c; \
+	clang -fsanitize=fuzzer $(BUILD)/fuzz_probe.c -o $(BUILD)/fuzz_probe 2>/dev/null \
+	  || { echo "fuzz: clang has no libFuzzer runtime (Debian: libclang-rt-dev), skipped"; exit 0; }; \
 	for t in $(FUZZ_TARGETS); do \
 	  clang -g -O1 -fsanitize=fuzzer,address,undefined -o $(BUILD)/libfuzzer_$$t fuzz/$$t.c -lm || exit 1; \
 	  mkdir -p $(BUILD)/corpus_$$t; \
