@@ -735,6 +735,14 @@ static int sqffd__finite3(const double *p)
     return isfinite(p[0]) && isfinite(p[1]) && isfinite(p[2]);
 }
 
+/* An even, deterministic subsample of k of the n points (k <= n): point
+   floor(i n / k), computed without forming i n, which could overflow. */
+static void sqffd__subsample(const double *points, size_t n, size_t k, double *out)
+{
+    size_t i;
+    for (i = 0; i < k; ++i) memcpy(out + 3 * i, points + 3 * (i * (n / k) + i * (n % k) / k), 3 * sizeof(double));
+}
+
 /* ======================================================================
    Layer 1: linear algebra
    ====================================================================== */
@@ -3055,13 +3063,6 @@ static double sqffd__sq_mean_d2(const sqffd_superquadric *sq, const double *pts,
     return sum_w > 0.0 ? sum / sum_w : 0.0;
 }
 
-/* m of the n points, evenly spread over the input order (deterministic). */
-static void sqffd__sq_subsample(const double *pts, size_t n, double *out, size_t m)
-{
-    size_t i;
-    for (i = 0; i < m; i++) memcpy(out + 3 * i, pts + 3 * (i * n / m), 3 * sizeof(double));
-}
-
 /* Normalise: centroid, then scale to unit RMS radius (dividing by the
    largest offset first so that squares cannot overflow). Returns 0 when all
    points coincide. */
@@ -3413,7 +3414,7 @@ SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_
        subsample without its isolated points. Every start is screened on a
        small subsample, the best few run to convergence on a larger one
        (polish), and the winner on all points. */
-    sqffd__sq_subsample(w.points, n, w.polish, m_polish);
+    sqffd__subsample(w.points, n, m_polish, w.polish);
     start_pts = w.points;
     m_start = n;
     if (o->robust) {
@@ -3422,7 +3423,7 @@ SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_
         if (m_start < SQFFD_SQ_FIT_MIN_POINTS) { start_pts = w.polish; m_start = m_polish; }
     }
     m_screen = m_start < SQFFD__SQ_SCREEN ? m_start : SQFFD__SQ_SCREEN;
-    sqffd__sq_subsample(start_pts, m_start, w.screen, m_screen);
+    sqffd__subsample(start_pts, m_start, m_screen, w.screen);
     sqffd__sq_screen(&fit, start_pts, m_start, w.screen, m_screen, w.hist, &list);
 
     sets.polish = w.polish;
@@ -4376,14 +4377,6 @@ static size_t sqffd__fit_cap(size_t n, size_t cap)
     return cap && n > cap ? cap : n;
 }
 
-/* An even deterministic subsample of k of the n points: point i n / k,
-   computed without overflow. */
-static void sqffd__fit_subsample(const double *points, size_t n, size_t k, double *out)
-{
-    size_t i;
-    for (i = 0; i < k; ++i) memcpy(out + 3 * i, points + 3 * (i * (n / k) + i * (n % k) / k), 3 * sizeof(double));
-}
-
 static size_t sqffd__fit_spring_count(const int d[3])
 {
     return (size_t)((d[0] - 1) * d[1] * d[2] + d[0] * (d[1] - 1) * d[2] + d[0] * d[1] * (d[2] - 1));
@@ -4809,7 +4802,7 @@ static sqffd_result sqffd__fit_run(const double *points, size_t n, double diagon
     const double *data = w->sample ? w->sample : points;
     sqffd_result res = SQFFD_OK;
     if (w->sample) {
-        sqffd__fit_subsample(points, n, w->sample_count, w->sample);
+        sqffd__subsample(points, n, w->sample_count, w->sample);
         res = sqffd__fit_error(points, n, diagonal, s, w, model, &start);
     }
     if (res == SQFFD_OK && o->symmetric) res = sqffd_kdtree_build(&data_tree, data, w->sample_count, w->data_ws, w->data_size);
@@ -4878,7 +4871,7 @@ SQFFD_DEF sqffd_result sqffd_fit(const double *points, size_t n, const sqffd_fit
     memset(&local, 0, sizeof local);
     /* stage 1: the superquadric */
     k = sqffd__fit_cap(n, options->sq_max_points);
-    if (sample) sqffd__fit_subsample(points, n, k, sample);
+    if (sample) sqffd__subsample(points, n, k, sample);
     sq_options = options->sq;
     if (!sq_options.progress) {
         sq_options.progress = options->progress;
