@@ -5,6 +5,7 @@
 #define SQFFD_IMPLEMENTATION
 #include "../sqffd.h"
 #include "bench.h"
+#include "../examples/sqffd_synth.h"
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -14,15 +15,9 @@
 
 #define RUNS 9
 
-static unsigned long long rng = 0x9E3779B97F4A7C15ull;
+static synth_rng rng = {0x9E3779B97F4A7C15ull};
 
-static double uniform(void) /* [-1, 1), xorshift64* */
-{
-    rng ^= rng >> 12;
-    rng ^= rng << 25;
-    rng ^= rng >> 27;
-    return (double)((rng * 2685821657736338717ull) >> 11) / 4503599627370496.0 - 1.0;
-}
+static double uniform(void) { return synth_range(&rng, -1.0, 1.0); } /* [-1, 1) */
 
 static void *xmalloc(size_t bytes)
 {

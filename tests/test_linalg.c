@@ -1,23 +1,18 @@
 /* Linear algebra layer: every result is checked against ground truth built
    independently (residuals, known factors, normal equations). */
 #include "test.h"
+#include "../examples/sqffd_synth.h"
 #include <stdlib.h>
 #include <string.h>
 
 /* ---- helpers ---- */
 
-static unsigned long long la_state = 88172645463325252ull;
+static synth_rng la_state;
 
-static void la_seed(unsigned long long s) { la_state = s ? s : 1; }
+static void la_seed(unsigned long long s) { la_state = synth_rng_seed(s); }
 
-/* uniform in [-1, 1) (xorshift64*) */
-static double la_rand(void)
-{
-    la_state ^= la_state >> 12;
-    la_state ^= la_state << 25;
-    la_state ^= la_state >> 27;
-    return (double)((la_state * 2685821657736338717ull) >> 11) / 4503599627370496.0 - 1.0;
-}
+/* uniform in [-1, 1) */
+static double la_rand(void) { return synth_range(&la_state, -1.0, 1.0); }
 
 static double *la_alloc(size_t count)
 {
