@@ -1215,17 +1215,16 @@ SQFFD_DEF sqffd_result sqffd_svd(const double *a, int m, int n, double *u, doubl
     const double zero2 = SQFFD__LA_MIN_NORMAL;
     sqffd__arena ar;
     sqffd__la_svd_work w;
-    size_t mm, nn, i, j, k, rank, required;
+    size_t mm, nn, i, j, k, rank;
     double amax = 0.0;
     int exponent = 0, converged;
     if (!a || !s || n < 1 || m < n) return SQFFD_ERROR_INVALID_ARGUMENT;
     mm = (size_t)m;
     nn = (size_t)n;
-    required = sqffd_svd_workspace_size(m, n);
-    if (required == 0) return SQFFD_ERROR_TOO_LARGE;
     sqffd__arena_init(&ar, workspace, workspace_size);
     sqffd__la_svd_layout(&ar, mm, nn, &w);
-    if (ar.overflow) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
+    if (ar.overflow) /* measured only now: was it the block, or sizes no size_t holds? */
+        return sqffd_svd_workspace_size(m, n) ? SQFFD_ERROR_WORKSPACE_TOO_SMALL : SQFFD_ERROR_TOO_LARGE;
     for (i = 0; i < mm * nn; ++i) {
         if (!isfinite(a[i])) return SQFFD_ERROR_NON_FINITE;
         if (fabs(a[i]) > amax) amax = fabs(a[i]);
@@ -1347,7 +1346,7 @@ SQFFD_DEF sqffd_result sqffd_cg_solve(int n, sqffd_matvec_fn matvec, void *user,
     sqffd__arena ar;
     sqffd__la_cg_work w;
     sqffd_result result = SQFFD_OK;
-    size_t nn, i, required;
+    size_t nn, i;
     double bnorm, rnorm, rz;
     int it = 0, max_it;
     if (iterations) *iterations = 0;
@@ -1355,11 +1354,10 @@ SQFFD_DEF sqffd_result sqffd_cg_solve(int n, sqffd_matvec_fn matvec, void *user,
     if (n < 1 || !matvec || !b || !x || opt.max_iterations < 0 || !(opt.tolerance >= 0.0))
         return SQFFD_ERROR_INVALID_ARGUMENT;
     nn = (size_t)n;
-    required = sqffd_cg_workspace_size(n);
-    if (required == 0) return SQFFD_ERROR_TOO_LARGE;
     sqffd__arena_init(&ar, workspace, workspace_size);
     sqffd__la_cg_layout(&ar, nn, &w);
-    if (ar.overflow) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
+    if (ar.overflow) /* measured only now: was it the block, or sizes no size_t holds? */
+        return sqffd_cg_workspace_size(n) ? SQFFD_ERROR_WORKSPACE_TOO_SMALL : SQFFD_ERROR_TOO_LARGE;
     if (!sqffd__la_all_finite(b, nn) || !sqffd__la_all_finite(x, nn)) return SQFFD_ERROR_NON_FINITE;
     if (opt.jacobi_diagonal) {
         if (!sqffd__la_all_finite(opt.jacobi_diagonal, nn)) return SQFFD_ERROR_NON_FINITE;
@@ -1550,17 +1548,16 @@ SQFFD_DEF sqffd_result sqffd_ncg_minimize(int n, sqffd_objective_fn f, sqffd_pro
     sqffd__la_ncg_work w;
     sqffd__la_ncg_problem pr;
     sqffd_result result = SQFFD_ERROR_NO_CONVERGENCE;
-    size_t nn, i, required;
+    size_t nn, i;
     double value, step = 0.0, gd_old = 0.0;
     int it, since_restart = 0;
     if (iterations) *iterations = 0;
     if (n < 1 || !f || !x || max_iterations < 1 || !(tolerance >= 0.0)) return SQFFD_ERROR_INVALID_ARGUMENT;
     nn = (size_t)n;
-    required = sqffd_ncg_workspace_size(n);
-    if (required == 0) return SQFFD_ERROR_TOO_LARGE;
     sqffd__arena_init(&ar, workspace, workspace_size);
     sqffd__la_ncg_layout(&ar, nn, &w);
-    if (ar.overflow) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
+    if (ar.overflow) /* measured only now: was it the block, or sizes no size_t holds? */
+        return sqffd_ncg_workspace_size(n) ? SQFFD_ERROR_WORKSPACE_TOO_SMALL : SQFFD_ERROR_TOO_LARGE;
     if (!sqffd__la_all_finite(x, nn)) return SQFFD_ERROR_NON_FINITE;
     pr.n = nn; pr.f = f; pr.project = project; pr.user = user;
     if (project) project(user, x);
