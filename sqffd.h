@@ -3685,41 +3685,46 @@ static void sqffd__fit_grid_angles(const int grid[2], size_t v, double *eta, dou
 }
 
 /* The mesh neighbours of a vertex in cyclic order: the triangles around v are
-   (v, ring k, ring k+1 mod count). A pole's ring is its whole adjacent row. */
+   (v, ring k, ring k+1 mod count). A pole's ring is its whole adjacent row.
+   The searches read them from a table made once per mesh (sqffd__fit_rings). */
+#define SQFFD__FIT_NOT_POLE UINT32_MAX
+
 typedef struct sqffd__fit_ring {
-    size_t count;
-    size_t base;    /* pole: first vertex of the adjacent row */
-    int pole;
-    size_t v[6];    /* other vertices */
+    uint32_t count;
+    uint32_t pole_row; /* a pole's: first vertex of its adjacent row; else SQFFD__FIT_NOT_POLE */
+    uint32_t v[6];     /* other vertices */
 } sqffd__fit_ring;
 
-static void sqffd__fit_ring_of(const int grid[2], size_t v, sqffd__fit_ring *r)
+static void sqffd__fit_rings(const int grid[2], sqffd__fit_ring *rings)
 {
-    size_t ne = (size_t)grid[1], rows = (size_t)grid[0] * ne;
-    size_t south = rows, north = rows + 1, i, j, jp, jm, c, cand[6];
-    r->count = 0;
-    r->pole = v >= rows;
-    if (r->pole) {
-        r->base = v == south ? 0 : rows - ne;
+    uint32_t ne = (uint32_t)grid[1], rows = (uint32_t)grid[0] * ne; /* the grid check keeps these below 2^32 */
+    uint32_t south = rows, north = rows + 1, i, j, jp, jm, c, cand[6];
+    for (i = 0; i < (uint32_t)grid[0]; ++i)
+        for (j = 0; j < ne; ++j) {
+            sqffd__fit_ring *r = rings + i * ne + j;
+            jp = j + 1 < ne ? j + 1 : 0; jm = j > 0 ? j - 1 : ne - 1;
+            cand[0] = i * ne + jp;
+            cand[1] = i + 1 < (uint32_t)grid[0] ? (i + 1) * ne + jp : north;
+            cand[2] = i + 1 < (uint32_t)grid[0] ? (i + 1) * ne + j : north;
+            cand[3] = i * ne + jm;
+            cand[4] = i > 0 ? (i - 1) * ne + jm : south;
+            cand[5] = i > 0 ? (i - 1) * ne + j : south;
+            r->count = 0;
+            r->pole_row = SQFFD__FIT_NOT_POLE;
+            for (c = 0; c < 6; ++c) /* a pole appears twice in a row next to it */
+                if (r->count == 0 || cand[c] != r->v[r->count - 1]) r->v[r->count++] = cand[c];
+        }
+    for (c = 0; c < 2; ++c) {
+        sqffd__fit_ring *r = rings + rows + c;
+        memset(r, 0, sizeof *r);
         r->count = ne;
-        return;
+        r->pole_row = c == 0 ? 0 : rows - ne;
     }
-    i = (size_t)((uint32_t)v / (uint32_t)ne); /* the grid check keeps vertex numbers below 2^32: a faster division */
-    j = v - i * ne; jp = j + 1 < ne ? j + 1 : 0; jm = j > 0 ? j - 1 : ne - 1;
-    cand[0] = i * ne + jp;
-    cand[1] = i + 1 < (size_t)grid[0] ? (i + 1) * ne + jp : north;
-    cand[2] = i + 1 < (size_t)grid[0] ? (i + 1) * ne + j : north;
-    cand[3] = i * ne + jm;
-    cand[4] = i > 0 ? (i - 1) * ne + jm : south;
-    cand[5] = i > 0 ? (i - 1) * ne + j : south;
-    for (c = 0; c < 6; ++c) /* a pole appears twice in a row next to it */
-        if (r->count == 0 || cand[c] != r->v[r->count - 1]) r->v[r->count++] = cand[c];
-    r->base = 0;
 }
 
 static size_t sqffd__fit_ring_at(const sqffd__fit_ring *r, size_t k)
 {
-    return r->pole ? r->base + k : r->v[k];
+    return r->pole_row != SQFFD__FIT_NOT_POLE ? r->pole_row + k : r->v[k];
 }
 
 /* Closest point to q on the triangle (v, v + ea, v + eb), from ap = q - v:
@@ -3775,19 +3780,18 @@ static double sqffd__fit_corner_triangle(const double *x, const size_t tri[3], c
    count) around vertex v: its squared distance, triangle (tri[0] = v) and
    barycentric weights (the first of equally close triangles), and the
    squared distance of the runner-up triangle (*second >= the result). */
-static double sqffd__fit_fan_closest(const double *x, const int grid[2], size_t v, const double q[3], size_t tri[3],
-                                     double w[3], double *second)
+static double sqffd__fit_fan_closest(const double *x, const sqffd__fit_ring *rings, size_t v, const double q[3],
+                                     size_t tri[3], double w[3], double *second)
 {
-    sqffd__fit_ring r;
+    const sqffd__fit_ring *r = rings + v;
     double best = HUGE_VAL, tw[3];
     size_t k, t[3];
-    sqffd__fit_ring_of(grid, v, &r);
     *second = HUGE_VAL;
     t[0] = v;
-    for (k = 0; k < r.count; ++k) {
+    for (k = 0; k < r->count; ++k) {
         double d;
-        t[1] = sqffd__fit_ring_at(&r, k);
-        t[2] = sqffd__fit_ring_at(&r, k + 1 < r.count ? k + 1 : 0);
+        t[1] = sqffd__fit_ring_at(r, k);
+        t[2] = sqffd__fit_ring_at(r, k + 1 < r->count ? k + 1 : 0);
         d = sqffd__fit_corner_triangle(x, t, q, tw);
         if (d < best) {
             *second = best;
@@ -3805,12 +3809,13 @@ static double sqffd__fit_fan_closest(const double *x, const int grid[2], size_t 
    nearest mesh vertex: while that lies on the fan's outer rim (v's weight
    0), the fan around the rim vertex nearer to it is searched too (at most
    SQFFD__FIT_MAX_WALK moves, never getting farther). */
-static double sqffd__fit_walk(const double *x, const int grid[2], const double q[3], double best, size_t tri[3], double w[3])
+static double sqffd__fit_walk(const double *x, const sqffd__fit_ring *rings, const double q[3], double best, size_t tri[3],
+                             double w[3])
 {
     int step;
     for (step = 0; step < SQFFD__FIT_MAX_WALK && w[0] == 0.0; ++step) {
         size_t t2[3];
-        double w2[3], second, d = sqffd__fit_fan_closest(x, grid, w[1] >= w[2] ? tri[1] : tri[2], q, t2, w2, &second);
+        double w2[3], second, d = sqffd__fit_fan_closest(x, rings, w[1] >= w[2] ? tri[1] : tri[2], q, t2, w2, &second);
         if (!(d < best)) break;
         best = d;
         memcpy(tri, t2, sizeof t2);
@@ -3841,7 +3846,8 @@ static double sqffd__fit_walk(const double *x, const int grid[2], const double q
 
 typedef struct sqffd__fit_search {
     const double *x;         /* mesh vertices (the model points) */
-    int grid[2];
+    size_t count;            /* and their number */
+    const sqffd__fit_ring *rings;
     sqffd_kdtree tree;       /* over snapshot (NULL: x itself), once built */
     void *tree_ws;
     size_t tree_size;
@@ -3864,7 +3870,7 @@ static int sqffd__fit_in_ring(const sqffd__fit_ring *r, size_t v, size_t u)
 {
     size_t k;
     if (u == v) return 1;
-    if (r->pole) return u >= r->base && u < r->base + r->count;
+    if (r->pole_row != SQFFD__FIT_NOT_POLE) return u >= r->pole_row && u < (size_t)r->pole_row + r->count;
     for (k = 0; k < r->count; ++k)
         if (r->v[k] == u) return 1;
     return 0;
@@ -3875,7 +3881,7 @@ static sqffd_result sqffd__fit_nearest_vertex(sqffd__fit_search *s, size_t i, co
 {
     size_t near[SQFFD__FIT_KNN], k, count;
     double d2[SQFFD__FIT_KNN], d[SQFFD__FIT_KNN];
-    sqffd__fit_ring r;
+    const sqffd__fit_ring *r;
     if (s->anchor) {
         s->outside[i] -= s->moved;
         s->vertex_slack[i] -= 2.0 * s->moved;
@@ -3886,10 +3892,10 @@ static sqffd_result sqffd__fit_nearest_vertex(sqffd__fit_search *s, size_t i, co
         if (s->outside[i] > s->margin) { /* the nearest of the anchor's closed ring, if nearer than the rest */
             size_t v = s->anchor[i];
             double best = sqffd__dist2_3(q, s->x + 3 * v), second = HUGE_VAL;
-            sqffd__fit_ring_of(s->grid, v, &r);
+            r = s->rings + v;
             *nearest = v;
-            for (k = 0; k < r.count; ++k) {
-                size_t u = sqffd__fit_ring_at(&r, k);
+            for (k = 0; k < r->count; ++k) {
+                size_t u = sqffd__fit_ring_at(r, k);
                 double du = sqffd__dist2_3(q, s->x + 3 * u);
                 if (du < best) { second = best; best = du; *nearest = u; }
                 else if (du < second) second = du;
@@ -3906,9 +3912,8 @@ static sqffd_result sqffd__fit_nearest_vertex(sqffd__fit_search *s, size_t i, co
         size_t b = 0;
         double rest, second = HUGE_VAL;
         if (!s->built) {
-            size_t m = sqffd__fit_grid_count(s->grid);
-            const double *at = s->snapshot ? (const double *)memcpy(s->snapshot, s->x, 3 * m * sizeof(double)) : s->x;
-            sqffd_result res = sqffd_kdtree_build(&s->tree, at, m, s->tree_ws, s->tree_size);
+            const double *at = s->snapshot ? (const double *)memcpy(s->snapshot, s->x, 3 * s->count * sizeof(double)) : s->x;
+            sqffd_result res = sqffd_kdtree_build(&s->tree, at, s->count, s->tree_ws, s->tree_size);
             if (res != SQFFD_OK) return res;
             s->built = 1;
             s->drift = 0.0;
@@ -3930,9 +3935,9 @@ static sqffd_result sqffd__fit_nearest_vertex(sqffd__fit_search *s, size_t i, co
             s->anchor[i] = (uint32_t)near[b];
             s->vertex_slack[i] = (second < rest ? second : rest) - d[b];
             s->outside[i] = rest;
-            sqffd__fit_ring_of(s->grid, near[b], &r);
+            r = s->rings + near[b];
             for (k = 0; k < count; ++k)
-                if (d[k] < s->outside[i] && !sqffd__fit_in_ring(&r, near[b], near[k])) s->outside[i] = d[k];
+                if (d[k] < s->outside[i] && !sqffd__fit_in_ring(r, near[b], near[k])) s->outside[i] = d[k];
         }
         return SQFFD_OK;
     }
@@ -3956,30 +3961,31 @@ static sqffd_result sqffd__fit_closest(sqffd__fit_search *s, size_t i, const dou
             return SQFFD_OK;
         }
     }
-    d = sqffd__fit_fan_closest(s->x, s->grid, v, q, tri, w, &second);
+    d = sqffd__fit_fan_closest(s->x, s->rings, v, q, tri, w, &second);
     if (s->anchor) {
         for (k = 0; k < 3; ++k) s->triangle[i][k] = (uint32_t)tri[k];
         s->triangle_slack[i] = w[0] == 0.0 ? -1.0 : sqrt(second) - sqrt(d);
     }
-    *dist2 = sqffd__fit_walk(s->x, s->grid, q, d, tri, w);
+    *dist2 = sqffd__fit_walk(s->x, s->rings, q, d, tri, w);
     return SQFFD_OK;
 }
 
 /* The moves from x to next into the search's warm start (largest overall and
-   per fan); returns the sum of their squares. */
-static double sqffd__fit_moves(sqffd__fit_search *s, const double *x, const double *next)
+   per fan), each one's square into move2; returns the sum of their squares. */
+static double sqffd__fit_moves(sqffd__fit_search *s, const double *x, const double *next, double *move2)
 {
-    size_t v, k, m = sqffd__fit_grid_count(s->grid);
+    size_t v, k;
     double sum2 = 0.0, max2 = 0.0;
-    for (v = 0; v < m; ++v) {
-        sqffd__fit_ring r;
-        double move2 = sqffd__dist2_3(next + 3 * v, x + 3 * v), fan2 = move2;
-        sum2 += move2;
-        max2 = move2 > max2 ? move2 : max2;
-        sqffd__fit_ring_of(s->grid, v, &r);
-        for (k = 0; k < r.count; ++k) {
-            size_t u = sqffd__fit_ring_at(&r, k);
-            double d2 = sqffd__dist2_3(next + 3 * u, x + 3 * u);
+    for (v = 0; v < s->count; ++v) {
+        move2[v] = sqffd__dist2_3(next + 3 * v, x + 3 * v);
+        sum2 += move2[v];
+        max2 = move2[v] > max2 ? move2[v] : max2;
+    }
+    for (v = 0; v < s->count; ++v) {
+        const sqffd__fit_ring *r = s->rings + v;
+        double fan2 = move2[v];
+        for (k = 0; k < r->count; ++k) {
+            double d2 = move2[sqffd__fit_ring_at(r, k)];
             fan2 = d2 > fan2 ? d2 : fan2;
         }
         s->fan_moved[v] = sqrt(fan2);
@@ -4022,14 +4028,15 @@ static void sqffd__fit_stats(double sum, double sum2, double max, size_t n, doub
     s->max_relative = diagonal > 0.0 ? s->max / diagonal : 0.0;
 }
 
-/* A search over the mesh with vertices x (tree workspace given, built on
-   first need), without a warm start. */
-static void sqffd__fit_search_init(sqffd__fit_search *s, const double *x, const int grid[2], void *tree_ws, size_t tree_size)
+/* A search over the mesh with vertices x on the grid (its ring table and
+   tree workspace given, the tree built on first need), without a warm start. */
+static void sqffd__fit_search_init(sqffd__fit_search *s, const double *x, const int grid[2], const sqffd__fit_ring *rings,
+                                   void *tree_ws, size_t tree_size)
 {
     memset(s, 0, sizeof *s);
     s->x = x;
-    s->grid[0] = grid[0];
-    s->grid[1] = grid[1];
+    s->count = sqffd__fit_grid_count(grid);
+    s->rings = rings;
     s->tree_ws = tree_ws;
     s->tree_size = tree_size;
 }
@@ -4144,24 +4151,32 @@ SQFFD_DEF sqffd_result sqffd_model_mesh(const sqffd_model *model, int n_eta, int
 
 /* ---- distances ----------------------------------------------------------- */
 
-static void sqffd__fit_distances_layout(sqffd__arena *a, size_t n_tree, size_t vertices, double **x, void **tree_ws, size_t *tree_size)
+/* The mesh vertices, the ring table (forward only) and a tree over n_tree points. */
+typedef struct sqffd__fit_mesh_work {
+    double *x;
+    sqffd__fit_ring *rings;
+    void *tree_ws;
+    size_t tree_size;
+} sqffd__fit_mesh_work;
+
+static void sqffd__fit_distances_layout(sqffd__arena *a, size_t n_tree, size_t vertices, int reverse, sqffd__fit_mesh_work *w)
 {
-    *x = (double *)sqffd__arena_take(a, vertices, 3 * sizeof(double));
-    *tree_size = sqffd_kdtree_workspace_size(n_tree);
-    if (*tree_size == 0) a->overflow = 1;
-    *tree_ws = sqffd__arena_take(a, *tree_size, 1);
+    w->x = (double *)sqffd__arena_take(a, vertices, 3 * sizeof(double));
+    w->rings = reverse ? NULL : (sqffd__fit_ring *)sqffd__arena_take(a, vertices, sizeof(sqffd__fit_ring));
+    w->tree_size = sqffd_kdtree_workspace_size(n_tree);
+    if (w->tree_size == 0) a->overflow = 1;
+    w->tree_ws = sqffd__arena_take(a, w->tree_size, 1);
 }
 
 static size_t sqffd__fit_distances_size(size_t n, const sqffd_model *model, int reverse)
 {
     sqffd__arena a;
-    double *x;
-    void *tree_ws;
-    size_t tree_size, m;
+    sqffd__fit_mesh_work w;
+    size_t m;
     if (!model || !sqffd__fit_model_valid(model) || n == 0) return 0;
     m = sqffd__fit_grid_count(model->grid);
     sqffd__arena_measure(&a);
-    sqffd__fit_distances_layout(&a, reverse ? n : m, m, &x, &tree_ws, &tree_size);
+    sqffd__fit_distances_layout(&a, reverse ? n : m, m, reverse, &w);
     return sqffd__arena_required(&a);
 }
 
@@ -4179,8 +4194,8 @@ SQFFD_DEF size_t sqffd_model_reverse_distances_workspace_size(size_t n, const sq
    the tree's workspace is for the mesh vertices (forward) or the data
    (reverse). */
 static sqffd_result sqffd__fit_distances_setup(const sqffd_model *model, const double *points, size_t n, int reverse,
-                                              void *workspace, size_t workspace_size, double **x, void **tree_ws,
-                                              size_t *tree_size, double *diagonal)
+                                              void *workspace, size_t workspace_size, sqffd__fit_mesh_work *w,
+                                              double *diagonal)
 {
     sqffd__arena a;
     size_t m;
@@ -4191,9 +4206,10 @@ static sqffd_result sqffd__fit_distances_setup(const sqffd_model *model, const d
     if (r != SQFFD_OK) return r;
     m = sqffd__fit_grid_count(model->grid);
     sqffd__arena_init(&a, workspace, workspace_size);
-    sqffd__fit_distances_layout(&a, reverse ? n : m, m, x, tree_ws, tree_size);
+    sqffd__fit_distances_layout(&a, reverse ? n : m, m, reverse, w);
     if (a.overflow) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
-    sqffd__fit_surface(model, model->grid, *x);
+    sqffd__fit_surface(model, model->grid, w->x);
+    if (!reverse) sqffd__fit_rings(model->grid, w->rings);
     return SQFFD_OK;
 }
 
@@ -4202,14 +4218,12 @@ SQFFD_DEF sqffd_result sqffd_model_distances(const sqffd_model *model, const dou
                                              void *workspace, size_t workspace_size)
 {
     sqffd__fit_search search;
+    sqffd__fit_mesh_work w;
     sqffd_distance_stats s;
-    double *x = NULL, diagonal = 0.0;
-    void *tree_ws = NULL;
-    size_t tree_size = 0;
-    sqffd_result r = sqffd__fit_distances_setup(model, points, n, 0, workspace, workspace_size, &x, &tree_ws, &tree_size,
-                                                &diagonal);
+    double diagonal = 0.0;
+    sqffd_result r = sqffd__fit_distances_setup(model, points, n, 0, workspace, workspace_size, &w, &diagonal);
     if (r != SQFFD_OK) return r;
-    sqffd__fit_search_init(&search, x, model->grid, tree_ws, tree_size);
+    sqffd__fit_search_init(&search, w.x, model->grid, w.rings, w.tree_ws, w.tree_size);
     r = sqffd__fit_pass(points, n, &search, diagonal, per_point, NULL, NULL, &s);
     if (r == SQFFD_OK && stats) *stats = s;
     return r;
@@ -4220,18 +4234,17 @@ SQFFD_DEF sqffd_result sqffd_model_reverse_distances(const sqffd_model *model, c
                                                      void *workspace, size_t workspace_size)
 {
     sqffd_kdtree tree;
-    double *x = NULL, diagonal = 0.0, sum = 0.0, sum2 = 0.0, max = 0.0;
-    void *tree_ws = NULL;
-    size_t v, m, tree_size = 0;
-    sqffd_result r = sqffd__fit_distances_setup(model, points, n, 1, workspace, workspace_size, &x, &tree_ws, &tree_size,
-                                                &diagonal);
-    if (r == SQFFD_OK) r = sqffd_kdtree_build(&tree, points, n, tree_ws, tree_size);
+    sqffd__fit_mesh_work w;
+    double diagonal = 0.0, sum = 0.0, sum2 = 0.0, max = 0.0;
+    size_t v, m;
+    sqffd_result r = sqffd__fit_distances_setup(model, points, n, 1, workspace, workspace_size, &w, &diagonal);
+    if (r == SQFFD_OK) r = sqffd_kdtree_build(&tree, points, n, w.tree_ws, w.tree_size);
     if (r != SQFFD_OK) return r;
     m = sqffd__fit_grid_count(model->grid);
     for (v = 0; v < m; ++v) {
         double d2, d;
-        if (!sqffd__finite3(x + 3 * v)) return SQFFD_ERROR_NON_FINITE;
-        sqffd_kdtree_nearest(&tree, x + 3 * v, &d2);
+        if (!sqffd__finite3(w.x + 3 * v)) return SQFFD_ERROR_NON_FINITE;
+        sqffd_kdtree_nearest(&tree, w.x + 3 * v, &d2);
         d = sqrt(d2);
         sum += d; sum2 += d2;
         if (d > max) max = d;
@@ -4336,6 +4349,7 @@ typedef struct sqffd__fit_system {
     size_t stride;       /* l + m + n */
     sqffd_solver solver;
     double *weights;     /* M x stride */
+    sqffd__fit_ring *rings; /* M: the mesh's ring table */
     uint32_t *run;       /* runs + 1: the first point of each run, then M */
     size_t runs;
     double *matrix;      /* L x L: Cholesky factor, or V of the stacked system's SVD */
@@ -4362,6 +4376,7 @@ typedef struct sqffd__fit_work {
     uint32_t *anchor, (*triangle)[3]; /* per FFD data point: the closest-point search's warm start */
     double *outside, *vertex_slack, *triangle_slack;
     double *fan_moved;   /* M */
+    double *move2;       /* M: each model point's squared move in the last iteration */
     void *data_ws;       /* tree over the data (symmetric option) */
     size_t data_size;
     double *sample;      /* the FFD subsample (NULL: all points) */
@@ -4404,6 +4419,7 @@ static void sqffd__fit_layout(sqffd__arena *a, size_t n, const int dims[3], cons
     s->solver = o->solver;
     s->weights = (double *)sqffd__arena_take(a, m, s->stride * sizeof(double));
     s->run = (uint32_t *)sqffd__arena_take(a, m + 1, sizeof(uint32_t));
+    s->rings = (sqffd__fit_ring *)sqffd__arena_take(a, m, sizeof(sqffd__fit_ring));
     s->matrix = (double *)sqffd__arena_take(a, l * l, sizeof(double));
     s->inverse_s2 = (double *)sqffd__arena_take(a, l, sizeof(double));
     s->rhs0 = (double *)sqffd__arena_take(a, 3 * l, sizeof(double));
@@ -4437,6 +4453,7 @@ static void sqffd__fit_layout(sqffd__arena *a, size_t n, const int dims[3], cons
     w->triangle = (uint32_t (*)[3])sqffd__arena_take(a, w->sample_count, 3 * sizeof(uint32_t));
     w->triangle_slack = (double *)sqffd__arena_take(a, w->sample_count, sizeof(double));
     w->fan_moved = (double *)sqffd__arena_take(a, m, sizeof(double));
+    w->move2 = (double *)sqffd__arena_take(a, m, sizeof(double));
     if (o->symmetric) {
         w->data_size = sqffd_kdtree_workspace_size(w->sample_count);
         if (w->data_size == 0) a->overflow = 1;
@@ -4484,6 +4501,7 @@ static sqffd_result sqffd__fit_prepare(const sqffd_model *model, const sqffd_fit
        squared residual per model point, whatever the grid and the lattice */
     alpha = o->alpha * (double)m / (double)l;
     root = sqrt(alpha);
+    sqffd__fit_rings(s->grid, s->rings);
     s->runs = 0;
     for (v = 0; v < m; ++v) {
         double eta, omega, pt[3], stu[3];
@@ -4547,12 +4565,12 @@ static sqffd_result sqffd__fit_prepare(const sqffd_model *model, const sqffd_fit
    interpolated over the mesh: first in breadth-first order from the reached
    points (each takes the mean of its already known neighbours), then a few
    Gauss-Seidel sweeps of neighbour averaging (a discrete harmonic fill). */
-static void sqffd__fit_fill(const int grid[2], size_t m, const double *weights, double *disp, uint32_t *order,
+static void sqffd__fit_fill(const sqffd__fit_ring *rings, size_t m, const double *weights, double *disp, uint32_t *order,
                             unsigned char *state)
 {
     size_t head = 0, tail = 0, first, v, k, t;
     int sweep;
-    sqffd__fit_ring r;
+    const sqffd__fit_ring *r;
     for (v = 0; v < m; ++v) { /* 2 = known, 1 = queued, 0 = not yet seen */
         state[v] = weights[v] > 0.0 ? 2 : 0;
         if (state[v]) order[tail++] = (uint32_t)v;
@@ -4560,9 +4578,9 @@ static void sqffd__fit_fill(const int grid[2], size_t m, const double *weights, 
     first = tail;
     if (first == 0 || first == m) return;
     while (head < tail) {
-        sqffd__fit_ring_of(grid, order[head++], &r);
-        for (k = 0; k < r.count; ++k) {
-            size_t w = sqffd__fit_ring_at(&r, k);
+        r = rings + order[head++];
+        for (k = 0; k < r->count; ++k) {
+            size_t w = sqffd__fit_ring_at(r, k);
             if (state[w] == 0) { state[w] = 1; order[tail++] = (uint32_t)w; }
         }
     }
@@ -4571,9 +4589,9 @@ static void sqffd__fit_fill(const int grid[2], size_t m, const double *weights, 
             double sum[3] = {0.0, 0.0, 0.0}, inverse;
             size_t used = 0;
             v = order[t];
-            sqffd__fit_ring_of(grid, v, &r);
-            for (k = 0; k < r.count; ++k) {
-                size_t w = sqffd__fit_ring_at(&r, k);
+            r = rings + v;
+            for (k = 0; k < r->count; ++k) {
+                size_t w = sqffd__fit_ring_at(r, k);
                 if (state[w] != 2) continue;
                 sum[0] += disp[3 * w]; sum[1] += disp[3 * w + 1]; sum[2] += disp[3 * w + 2];
                 used++;
@@ -4671,7 +4689,7 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
     sqffd__fit_search search;
     int it;
     sqffd__fit_evaluate(s, &model->ffd, x);
-    sqffd__fit_search_init(&search, x, s->grid, w->tree_ws, w->tree_size);
+    sqffd__fit_search_init(&search, x, s->grid, s->rings, w->tree_ws, w->tree_size);
     search.triangle = w->triangle;
     search.snapshot = w->snapshot;
     search.anchor = w->anchor;
@@ -4710,7 +4728,7 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
         for (v = 0; v < m; ++v)
             if (w->weights[v] > 0.0)
                 for (p = 0; p < 3; ++p) t[3 * v + p] /= w->weights[v];
-        sqffd__fit_fill(s->grid, m, w->weights, t, w->order, w->state);
+        sqffd__fit_fill(s->rings, m, w->weights, t, w->order, w->state);
         for (v = 0; v < 3 * m; ++v) t[v] += x[v];
         if (data_tree)  /* symmetric: halfway to the model point's closest data point */
             for (v = 0; v < m; ++v) {
@@ -4727,7 +4745,7 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
             if (!sqffd__finite3(model->ffd.control[p])) return SQFFD_ERROR_NON_FINITE;
         }
         sqffd__fit_evaluate(s, &model->ffd, next);
-        step2 = sqffd__fit_moves(&search, x, next);
+        step2 = sqffd__fit_moves(&search, x, next, w->move2);
         t = x; x = next; next = t; t = w->target;
         rep->iterations = it + 1;
         rep->step = sqrt(step2 / (double)m) / diagonal;
@@ -4782,7 +4800,7 @@ static sqffd_result sqffd__fit_error(const double *points, size_t n, double diag
 {
     sqffd__fit_search search;
     sqffd__fit_evaluate(s, &model->ffd, w->x);
-    sqffd__fit_search_init(&search, w->x, s->grid, w->tree_ws, w->tree_size);
+    sqffd__fit_search_init(&search, w->x, s->grid, s->rings, w->tree_ws, w->tree_size);
     return sqffd__fit_pass(points, n, &search, diagonal, NULL, NULL, NULL, stats);
 }
 
