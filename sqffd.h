@@ -576,7 +576,8 @@ typedef struct sqffd_fit_report {
     int converged;                 /* the tolerance was reached */
     double step;                   /* RMS move of the model points in the last iteration / diagonal */
     int history_count;
-    double history[SQFFD_FIT_HISTORY]; /* relative RMS error after iteration 1, 2, ... (over the FFD subsample) */
+    double history[SQFFD_FIT_HISTORY]; /* relative RMS error after iteration 1, 2, ... (over the FFD subsample;
+                                          before the last, an upper bound within ~1e-5 of it: see sqffd_fit) */
 } sqffd_fit_report;
 
 SQFFD_DEF sqffd_fit_options sqffd_fit_options_default(void);
@@ -586,8 +587,10 @@ SQFFD_DEF size_t sqffd_fit_workspace_size(size_t n, const sqffd_fit_options *opt
    two-step iteration: (1) each data point's closest point on the model
    surface (the mesh of the model points: nearest model point by kd-tree, then
    the triangles around it, as for the error; searched afresh only where the
-   model's moves since the previous iteration could have changed the answer,
-   which gives the same answer); its displacement to the data
+   model's moves since the previous iteration could have changed the answer;
+   the first and last passes give exactly a fresh search's answer, the
+   passes between keep a point's triangle while its closest point stays
+   inside it); its displacement to the data
    point is spread over that triangle's three model points with the
    barycentric weights and averaged per model point; model points no data
    point reached are filled by interpolation over the mesh (breadth-first from
@@ -3841,7 +3844,12 @@ static double sqffd__fit_walk(const double *x, const sqffd__fit_ring *rings, con
    Only when the first two fail is the tree asked; it is kept over a snapshot
    of the vertices and asked with their drift since as slack, and rebuilt when
    that leaves the answer open. Every way the answer is the one a fresh
-   search gives (ties aside, which any search breaks arbitrarily). */
+   search gives (ties aside, which any search breaks arbitrarily) - but in a
+   fit's passes between its first and last (exact = 0), where a point whose
+   nearest vertex is proven but whose triangle bound has run out keeps that
+   triangle while its closest point stays inside it: a local closest point,
+   the same in practice (the fan search it saves is most of a pass's cost on
+   smooth surfaces, where neighbouring triangles are all about as close). */
 #define SQFFD__FIT_KNN 4 /* neighbours a tree query fetches (measured: fewer repeat queries vs dearer ones) */
 
 typedef struct sqffd__fit_search {
@@ -3863,6 +3871,7 @@ typedef struct sqffd__fit_search {
     double moved;            /* largest vertex move since the previous pass */
     double *fan_moved;       /* per mesh vertex: largest move of its fan's vertices since the previous pass */
     double margin;           /* allowance for rounding in the distances */
+    int exact;               /* 0: a pass between a fit's first and last (see above) */
 } sqffd__fit_search;
 
 /* Whether vertex u is in the closed ring (v and its ring r). */
@@ -3952,13 +3961,17 @@ static sqffd_result sqffd__fit_closest(sqffd__fit_search *s, size_t i, const dou
     double second, d;
     sqffd_result res = sqffd__fit_nearest_vertex(s, i, q, &v);
     if (res != SQFFD_OK) return res;
-    if (s->anchor && s->triangle[i][0] == v && s->triangle_slack[i] - 2.0 * s->fan_moved[v] > s->margin) {
-        for (k = 0; k < 3; ++k) tri[k] = s->triangle[i][k];
-        d = sqffd__fit_corner_triangle(s->x, tri, q, w);
-        if (w[0] != 0.0) { /* (else the full search would walk on) */
-            s->triangle_slack[i] -= 2.0 * s->fan_moved[v];
-            *dist2 = d;
-            return SQFFD_OK;
+    if (s->anchor && s->triangle[i][0] == v) {
+        int held;
+        s->triangle_slack[i] -= 2.0 * s->fan_moved[v];
+        held = s->triangle_slack[i] > s->margin;
+        if (held || !s->exact) {
+            for (k = 0; k < 3; ++k) tri[k] = s->triangle[i][k];
+            d = sqffd__fit_corner_triangle(s->x, tri, q, w);
+            if (w[0] != 0.0 && (held || (w[1] > 0.0 && w[2] > 0.0))) { /* (else the full search would walk on) */
+                *dist2 = d;
+                return SQFFD_OK;
+            }
         }
     }
     d = sqffd__fit_fan_closest(s->x, s->rings, v, q, tri, w, &second);
@@ -4037,6 +4050,7 @@ static void sqffd__fit_search_init(sqffd__fit_search *s, const double *x, const 
     s->x = x;
     s->count = sqffd__fit_grid_count(grid);
     s->rings = rings;
+    s->exact = 1;
     s->tree_ws = tree_ws;
     s->tree_size = tree_size;
 }
@@ -4713,6 +4727,7 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
         memset(t, 0, 3 * m * sizeof(double));
         memset(w->weights, 0, m * sizeof(double));
         search.x = x;
+        search.exact = it == 0 || it == o->max_iterations || rep->converged;
         res = sqffd__fit_pass(points, n, &search, diagonal, NULL, t, w->weights, &rep->error);
         if (res != SQFFD_OK) return res;
         if (it == 0) rep->sq_error = rep->error;
