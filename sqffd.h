@@ -3833,14 +3833,15 @@ static double sqffd__fit_walk(const double *x, const sqffd__fit_ring *rings, con
    points move little, and a distance to a vertex or to a triangle changes by
    at most the largest move of the vertices involved. So each point keeps
    three bounds, each less the moves summed since it was taken:
-   - the gap between its nearest and runner-up vertex: while twice the moves
-     stay below it, the nearest vertex is the same;
+   - the gap between its nearest and runner-up vertex: while the moves
+     (the nearest's own plus the largest) stay below it, the nearest vertex
+     is the same;
    - a lower bound on the distance to every vertex outside the anchor's
      closed ring (anchor: the nearest vertex at its last tree query): while
      the nearest vertex of that ring is nearer, it is the nearest of all;
-   - the gap between the fan's closest and runner-up triangles (moves of the
-     fan's own vertices): while twice those stay below it, only that triangle
-     is measured again.
+   - the gap between the fan's closest and runner-up triangles: while the
+     moves (the triangle's own corners' plus the fan's largest) stay below
+     it, only that triangle is measured again.
    Only when the first two fail is the tree asked; it is kept over a snapshot
    of the vertices and asked with their drift since as slack, and rebuilt when
    that leaves the answer open. Every way the answer is the one a fresh
@@ -3869,6 +3870,7 @@ typedef struct sqffd__fit_search {
     uint32_t (*triangle)[3]; /* the closest triangle of the last fan search (its corner 0: the fan's vertex) */
     double *triangle_slack;  /* that fan's gap less twice its largest moves since (< 0: search the fan) */
     double moved;            /* largest vertex move since the previous pass */
+    double *vertex_moved;    /* per mesh vertex: its move since the previous pass */
     double *fan_moved;       /* per mesh vertex: largest move of its fan's vertices since the previous pass */
     double margin;           /* allowance for rounding in the distances */
     int exact;               /* 0: a pass between a fit's first and last (see above) */
@@ -3893,7 +3895,8 @@ static sqffd_result sqffd__fit_nearest_vertex(sqffd__fit_search *s, size_t i, co
     const sqffd__fit_ring *r;
     if (s->anchor) {
         s->outside[i] -= s->moved;
-        s->vertex_slack[i] -= 2.0 * s->moved;
+        if (s->triangle[i][0] != UINT32_MAX) /* (else no answer yet) others came nearer, it went farther */
+            s->vertex_slack[i] -= s->moved + s->vertex_moved[s->triangle[i][0]];
         if (s->vertex_slack[i] > s->margin) { /* still the last pass's nearest vertex */
             *nearest = s->triangle[i][0];
             return SQFFD_OK;
@@ -3962,8 +3965,11 @@ static sqffd_result sqffd__fit_closest(sqffd__fit_search *s, size_t i, const dou
     sqffd_result res = sqffd__fit_nearest_vertex(s, i, q, &v);
     if (res != SQFFD_OK) return res;
     if (s->anchor && s->triangle[i][0] == v) {
+        const uint32_t *t = s->triangle[i];
+        double own = s->vertex_moved[t[1]] > s->vertex_moved[t[2]] ? s->vertex_moved[t[1]] : s->vertex_moved[t[2]];
         int held;
-        s->triangle_slack[i] -= 2.0 * s->fan_moved[v];
+        /* it went farther by at most its corners' moves, the fan's others came nearer by at most theirs */
+        s->triangle_slack[i] -= (own > s->vertex_moved[v] ? own : s->vertex_moved[v]) + s->fan_moved[v];
         held = s->triangle_slack[i] > s->margin;
         if (held || !s->exact) {
             for (k = 0; k < 3; ++k) tri[k] = s->triangle[i][k];
@@ -3983,27 +3989,28 @@ static sqffd_result sqffd__fit_closest(sqffd__fit_search *s, size_t i, const dou
     return SQFFD_OK;
 }
 
-/* The moves from x to next into the search's warm start (largest overall and
-   per fan), each one's square into move2; returns the sum of their squares. */
-static double sqffd__fit_moves(sqffd__fit_search *s, const double *x, const double *next, double *move2)
+/* The moves from x to next into the search's warm start (each vertex's,
+   largest overall and per fan); returns the sum of their squares. */
+static double sqffd__fit_moves(sqffd__fit_search *s, const double *x, const double *next)
 {
     size_t v, k;
-    double sum2 = 0.0, max2 = 0.0;
+    double sum2 = 0.0, max = 0.0;
     for (v = 0; v < s->count; ++v) {
-        move2[v] = sqffd__dist2_3(next + 3 * v, x + 3 * v);
-        sum2 += move2[v];
-        max2 = move2[v] > max2 ? move2[v] : max2;
+        double move2 = sqffd__dist2_3(next + 3 * v, x + 3 * v);
+        sum2 += move2;
+        s->vertex_moved[v] = sqrt(move2);
+        max = s->vertex_moved[v] > max ? s->vertex_moved[v] : max;
     }
     for (v = 0; v < s->count; ++v) {
         const sqffd__fit_ring *r = s->rings + v;
-        double fan2 = move2[v];
+        double fan = s->vertex_moved[v];
         for (k = 0; k < r->count; ++k) {
-            double d2 = move2[sqffd__fit_ring_at(r, k)];
-            fan2 = d2 > fan2 ? d2 : fan2;
+            double d = s->vertex_moved[sqffd__fit_ring_at(r, k)];
+            fan = d > fan ? d : fan;
         }
-        s->fan_moved[v] = sqrt(fan2);
+        s->fan_moved[v] = fan;
     }
-    s->moved = sqrt(max2);
+    s->moved = max;
     s->drift += s->moved;
     return sum2;
 }
@@ -4390,7 +4397,7 @@ typedef struct sqffd__fit_work {
     uint32_t *anchor, (*triangle)[3]; /* per FFD data point: the closest-point search's warm start */
     double *outside, *vertex_slack, *triangle_slack;
     double *fan_moved;   /* M */
-    double *move2;       /* M: each model point's squared move in the last iteration */
+    double *vertex_moved;/* M */
     void *data_ws;       /* tree over the data (symmetric option) */
     size_t data_size;
     double *sample;      /* the FFD subsample (NULL: all points) */
@@ -4467,7 +4474,7 @@ static void sqffd__fit_layout(sqffd__arena *a, size_t n, const int dims[3], cons
     w->triangle = (uint32_t (*)[3])sqffd__arena_take(a, w->sample_count, 3 * sizeof(uint32_t));
     w->triangle_slack = (double *)sqffd__arena_take(a, w->sample_count, sizeof(double));
     w->fan_moved = (double *)sqffd__arena_take(a, m, sizeof(double));
-    w->move2 = (double *)sqffd__arena_take(a, m, sizeof(double));
+    w->vertex_moved = (double *)sqffd__arena_take(a, m, sizeof(double));
     if (o->symmetric) {
         w->data_size = sqffd_kdtree_workspace_size(w->sample_count);
         if (w->data_size == 0) a->overflow = 1;
@@ -4711,6 +4718,7 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
     search.vertex_slack = w->vertex_slack;
     search.triangle_slack = w->triangle_slack;
     search.fan_moved = w->fan_moved;
+    search.vertex_moved = w->vertex_moved;
     for (i = 0; i < n; ++i) { /* no warm start yet */
         w->anchor[i] = 0;
         w->outside[i] = w->vertex_slack[i] = -HUGE_VAL;
@@ -4760,7 +4768,7 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
             if (!sqffd__finite3(model->ffd.control[p])) return SQFFD_ERROR_NON_FINITE;
         }
         sqffd__fit_evaluate(s, &model->ffd, next);
-        step2 = sqffd__fit_moves(&search, x, next, w->move2);
+        step2 = sqffd__fit_moves(&search, x, next);
         t = x; x = next; next = t; t = w->target;
         rep->iterations = it + 1;
         rep->step = sqrt(step2 / (double)m) / diagonal;
