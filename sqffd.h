@@ -451,14 +451,16 @@ SQFFD_DEF size_t sqffd_sq_fit_workspace_size(size_t n, const sqffd_sq_fit_option
    report may be NULL. The data are normalised (centroid, RMS radius); the
    starts come from the moments of inertia (each principal axis as the local
    z, several (e1, e2) seeds, axes turned 45 degrees where two eigenvalues
-   are close), are screened on a small subsample, the best run to
-   convergence on a larger one, then on all points. Robust mode starts from
-   the points that are not isolated (a nearest-neighbour density test),
-   ranks the best starts on them, and alternates EM re-weighting with
-   weighted fits of the radial distance (on the larger subsample, then on
-   all points). A fit whose RMS radial distance exceeds 5% of its mean size
-   (data that are no superquadric) is kept within the data's box enlarged by
-   25%; a close fit may reach past it (a partial view). Deterministic.
+   are close), are screened on a small subsample, the best ranked by a few
+   iterations on a larger one, where the winner runs to convergence, then
+   on all points (at most 1,536 of them, evenly spread: more move the fit
+   little). Robust mode starts from the points that are not isolated (a
+   nearest-neighbour density test), ranks the best starts on them, and
+   alternates EM re-weighting with weighted fits of the radial distance (on
+   the larger subsample, then on all points). A fit whose RMS radial
+   distance exceeds 5% of its mean size (data that are no superquadric) is
+   kept within the data's box enlarged by 25%; a close fit may reach past it
+   (a partial view). Deterministic.
    Results: INVALID_ARGUMENT (NULL points/sq, bad options), TOO_FEW_POINTS
    (n < SQFFD_SQ_FIT_MIN_POINTS), WORKSPACE_TOO_SMALL (also a NULL workspace),
    NON_FINITE, DEGENERATE (coincident, collinear or coplanar: smallest
@@ -2459,9 +2461,12 @@ SQFFD_DEF double sqffd_sq_iou(const sqffd_superquadric *a, const sqffd_superquad
    shapes: fewer or smaller cost accuracy, more cost time). */
 #define SQFFD__SQ_SCREEN 48            /* subsample every start is screened on */
 #define SQFFD__SQ_START_ITERATIONS 4   /* LM iterations per start on it */
-#define SQFFD__SQ_KEEP 2               /* best starts run to convergence (robust mode: ranked) ... */
-#define SQFFD__SQ_POLISH 384           /* ... on this subsample */
-#define SQFFD__SQ_CLEAR_WIN 1e-2       /* a start this much costlier than the best is not polished */
+#define SQFFD__SQ_KEEP 2               /* best starts ranked ... */
+#define SQFFD__SQ_POLISH 384           /* ... on this subsample, where the winner then converges */
+#define SQFFD__SQ_RANK_ITERATIONS 4    /* LM iterations per start that rank them (robust mode: none) */
+#define SQFFD__SQ_FINAL 1536           /* the winner's last run: on at most this many points (an even
+                                          subsample; more move the fit little and cost linear time) */
+#define SQFFD__SQ_CLEAR_WIN 1e-2       /* a start this much costlier than the best is not ranked */
 #define SQFFD__SQ_CLOSE_RATIO 0.7      /* eigenvalues or sizes this close count as ambiguous axes */
 #define SQFFD__SQ_HISTOGRAM 512        /* bins per axis for the robust initial sizes */
 #define SQFFD__SQ_SIZE_QUANTILE 0.95
@@ -2687,31 +2692,54 @@ static void sqffd__sq_rotate(double rot[9], const double w[3])
     memcpy(rot, out, sizeof out);
 }
 
-/* Clamp into the feasible set: e and K within their bounds, the centre in
-   the data's box, each size at most SQFFD__SQ_BOX_MARGIN times the box's
-   half-extent along that local axis (this stops the runaway of the F-based
-   cost on data that are no superquadric; sqffd__sq_contain finishes the job). */
-static void sqffd__sq_project(const sqffd__sq_fit *fit, sqffd_superquadric *sq)
+/* The feasible set: e and K within their bounds, the centre in the data's
+   box, each size at most SQFFD__SQ_BOX_MARGIN times the box's half-extent
+   along that local axis (this stops the runaway of the F-based cost on data
+   that are no superquadric; sqffd__sq_contain finishes the job). Returns
+   the value parameter i moves (a log size moves a size; NULL for the free
+   rotation increment) and writes its bounds at sq's rotation. */
+static double *sqffd__sq_bounded(const sqffd__sq_fit *fit, sqffd_superquadric *sq, int i, double *lo, double *hi)
 {
     const sqffd_sq_fit_options *o = fit->opt;
     int k;
-    for (k = 0; k < 2; k++) {
-        if (sq->shape[k] < o->shape_min) sq->shape[k] = o->shape_min;
-        if (sq->shape[k] > o->shape_max) sq->shape[k] = o->shape_max;
-        if (fit->npar < SQFFD__SQ_NPAR) sq->taper[k] = 0.0;
-        if (sq->taper[k] > o->taper_max) sq->taper[k] = o->taper_max;
-        if (sq->taper[k] < -o->taper_max) sq->taper[k] = -o->taper_max;
+    if (i >= SQFFD__SQ_P_TAPER) {
+        *lo = -o->taper_max;
+        *hi = o->taper_max;
+        return &sq->taper[i - SQFFD__SQ_P_TAPER];
     }
-    for (k = 0; k < 3; k++) {
-        double lo = fit->box_mid[k] - fit->box_half[k], hi = fit->box_mid[k] + fit->box_half[k];
-        double reach = SQFFD__SQ_BOX_MARGIN * (fabs(sq->rotation[k]) * fit->box_half[0] +
-                                               fabs(sq->rotation[3 + k]) * fit->box_half[1] +
-                                               fabs(sq->rotation[6 + k]) * fit->box_half[2]);
-        if (sq->center[k] < lo) sq->center[k] = lo;
-        if (sq->center[k] > hi) sq->center[k] = hi;
-        if (reach < fit->size_min) reach = fit->size_min;
-        if (sq->size[k] > reach) sq->size[k] = reach;
-        if (sq->size[k] < fit->size_min) sq->size[k] = fit->size_min;
+    if (i >= SQFFD__SQ_P_E1) {
+        *lo = o->shape_min;
+        *hi = o->shape_max;
+        return &sq->shape[i - SQFFD__SQ_P_E1];
+    }
+    if (i >= SQFFD__SQ_P_LOGSIZE) {
+        double reach;
+        k = i - SQFFD__SQ_P_LOGSIZE;
+        reach = SQFFD__SQ_BOX_MARGIN * (fabs(sq->rotation[k]) * fit->box_half[0] +
+                                        fabs(sq->rotation[3 + k]) * fit->box_half[1] +
+                                        fabs(sq->rotation[6 + k]) * fit->box_half[2]);
+        *lo = fit->size_min;
+        *hi = reach > fit->size_min ? reach : fit->size_min;
+        return &sq->size[k];
+    }
+    if (i >= SQFFD__SQ_P_CENTER) {
+        k = i - SQFFD__SQ_P_CENTER;
+        *lo = fit->box_mid[k] - fit->box_half[k];
+        *hi = fit->box_mid[k] + fit->box_half[k];
+        return &sq->center[k];
+    }
+    return NULL;
+}
+
+/* Clamp into the feasible set. */
+static void sqffd__sq_project(const sqffd__sq_fit *fit, sqffd_superquadric *sq)
+{
+    int i;
+    if (fit->npar < SQFFD__SQ_NPAR) sq->taper[0] = sq->taper[1] = 0.0;
+    for (i = SQFFD__SQ_P_CENTER; i < SQFFD__SQ_NPAR; i++) {
+        double lo, hi, *v = sqffd__sq_bounded(fit, sq, i, &lo, &hi);
+        if (*v < lo) *v = lo;
+        if (*v > hi) *v = hi;
     }
 }
 
@@ -2749,8 +2777,9 @@ static double sqffd__sq_reach(const sqffd_superquadric *sq, const double dir[3])
    the data's box enlarged by SQFFD__SQ_BOX_MARGIN, shrink it about its
    centre (all sizes by one factor: the shape scales, K is scale-free) until
    it fits. The per-size bounds of the projection leave a rotated or
-   off-centre shape room to stick out; this closes it. */
-static void sqffd__sq_contain(const sqffd__sq_fit *fit, sqffd_superquadric *sq)
+   off-centre shape room to stick out; this closes it. Returns non-zero
+   when it shrank the shape. */
+static int sqffd__sq_contain(const sqffd__sq_fit *fit, sqffd_superquadric *sq)
 {
     double shrink = 1.0;
     int k, side;
@@ -2763,6 +2792,7 @@ static void sqffd__sq_contain(const sqffd__sq_fit *fit, sqffd_superquadric *sq)
             if (reach > 0.0 && reach * shrink > room) shrink = room / reach;
         }
     for (k = 0; k < 3; k++) sq->size[k] *= shrink;
+    return shrink < 1.0;
 }
 
 /* sq <- project(sq + delta) */
@@ -2795,54 +2825,112 @@ static int sqffd__sq_tick(sqffd__sq_fit *fit, double cost)
     return 1;
 }
 
-/* Levenberg-Marquardt (Marquardt's diagonal scaling) with projection onto
-   the bounds. Returns non-zero when converged; *cost gets the final cost. */
+/* The damped Gauss-Newton step (J^T J + lambda D) delta = -J^T r, D =
+   diag(J^T J), with the bounds as an active set: a parameter the step would
+   carry past a bound is fixed at it and the others are solved for again,
+   until none crosses. (Cutting the step afterwards, in the projection,
+   leaves the others' step counting on a move that does not happen: on data
+   that are no superquadric, where a size sits at its bound, the LM then
+   crawls.) Writes the reduction of the cost the linear model predicts;
+   returns 0 when the matrix is not positive definite. */
+static int sqffd__sq_solve(const sqffd__sq_fit *fit, sqffd_superquadric *sq, const double *jtj, const double *jtr,
+                           double lambda, double ridge, double *delta, double *predicted)
+{
+    double a[SQFFD__SQ_NPAR * SQFFD__SQ_NPAR], lo, hi, *v, jd;
+    int np = fit->npar, fixed[SQFFD__SQ_NPAR], i, j, again = 1;
+    for (i = 0; i < SQFFD__SQ_NPAR; i++) {
+        fixed[i] = 0;
+        delta[i] = 0.0;
+    }
+    while (again) {
+        for (i = 0; i < np; i++) { /* fixed rows and columns: identity, delta[i] their move */
+            double rhs = -jtr[i];
+            for (j = 0; j < np; j++) {
+                double jij = i <= j ? jtj[i * SQFFD__SQ_ROW + j] : jtj[j * SQFFD__SQ_ROW + i];
+                if (fixed[j] && !fixed[i]) rhs -= jij * delta[j];
+                a[i * np + j] = fixed[i] || fixed[j] ? (double)(i == j) : jij;
+            }
+            if (!fixed[i]) {
+                a[i * np + i] += lambda * jtj[i * SQFFD__SQ_ROW + i] + ridge;
+                delta[i] = rhs;
+            }
+        }
+        if (sqffd_cholesky_factor(a, np) != SQFFD_OK) return 0;
+        sqffd_cholesky_solve(a, np, delta);
+        again = 0;
+        for (i = 0; i < np; i++) {
+            int log_size = i >= SQFFD__SQ_P_LOGSIZE && i < SQFFD__SQ_P_E1;
+            double to, bound;
+            v = sqffd__sq_bounded(fit, sq, i, &lo, &hi);
+            if (fixed[i] || !v) continue;
+            to = log_size ? *v * exp(delta[i]) : *v + delta[i];
+            if (to >= lo && to <= hi) continue;
+            bound = to < lo ? lo : hi;
+            delta[i] = log_size ? log(bound / *v) : bound - *v;
+            fixed[i] = again = 1;
+        }
+    }
+    /* the model's reduction of sum r^2: -2 delta^T J^T r - delta^T J^T J delta */
+    *predicted = 0.0;
+    for (i = 0; i < np; i++) {
+        jd = 0.0;
+        for (j = 0; j < np; j++) jd += (i <= j ? jtj[i * SQFFD__SQ_ROW + j] : jtj[j * SQFFD__SQ_ROW + i]) * delta[j];
+        *predicted -= delta[i] * (2.0 * jtr[i] + jd);
+    }
+    return 1;
+}
+
+/* Levenberg-Marquardt (Marquardt's diagonal scaling) with bounds (the
+   active set of sqffd__sq_solve, then the projection) and Nielsen's
+   damping: lambda follows the gain ratio rho = actual / predicted reduction
+   (lambda *= max(1/3, 1 - (2 rho - 1)^3) after a success; lambda *= nu,
+   nu *= 2 after a failure) instead of fixed factors that zig-zag. Returns
+   non-zero when converged; *cost gets the final cost. */
 static int sqffd__sq_lm(sqffd__sq_fit *fit, sqffd_superquadric *sq, const double *pts, const double *weights,
                         size_t m, int max_iterations, double *cost)
 {
     double jtj[SQFFD__SQ_NPAR * SQFFD__SQ_ROW], jtr[SQFFD__SQ_NPAR];
     double tjtj[SQFFD__SQ_NPAR * SQFFD__SQ_ROW], tjtr[SQFFD__SQ_NPAR];
-    double a[SQFFD__SQ_NPAR * SQFFD__SQ_NPAR], delta[SQFFD__SQ_NPAR], lambda = 1e-3, step;
-    int np = fit->npar, it, i, j;
+    double delta[SQFFD__SQ_NPAR], lambda = 1e-3, nu = 2.0, step, predicted;
+    int np = fit->npar, it, i;
     double c0 = sqffd__sq_accumulate(fit, sq, pts, weights, m, jtj, jtr);
     if (c0 < SQFFD__SQ_EXACT * (double)m) { *cost = c0; return 1; }
     for (it = 0; it < max_iterations; it++) {
         sqffd_superquadric trial = *sq;
         int last = it + 1 == max_iterations; /* no use for the trial's Jacobian */
         double c1;
-        for (i = 0; i < np; i++) {
-            for (j = 0; j < np; j++)
-                a[i * np + j] = i <= j ? jtj[i * SQFFD__SQ_ROW + j] : jtj[j * SQFFD__SQ_ROW + i];
-            a[i * np + i] += lambda * jtj[i * SQFFD__SQ_ROW + i] + 1e-12 * (1.0 + c0);
-            delta[i] = -jtr[i];
-        }
-        for (i = np; i < SQFFD__SQ_NPAR; i++) delta[i] = 0.0;
-        if (sqffd_cholesky_factor(a, np) != SQFFD_OK) {
-            lambda *= 10.0;
+        if (!sqffd__sq_solve(fit, sq, jtj, jtr, lambda, 1e-12 * (1.0 + c0), delta, &predicted)) {
+            lambda *= nu;
+            nu *= 2.0;
             if (!sqffd__sq_tick(fit, c0)) break;
             continue;
         }
-        sqffd_cholesky_solve(a, np, delta);
         step = 0.0;
         for (i = 0; i < np; i++) step = fabs(delta[i]) > step ? fabs(delta[i]) : step;
+        /* the model itself promises less than the tolerance: converged, no trial */
+        if (predicted < fit->opt->tolerance * c0) { *cost = c0; return 1; }
         sqffd__sq_step(fit, &trial, delta);
         c1 = sqffd__sq_accumulate(fit, &trial, pts, weights, m, last ? NULL : tjtj, last ? NULL : tjtr);
         if (!sqffd__sq_tick(fit, c1 < c0 ? c1 : c0)) break;
         if (c1 < c0) {
-            double gain = (c0 - c1) / c0;
+            double gain = (c0 - c1) / c0, rho = predicted > 0.0 ? (c0 - c1) / predicted : 1.0, t = 2.0 * rho - 1.0;
             *sq = trial;
             if (!last) {
                 memcpy(jtj, tjtj, sizeof jtj);
                 memcpy(jtr, tjtr, sizeof jtr);
             }
             c0 = c1;
-            lambda = lambda * 0.2 > 1e-9 ? lambda * 0.2 : 1e-9;
+            t = 1.0 - t * t * t;
+            lambda *= t > 1.0 / 3.0 ? t : 1.0 / 3.0;
+            if (lambda < 1e-9) lambda = 1e-9;
+            nu = 2.0;
             if (gain < fit->opt->tolerance || step < SQFFD__SQ_MIN_STEP || c0 < SQFFD__SQ_EXACT * (double)m) {
                 *cost = c0;
                 return 1;
             }
         } else {
-            lambda *= 10.0;
+            lambda *= nu;
+            nu *= 2.0;
             /* no descent even along a tiny step: a (constrained) minimum */
             if (lambda > 1e6 || step < SQFFD__SQ_MIN_STEP) { *cost = c0; return 1; }
         }
@@ -2975,6 +3063,7 @@ typedef struct sqffd__sq_work {
     double *weights; /* n robust weights (robust mode only) */
     double *screen;  /* 3 * min(n, SQFFD__SQ_SCREEN) subsample */
     double *polish;  /* 3 * min(n, SQFFD__SQ_POLISH) subsample */
+    double *final;   /* 3 * SQFFD__SQ_FINAL subsample when n is larger (else all points are the final set) */
     double *dense;   /* robust mode: the polish points that are not isolated */
     void *tree;      /* robust mode: kd-tree over the polish points */
     size_t tree_size;
@@ -2990,6 +3079,7 @@ static void sqffd__sq_fit_layout(sqffd__arena *a, size_t n, const sqffd_sq_fit_o
     w->weights = o->robust ? (double *)sqffd__arena_take(a, n > 2 * SQFFD__SQ_POLISH ? n : 2 * SQFFD__SQ_POLISH, sizeof(double)) : NULL;
     w->screen = (double *)sqffd__arena_take(a, n < SQFFD__SQ_SCREEN ? n : SQFFD__SQ_SCREEN, 3 * sizeof(double));
     w->polish = (double *)sqffd__arena_take(a, n < SQFFD__SQ_POLISH ? n : SQFFD__SQ_POLISH, 3 * sizeof(double));
+    w->final = n > SQFFD__SQ_FINAL ? (double *)sqffd__arena_take(a, SQFFD__SQ_FINAL, 3 * sizeof(double)) : NULL;
     w->dense = o->robust ? (double *)sqffd__arena_take(a, n < SQFFD__SQ_POLISH ? n : SQFFD__SQ_POLISH, 3 * sizeof(double)) : NULL;
     w->tree_size = o->robust ? sqffd_kdtree_workspace_size(n < SQFFD__SQ_POLISH ? n : SQFFD__SQ_POLISH) : 0;
     w->tree = w->tree_size ? sqffd__arena_take(a, w->tree_size, 1) : NULL;
@@ -3270,20 +3360,19 @@ static void sqffd__sq_shortlist_add(sqffd__sq_shortlist *list, const sqffd_super
     if (list->count < SQFFD__SQ_KEEP) list->count++;
 }
 
-/* Starts: each principal axis of the start set as the local z, times the
-   shape seeds; when two eigenvalues are close their axes are arbitrary
-   within their plane, so that basis is also tried turned by 45 degrees in
-   it. Each start gets a few LM iterations on the screening subsample. */
-static void sqffd__sq_screen(sqffd__sq_fit *fit, const double *pts, size_t m, const double *screen, size_t m_screen,
+/* Starts: each principal axis of the start set pts (its centre and
+   covariance eigenvalues and axes given) as the local z, times the shape
+   seeds; when two eigenvalues are close their axes are arbitrary within
+   their plane, so that basis is also tried turned by 45 degrees in it.
+   Each start gets a few LM iterations on the screening subsample. */
+static void sqffd__sq_screen(sqffd__sq_fit *fit, const double *pts, size_t m, const double centre[3],
+                             const double values[3], const double axes[9], const double *screen, size_t m_screen,
                              double *hist, sqffd__sq_shortlist *list)
 {
     /* (e1, e2) seeds: round, then the pairs a start cannot get to from there */
     static const double shape_seeds[][2] = {{1.0, 1.0}, {1.7, 0.3}, {0.3, 1.7}, {1.7, 1.7}};
     const int n_seeds = (int)(sizeof shape_seeds / sizeof shape_seeds[0]);
-    double centre[3], cov[9], values[3], axes[9];
     int basis, s, id = 0;
-    sqffd__sq_moments(pts, m, centre, cov);
-    sqffd_sym3_eigen(cov, values, axes);
     list->count = 0;
     for (basis = 0; basis < 3 && fit->status == SQFFD_OK; basis++) {
         double b_axes[9], b_size[3];
@@ -3346,17 +3435,17 @@ typedef struct sqffd__sq_sets {
     size_t m_start;
 } sqffd__sq_sets;
 
-/* Run a candidate to convergence on the polish points. Robust mode only
-   ranks it by its cost on the start set (the polish points without the
-   isolated ones): the EM rounds that follow do the fitting. Returns its cost. */
-static double sqffd__sq_polish(sqffd__sq_fit *fit, sqffd_superquadric *sq, const sqffd__sq_sets *sets, int *converged)
+/* Rank a candidate by its cost after a few LM iterations on the polish
+   points (only the winner is run to convergence). Robust mode ranks it by
+   its cost on the start set (the polish points without the isolated ones):
+   the EM rounds that follow do the fitting. Returns that cost. */
+static double sqffd__sq_rank(sqffd__sq_fit *fit, sqffd_superquadric *sq, const sqffd__sq_sets *sets)
 {
+    const sqffd_sq_fit_options *o = fit->opt;
     double cost;
-    if (fit->opt->robust) {
-        *converged = 0;
-        return sqffd__sq_accumulate(fit, sq, sets->start, NULL, sets->m_start, NULL, NULL);
-    }
-    *converged = sqffd__sq_optimize(fit, sq, sets->polish, NULL, sets->m_polish, fit->opt->max_iterations, &cost);
+    if (o->robust) return sqffd__sq_accumulate(fit, sq, sets->start, NULL, sets->m_start, NULL, NULL);
+    sqffd__sq_optimize(fit, sq, sets->polish, NULL, sets->m_polish,
+                       o->max_iterations < SQFFD__SQ_RANK_ITERATIONS ? o->max_iterations : SQFFD__SQ_RANK_ITERATIONS, &cost);
     return cost;
 }
 
@@ -3366,7 +3455,8 @@ SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_
 {
     sqffd_sq_fit_options defaults = sqffd_sq_fit_options_default();
     const sqffd_sq_fit_options *o = options ? options : &defaults;
-    size_t m_polish = n < SQFFD__SQ_POLISH ? n : SQFFD__SQ_POLISH, m_start, m_screen, i;
+    size_t m_polish = n < SQFFD__SQ_POLISH ? n : SQFFD__SQ_POLISH, m_final = n < SQFFD__SQ_FINAL ? n : SQFFD__SQ_FINAL;
+    size_t m_start, m_screen, i;
     sqffd__sq_shortlist list;
     sqffd__sq_sets sets;
     sqffd__arena arena;
@@ -3375,7 +3465,7 @@ SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_
     sqffd_superquadric best, twin;
     sqffd__sq_mixture mix; /* robust mode's mixture */
     double centroid[3], scale, centre[3], cov[9], values[3], axes[9], best_cost = 0.0;
-    const double *start_pts, *weights;
+    const double *start_pts, *final_pts, *weights;
     double rms;
     int k, best_start = 0, converged = 0;
     if (!points || !sq || !sqffd__sq_options_valid(o)) return SQFFD_ERROR_INVALID_ARGUMENT;
@@ -3412,44 +3502,48 @@ SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_
 
     /* The starts come from all points, or in robust mode from the polish
        subsample without its isolated points. Every start is screened on a
-       small subsample, the best few run to convergence on a larger one
-       (polish), and the winner on all points. */
+       small subsample, the best few are ranked on a larger one (polish),
+       and the winner runs to convergence there, then on the final set (all
+       points, or an even subsample of SQFFD__SQ_FINAL). */
     sqffd__subsample(w.points, n, m_polish, w.polish);
+    final_pts = w.points;
+    if (m_final < n) {
+        sqffd__subsample(w.points, n, m_final, w.final);
+        final_pts = w.final;
+    }
     start_pts = w.points;
     m_start = n;
     if (o->robust) {
         m_start = sqffd__sq_dense_points(w.polish, m_polish, w.dense, w.weights, w.tree, w.tree_size);
         start_pts = w.dense;
         if (m_start < SQFFD_SQ_FIT_MIN_POINTS) { start_pts = w.polish; m_start = m_polish; }
+        sqffd__sq_moments(start_pts, m_start, centre, cov); /* else those of all points, above */
+        sqffd_sym3_eigen(cov, values, axes);
     }
     m_screen = m_start < SQFFD__SQ_SCREEN ? m_start : SQFFD__SQ_SCREEN;
     sqffd__subsample(start_pts, m_start, m_screen, w.screen);
-    sqffd__sq_screen(&fit, start_pts, m_start, w.screen, m_screen, w.hist, &list);
+    sqffd__sq_screen(&fit, start_pts, m_start, centre, values, axes, w.screen, m_screen, w.hist, &list);
 
     sets.polish = w.polish;
     sets.m_polish = m_polish;
     sets.start = start_pts;
     sets.m_start = m_start;
     for (k = 0; k < list.count && fit.status == SQFFD_OK; k++) {
-        double cost = list.cost[k];
-        int polished = 0;
+        double cost;
         if (k > 0 && (list.cost[0] < SQFFD__SQ_CLEAR_WIN * list.cost[k] || best_cost < SQFFD__SQ_EXACT * (double)m_polish))
             break; /* the rest are far behind, or the best is exact */
-        if (m_polish > m_screen || o->robust) cost = sqffd__sq_polish(&fit, &list.sq[k], &sets, &polished);
+        cost = sqffd__sq_rank(&fit, &list.sq[k], &sets);
         if (k == 0 || cost < best_cost) {
             best = list.sq[k];
             best_cost = cost;
             best_start = list.id[k];
-            converged = polished;
         }
     }
     if (fit.status == SQFFD_OK && sqffd__sq_twin(&fit, &best, &twin)) {
-        int twin_converged;
-        double cost = sqffd__sq_polish(&fit, &twin, &sets, &twin_converged);
+        double cost = sqffd__sq_rank(&fit, &twin, &sets);
         if (cost < best_cost) {
             best = twin;
             best_cost = cost;
-            converged = twin_converged;
         }
     }
     if (o->robust && fit.status == SQFFD_OK) {
@@ -3462,8 +3556,11 @@ SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_
         moved = sqffd__sq_em(&fit, &best, w.polish, m_polish, &mix, o->robust_rounds, &converged);
         if (m_polish < n) moved = sqffd__sq_em(&fit, &best, w.points, n, &mix, SQFFD__SQ_FULL_ROUNDS, &converged);
         if (moved) sqffd__sq_reweight(&mix, &best, w.points, n, fit.box_volume); /* the weights at the result */
-    } else if (fit.status == SQFFD_OK && m_polish < n) {
-        converged = sqffd__sq_optimize(&fit, &best, w.points, NULL, n, o->max_iterations, &best_cost);
+    } else if (fit.status == SQFFD_OK) {
+        /* the winner to convergence on the polish points, then on the final set */
+        converged = sqffd__sq_optimize(&fit, &best, w.polish, NULL, m_polish, o->max_iterations, &best_cost);
+        if (m_final > m_polish && fit.status == SQFFD_OK)
+            converged = sqffd__sq_optimize(&fit, &best, final_pts, NULL, m_final, o->max_iterations, &best_cost);
     }
     if (fit.status != SQFFD_OK) return fit.status;
 
@@ -3473,10 +3570,8 @@ SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_
     weights = o->robust ? w.weights : NULL;
     /* robust mode: the last EM step's sigma^2 is this weighted mean already */
     rms = sqrt(o->robust ? mix.sigma2 : sqffd__sq_mean_d2(&best, w.points, weights, n));
-    if (rms > SQFFD__SQ_CLOSE_FIT * (best.size[0] + best.size[1] + best.size[2]) / 3.0) {
-        sqffd__sq_contain(&fit, &best);
+    if (rms > SQFFD__SQ_CLOSE_FIT * (best.size[0] + best.size[1] + best.size[2]) / 3.0 && sqffd__sq_contain(&fit, &best))
         rms = sqrt(sqffd__sq_mean_d2(&best, w.points, weights, n));
-    }
     if (report) {
         double sum_w = 0.0, final = sqffd__sq_accumulate(&fit, &best, w.points, weights, n, NULL, NULL);
         for (i = 0; i < n; i++) sum_w += weights ? weights[i] : 1.0;
