@@ -100,10 +100,10 @@ static void la_check_eigen3(const double a[9], const double expect[3])
     }
 }
 
-/* A = R diag(d) R^T with a random rotation R. */
-static void la_rotated_diag(const double d[3], double a[9])
+/* A = R diag(d) R^T with a random rotation R (into r). */
+static void la_rotated_diag(const double d[3], double a[9], double r[9])
 {
-    double r[9], rd[9], rt[9];
+    double rd[9], rt[9];
     int i, j;
     la_random_orthogonal(r, 3);
     for (i = 0; i < 3; ++i)
@@ -135,7 +135,7 @@ static void test_sym3_eigen_known(void)
     static const double ident_expect[3] = {5, 5, 5};
     static const double d112[3] = {1, 1, 2}, d122[3] = {1, 2, 2}, d777[3] = {7, 7, 7};
     static const double dtiny[3] = {1e-12, 1, 1 + 1e-12};
-    double a[9], values[3], vec[9];
+    double a[9], r[9], values[3], vec[9];
     int t;
     la_check_eigen3(diag, diag_expect);
     sqffd_sym3_eigen(diag, values, vec); /* diagonal: axis vectors, sign convention */
@@ -144,20 +144,13 @@ static void test_sym3_eigen_known(void)
     la_check_eigen3(ident, ident_expect);
     la_seed(2);
     for (t = 0; t < 200; ++t) { /* double and triple eigenvalues in random bases */
-        la_rotated_diag(d112, a); la_check_eigen3(a, d112);
-        la_rotated_diag(d122, a); la_check_eigen3(a, d122);
-        la_rotated_diag(d777, a); la_check_eigen3(a, d777);
-        la_rotated_diag(dtiny, a); la_check_eigen3(a, dtiny);
+        la_rotated_diag(d112, a, r); la_check_eigen3(a, d112);
+        la_rotated_diag(d122, a, r); la_check_eigen3(a, d122);
+        la_rotated_diag(d777, a, r); la_check_eigen3(a, d777);
+        la_rotated_diag(dtiny, a, r); la_check_eigen3(a, dtiny);
     }
     { /* rotated diag(1,1,2): the simple eigenvector is the rotated axis */
-        double r[9], rd[9], rt[9];
-        int i, j;
-        la_random_orthogonal(r, 3);
-        for (i = 0; i < 3; ++i)
-            for (j = 0; j < 3; ++j) { rd[3 * i + j] = r[3 * i + j] * d112[j]; rt[3 * i + j] = r[3 * j + i]; }
-        la_matmul(rd, rt, a, 3, 3, 3);
-        for (i = 0; i < 3; ++i)
-            for (j = 0; j < i; ++j) a[3 * i + j] = a[3 * j + i];
+        la_rotated_diag(d112, a, r);
         sqffd_sym3_eigen(a, values, vec);
         CHECK_NEAR(fabs(vec[2] * r[2] + vec[5] * r[5] + vec[8] * r[8]), 1.0, 1e-13);
     }
