@@ -65,6 +65,7 @@
                                        nonlinear conjugate gradient with bounds
    2. kd-tree
        sqffd_kdtree_build(_workspace_size)   static 3-D tree over your points
+       sqffd_kdtree_refit              the same tree over moved points, O(n)
        sqffd_kdtree_nearest / _knn / _radius queries
    3. Superquadric
        sqffd_sq_inside_outside         inside-outside function F
@@ -260,9 +261,10 @@ SQFFD_DEF sqffd_result sqffd_ncg_minimize(int n, sqffd_objective_fn f, sqffd_pro
 /* A static 3-D kd-tree over caller points (x y z doubles, 3 per point,
    contiguous). It is built into caller memory (sqffd_kdtree_workspace_size())
    over a permutation of point indices: the points are NOT copied, so they must
-   stay alive and unchanged while the tree is used. Memory: 4 bytes per point
-   for the permutation plus at most one 24-byte node per 2.5 points (under
-   14 bytes per point in all). The fields are readable but belong to the
+   stay alive and unchanged while the tree is used (points that move a
+   little, as a deforming surface's do, can take the tree along:
+   sqffd_kdtree_refit). Memory: 4 bytes per point for the permutation plus at
+   most one 24-byte node per 2.5 points (under 14 bytes per point in all). The fields are readable but belong to the
    library. A built tree is read-only: any number of threads may query it.
 
    Splits: the widest side of a node's tight bounding box is cut at its middle
@@ -330,6 +332,18 @@ SQFFD_DEF size_t sqffd_kdtree_workspace_size(size_t n);
    on error *tree is zeroed. Deterministic: the same points give the same tree. */
 SQFFD_DEF sqffd_result sqffd_kdtree_build(sqffd_kdtree *tree, const double *points, size_t n,
                                           void *workspace, size_t workspace_size);
+
+/* Moves a built tree to new positions of its points: points[3i .. 3i+3) is
+   point i as at the build (the array may be another one, of the same count).
+   O(n), no workspace: the tree keeps its partition and only its gaps and
+   bounding box are measured again, so every query stays exact, but it slows
+   down as points cross into each other's former regions (a gap may then be
+   an overlap); rebuild when they have moved far. Returns
+   SQFFD_ERROR_INVALID_ARGUMENT (tree not built, or points NULL),
+   SQFFD_ERROR_NON_FINITE (a NaN or infinite coordinate) or
+   SQFFD_ERROR_DEGENERATE (a leaf of once-identical points that are no longer
+   identical: rebuild instead); on error the tree is unchanged. */
+SQFFD_DEF sqffd_result sqffd_kdtree_refit(sqffd_kdtree *tree, const double *points);
 
 /* Index (into the caller's points) of the point nearest to query; its squared
    distance goes to *dist2 when dist2 is not NULL. */
@@ -1822,6 +1836,45 @@ SQFFD_DEF sqffd_result sqffd_kdtree_build(sqffd_kdtree *tree, const double *poin
     return SQFFD_OK;
 }
 
+/* Refit, in reverse node order: preorder numbers every node before its low
+   subtree and that before its high subtree, so walking backwards finishes
+   both subtrees of a node before it, and a stack of their boxes (the low
+   child's on top) suffices. */
+SQFFD_DEF sqffd_result sqffd_kdtree_refit(sqffd_kdtree *tree, const double *points)
+{
+    double stack[SQFFD_KDTREE_MAX_DEPTH + 1][2][3];
+    size_t top = 0, i, k;
+    if (!tree || !tree->nodes || !points) return SQFFD_ERROR_INVALID_ARGUMENT;
+    for (i = 0; i < tree->count; i++)
+        if (!sqffd__finite3(points + 3 * i)) return SQFFD_ERROR_NON_FINITE;
+    for (i = 0; i < tree->node_count; i++) { /* the scan's shortcut for big leaves needs them identical */
+        const sqffd_kdtree_node *n = &tree->nodes[i];
+        const double *first;
+        if (n->axis != SQFFD_KDTREE_LEAF || n->u.leaf.end - n->u.leaf.begin <= SQFFD__KD_LEAF_SIZE) continue;
+        first = points + 3 * (size_t)tree->index[n->u.leaf.begin];
+        for (k = n->u.leaf.begin + 1; k < n->u.leaf.end; k++)
+            if (memcmp(points + 3 * (size_t)tree->index[k], first, 3 * sizeof(double)) != 0) return SQFFD_ERROR_DEGENERATE;
+    }
+    for (i = tree->node_count; i-- > 0;) {
+        sqffd_kdtree_node *n = &tree->nodes[i];
+        if (n->axis == SQFFD_KDTREE_LEAF) {
+            SQFFD_ASSERT(top <= SQFFD_KDTREE_MAX_DEPTH);
+            sqffd__kd_bounds(points, tree->index, n->u.leaf.begin, n->u.leaf.end, stack[top++]);
+            continue;
+        }
+        SQFFD_ASSERT(top >= 2);
+        n->u.split.low = stack[top - 1][1][n->axis];
+        n->u.split.high = stack[top - 2][0][n->axis];
+        sqffd__kd_extend(stack[top - 2], stack[top - 1][0]);
+        sqffd__kd_extend(stack[top - 2], stack[top - 1][1]);
+        top--;
+    }
+    SQFFD_ASSERT(top == 1);
+    memcpy(tree->bbox, stack[0], sizeof tree->bbox);
+    tree->points = points;
+    return SQFFD_OK;
+}
+
 /* ---- Queries --------------------------------------------------------------
    Results live in the caller's arrays as a max-heap on squared distance
    (the worst kept point on top), sorted once at the end. */
@@ -1920,6 +1973,7 @@ static void sqffd__kd_search(const sqffd_kdtree *tree, const double q[3], sqffd_
             double above_low = q[axis] - n->u.split.low, below_high = n->u.split.high - q[axis];
             int go_high = !(above_low < below_high);
             double gap = go_high ? above_low : below_high;
+            gap = gap > 0.0 ? gap : 0.0; /* (after a refit the children's regions may overlap) */
             SQFFD_ASSERT(top < SQFFD_KDTREE_MAX_DEPTH);
             stack[top].sq[0] = sq0; stack[top].sq[1] = sq1; stack[top].sq[2] = sq2;
             stack[top].sq[axis] = gap * gap;
@@ -3944,9 +3998,10 @@ static double sqffd__fit_walk(const double *x, const sqffd__fit_ring *rings, con
    - the gap between the fan's closest and runner-up triangles: while the
      moves (the triangle's own corners' plus the fan's largest) stay below
      it, only that triangle is measured again.
-   Only when the first two fail is the tree asked; it is kept over a snapshot
-   of the vertices and asked with their drift since as slack, and rebuilt when
-   that leaves the answer open. Every way the answer is the one a fresh
+   Only when the first two fail is the tree asked; it is built once and
+   refitted to the moved vertices when next asked (O(M) instead of a
+   rebuild's O(M log M): the mesh deforms smoothly, so its partition stays
+   good). Every way the answer is the one a fresh
    search gives (ties aside, which any search breaks arbitrarily) - but in a
    fit's passes between its first and last (exact = 0), where a point whose
    nearest vertex is proven but whose triangle bound has run out keeps that
@@ -3959,12 +4014,10 @@ typedef struct sqffd__fit_search {
     const double *x;         /* mesh vertices (the model points) */
     size_t count;            /* and their number */
     const sqffd__fit_ring *rings;
-    sqffd_kdtree tree;       /* over snapshot (NULL: x itself), once built */
+    sqffd_kdtree tree;       /* over x, once built */
     void *tree_ws;
     size_t tree_size;
-    int built;
-    double *snapshot;        /* x when the tree was built (the warm start keeps the tree while it can) */
-    double drift;            /* the vertices' largest moves summed since */
+    int tree_state;          /* SQFFD__FIT_TREE_... */
     /* the warm start (anchor NULL: none), per data point */
     uint32_t *anchor;        /* the nearest vertex at the last tree query */
     double *outside;         /* lower bound on the distance to any vertex outside the anchor's closed ring */
@@ -3977,6 +4030,10 @@ typedef struct sqffd__fit_search {
     double margin;           /* allowance for rounding in the distances */
     int exact;               /* 0: a pass between a fit's first and last (see above) */
 } sqffd__fit_search;
+
+#define SQFFD__FIT_TREE_NONE 0    /* not built yet */
+#define SQFFD__FIT_TREE_CURRENT 1 /* over x as it is */
+#define SQFFD__FIT_TREE_MOVED 2   /* x has moved since: refit before asking */
 
 /* Whether vertex u is in the closed ring (v and its ring r). */
 static int sqffd__fit_in_ring(const sqffd__fit_ring *r, size_t v, size_t u)
@@ -4022,39 +4079,28 @@ static sqffd_result sqffd__fit_nearest_vertex(sqffd__fit_search *s, size_t i, co
             }
         }
     }
-    for (;;) { /* a tree query, from a tree built over the vertices as they were `drift` ago */
-        size_t b = 0;
-        double rest, second = HUGE_VAL;
-        if (!s->built) {
-            const double *at = s->snapshot ? (const double *)memcpy(s->snapshot, s->x, 3 * s->count * sizeof(double)) : s->x;
-            sqffd_result res = sqffd_kdtree_build(&s->tree, at, s->count, s->tree_ws, s->tree_size);
-            if (res != SQFFD_OK) return res;
-            s->built = 1;
-            s->drift = 0.0;
-        }
-        count = sqffd_kdtree_knn(&s->tree, q, s->anchor ? SQFFD__FIT_KNN : 1, near, d2);
-        if (count == 0) return SQFFD_ERROR_NON_FINITE;
-        rest = count == (s->anchor ? SQFFD__FIT_KNN : 1) ? sqrt(d2[count - 1]) - s->drift : HUGE_VAL; /* the vertices not returned */
-        for (k = 0; k < count; ++k) { /* the returned ones as they are now */
-            d[k] = sqrt(s->drift != 0.0 ? sqffd__dist2_3(q, s->x + 3 * near[k]) : d2[k]);
-            if (d[k] < d[b]) { second = d[b]; b = k; }
-            else if (k > 0 && d[k] < second) second = d[k];
-        }
-        if (s->drift != 0.0 && !(d[b] < rest - s->margin)) { /* too stale to tell: rebuild */
-            s->built = 0;
-            continue;
-        }
-        *nearest = near[b];
-        if (s->anchor) {
-            s->anchor[i] = (uint32_t)near[b];
-            s->vertex_slack[i] = (second < rest ? second : rest) - d[b];
-            s->outside[i] = rest;
-            r = s->rings + near[b];
-            for (k = 0; k < count; ++k)
-                if (d[k] < s->outside[i] && !sqffd__fit_in_ring(r, near[b], near[k])) s->outside[i] = d[k];
-        }
-        return SQFFD_OK;
+    if (s->tree_state != SQFFD__FIT_TREE_CURRENT) {
+        sqffd_result res = s->tree_state == SQFFD__FIT_TREE_MOVED ? sqffd_kdtree_refit(&s->tree, s->x)
+                                                                  : SQFFD_ERROR_DEGENERATE;
+        if (res == SQFFD_ERROR_DEGENERATE) /* not built, or a refit cannot follow (a pile of identical points split up) */
+            res = sqffd_kdtree_build(&s->tree, s->x, s->count, s->tree_ws, s->tree_size);
+        if (res != SQFFD_OK) return res;
+        s->tree_state = SQFFD__FIT_TREE_CURRENT;
     }
+    count = sqffd_kdtree_knn(&s->tree, q, s->anchor ? SQFFD__FIT_KNN : 1, near, d2);
+    if (count == 0) return SQFFD_ERROR_NON_FINITE;
+    *nearest = near[0];
+    if (s->anchor) {
+        double rest = count == SQFFD__FIT_KNN ? sqrt(d2[count - 1]) : HUGE_VAL; /* the vertices not returned */
+        for (k = 0; k < count; ++k) d[k] = sqrt(d2[k]);
+        s->anchor[i] = (uint32_t)near[0];
+        s->vertex_slack[i] = (count > 1 ? d[1] : rest) - d[0];
+        s->outside[i] = rest;
+        r = s->rings + near[0];
+        for (k = 1; k < count; ++k)
+            if (d[k] < s->outside[i] && !sqffd__fit_in_ring(r, near[0], near[k])) s->outside[i] = d[k];
+    }
+    return SQFFD_OK;
 }
 
 /* The closest point on the mesh to data point i at q ("the error"): squared
@@ -4113,7 +4159,7 @@ static double sqffd__fit_moves(sqffd__fit_search *s, const double *x, const doub
         s->fan_moved[v] = fan;
     }
     s->moved = max;
-    s->drift += s->moved;
+    if (s->tree_state == SQFFD__FIT_TREE_CURRENT) s->tree_state = SQFFD__FIT_TREE_MOVED;
     return sum2;
 }
 
@@ -4495,7 +4541,6 @@ typedef struct sqffd__fit_work {
     double *pairs;       /* (l m)^2: a run's sum of (a (x) b)(a (x) b)^T while preparing */
     void *tree_ws;       /* tree over the model points */
     size_t tree_size;
-    double *snapshot;    /* M x 3: the model points the tree was built over */
     uint32_t *anchor, (*triangle)[3]; /* per FFD data point: the closest-point search's warm start */
     double *outside, *vertex_slack, *triangle_slack;
     double *fan_moved;   /* M */
@@ -4569,7 +4614,6 @@ static void sqffd__fit_layout(sqffd__arena *a, size_t n, const int dims[3], cons
     w->tree_ws = sqffd__arena_take(a, w->tree_size, 1);
     w->sample_count = sqffd__fit_cap(n, o->ffd_max_points);
     if (w->sample_count < n) w->sample = (double *)sqffd__arena_take(a, w->sample_count, 3 * sizeof(double));
-    w->snapshot = (double *)sqffd__arena_take(a, m, 3 * sizeof(double));
     w->anchor = (uint32_t *)sqffd__arena_take(a, w->sample_count, sizeof(uint32_t));
     w->outside = (double *)sqffd__arena_take(a, w->sample_count, sizeof(double));
     w->vertex_slack = (double *)sqffd__arena_take(a, w->sample_count, sizeof(double));
@@ -4814,7 +4858,6 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
     sqffd__fit_evaluate(s, &model->ffd, x);
     sqffd__fit_search_init(&search, x, s->grid, s->rings, w->tree_ws, w->tree_size);
     search.triangle = w->triangle;
-    search.snapshot = w->snapshot;
     search.anchor = w->anchor;
     search.outside = w->outside;
     search.vertex_slack = w->vertex_slack;

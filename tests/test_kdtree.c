@@ -50,10 +50,11 @@ static int kd_build(kd_fixture *f, const double *points, size_t n)
 }
 
 /* Walks the tree checking its invariants: leaves partition index[] in order,
-   every point lies on its side of each gap, depth bound, leaf sizes (5..10,
-   or identical points, or a lone root leaf), and index[] is a permutation. */
+   every point lies on its side of each gap (after a refit a gap may be an
+   overlap), depth bound, leaf sizes (5..10, or identical points, or a lone
+   root leaf), and index[] is a permutation. */
 static void kd_check_node(const sqffd_kdtree *t, uint32_t node, unsigned depth, size_t *next_begin,
-                          double lo[3], double hi[3], unsigned *max_depth)
+                          double lo[3], double hi[3], unsigned *max_depth, int refitted)
 {
     const sqffd_kdtree_node *nd = &t->nodes[node];
     CHECK(node < t->node_count);
@@ -72,12 +73,12 @@ static void kd_check_node(const sqffd_kdtree *t, uint32_t node, unsigned depth, 
             if (memcmp(p, first, 3 * sizeof(double)) != 0) identical = 0;
         }
         CHECK_MSG(identical || count <= 10, "leaf of %zu distinct points", count);
-        CHECK_MSG(node == 0 || identical || count >= 5, "leaf of %zu points", count);
+        CHECK_MSG(node == 0 || identical || refitted || count >= 5, "leaf of %zu points", count);
         return;
     }
     CHECK(depth < SQFFD_KDTREE_MAX_DEPTH);
     CHECK(nd->axis < 3);
-    CHECK(nd->u.split.low <= nd->u.split.high);
+    CHECK(refitted || nd->u.split.low <= nd->u.split.high);
     if (nd->axis >= 3 || depth >= SQFFD_KDTREE_MAX_DEPTH) return;
     {
         double l_hi[3], h_lo[3];
@@ -85,12 +86,12 @@ static void kd_check_node(const sqffd_kdtree *t, uint32_t node, unsigned depth, 
         memcpy(h_lo, lo, sizeof h_lo);
         if (nd->u.split.low < l_hi[nd->axis]) l_hi[nd->axis] = nd->u.split.low;
         if (nd->u.split.high > h_lo[nd->axis]) h_lo[nd->axis] = nd->u.split.high;
-        kd_check_node(t, node + 1, depth + 1, next_begin, lo, l_hi, max_depth);
-        kd_check_node(t, nd->high_child, depth + 1, next_begin, h_lo, hi, max_depth);
+        kd_check_node(t, node + 1, depth + 1, next_begin, lo, l_hi, max_depth, refitted);
+        kd_check_node(t, nd->high_child, depth + 1, next_begin, h_lo, hi, max_depth, refitted);
     }
 }
 
-static unsigned kd_check_tree(const sqffd_kdtree *t)
+static unsigned kd_check_tree(const sqffd_kdtree *t, int refitted)
 {
     size_t next_begin = 0, i, n = t->count;
     unsigned max_depth = 0;
@@ -98,7 +99,7 @@ static unsigned kd_check_tree(const sqffd_kdtree *t)
     double lo[3], hi[3];
     memcpy(lo, t->bbox[0], sizeof lo);
     memcpy(hi, t->bbox[1], sizeof hi);
-    kd_check_node(t, 0, 0, &next_begin, lo, hi, &max_depth);
+    kd_check_node(t, 0, 0, &next_begin, lo, hi, &max_depth, refitted);
     CHECK(next_begin == n);
     for (i = 0; i < n; i++) {
         CHECK(t->index[i] < n);
@@ -179,7 +180,7 @@ static void kd_check_set(const double *points, size_t n, size_t queries, double 
     size_t *brute_idx = (size_t *)malloc((n + 100000) * sizeof(size_t));
     size_t qi;
     if (kd_build(&f, points, n)) {
-        CHECK(kd_check_tree(&f.tree) <= SQFFD_KDTREE_MAX_DEPTH);
+        CHECK(kd_check_tree(&f.tree, 0) <= SQFFD_KDTREE_MAX_DEPTH);
         for (qi = 0; qi < queries; qi++) {
             const double *p = points + 3 * (size_t)(kd_uniform() * (double)n);
             double q[3];
@@ -315,13 +316,94 @@ static void test_kdtree_exponential_spacing(void)
         p[3 * i + 2] = 0.0;
     }
     if (kd_build(&f, p, n)) {
-        unsigned depth = kd_check_tree(&f.tree);
+        unsigned depth = kd_check_tree(&f.tree, 0);
         CHECK_MSG(depth <= SQFFD_KDTREE_MAX_DEPTH, "depth %u", depth);
     }
     free(f.workspace);
     kd_rng_state = 8;
     kd_check_set(p, n, 300, 0.01);
     free(p);
+}
+
+/* A refit follows moves of every size, from rounding-level to points
+   crossing the whole set: invariants and every query against brute force on
+   the moved points; a refit back to the original points gives the built
+   tree to the bit. */
+static void test_kdtree_refit(void)
+{
+    static const double moves[5] = {1e-12, 1e-3, 0.05, 0.5, 3.0};
+    size_t n = 2000, i, m, queries;
+    double *p, *moved = (double *)malloc(3 * n * sizeof(double)), *sorted = (double *)malloc(n * sizeof(double));
+    double *d2 = (double *)malloc((n + 100000) * sizeof(double));
+    size_t *idx = (size_t *)malloc((n + 100000) * sizeof(size_t)), *brute = (size_t *)malloc((n + 100000) * sizeof(size_t));
+    sqffd_kdtree_node *built = (sqffd_kdtree_node *)malloc(n * sizeof(sqffd_kdtree_node));
+    double box[2][3];
+    kd_fixture f;
+    kd_rng_state = 12;
+    p = kd_sphere(n);
+    if (kd_build(&f, p, n)) {
+        memcpy(built, f.tree.nodes, f.tree.node_count * sizeof *built);
+        memcpy(box, f.tree.bbox, sizeof box);
+        for (m = 0; m < 5; m++) {
+            for (i = 0; i < 3 * n; i++) moved[i] = p[i] + moves[m] * (2.0 * kd_uniform() - 1.0);
+            CHECK_RESULT(sqffd_kdtree_refit(&f.tree, moved), SQFFD_OK);
+            CHECK(f.tree.points == moved);
+            kd_check_tree(&f.tree, 1);
+            for (queries = 0; queries < 60; queries++) {
+                double q[3];
+                const double *at = moved + 3 * (size_t)(kd_uniform() * (double)n);
+                q[0] = at[0] + 0.1 * kd_uniform(); q[1] = at[1]; q[2] = at[2] - 0.1 * kd_uniform();
+                kd_check_query(&f.tree, moved, n, q, sorted, idx, d2, brute);
+            }
+        }
+        CHECK_RESULT(sqffd_kdtree_refit(&f.tree, p), SQFFD_OK);
+        CHECK(memcmp(built, f.tree.nodes, f.tree.node_count * sizeof *built) == 0);
+        CHECK(memcmp(box, f.tree.bbox, sizeof box) == 0);
+    }
+    free(f.workspace);
+    free(p); free(moved); free(sorted); free(d2); free(idx); free(brute); free(built);
+}
+
+/* Refit errors leave the tree as it was. */
+static void test_kdtree_refit_errors(void)
+{
+    size_t n = 1000, i;
+    double *p = (double *)malloc(3 * n * sizeof(double)), *moved = (double *)malloc(3 * n * sizeof(double));
+    double q[3] = {0.2, 0.1, 0.3}, d_before, d_after;
+    sqffd_kdtree zero;
+    kd_fixture f;
+    memset(&zero, 0, sizeof zero);
+    kd_rng_state = 13;
+    for (i = 0; i < 3 * n; i++) p[i] = kd_uniform();
+    CHECK_RESULT(sqffd_kdtree_refit(NULL, p), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(sqffd_kdtree_refit(&zero, p), SQFFD_ERROR_INVALID_ARGUMENT);
+    if (kd_build(&f, p, n)) {
+        CHECK_RESULT(sqffd_kdtree_refit(&f.tree, NULL), SQFFD_ERROR_INVALID_ARGUMENT);
+        sqffd_kdtree_nearest(&f.tree, q, &d_before);
+        memcpy(moved, p, 3 * n * sizeof(double));
+        for (i = 0; i < 3 * n; i++) moved[i] += 0.01;
+        moved[3 * 700 + 1] = NAN;
+        CHECK_RESULT(sqffd_kdtree_refit(&f.tree, moved), SQFFD_ERROR_NON_FINITE);
+        moved[3 * 700 + 1] = INFINITY;
+        CHECK_RESULT(sqffd_kdtree_refit(&f.tree, moved), SQFFD_ERROR_NON_FINITE);
+        CHECK(f.tree.points == p);
+        sqffd_kdtree_nearest(&f.tree, q, &d_after);
+        CHECK(d_after == d_before);
+    }
+    free(f.workspace);
+    /* a pile of identical points is one leaf; it cannot follow them apart */
+    for (i = 0; i < n; i++) { p[3 * i] = 1.0; p[3 * i + 1] = 2.0; p[3 * i + 2] = 3.0; }
+    if (kd_build(&f, p, n)) {
+        memcpy(moved, p, 3 * n * sizeof(double));
+        CHECK_RESULT(sqffd_kdtree_refit(&f.tree, moved), SQFFD_OK);
+        for (i = 0; i < 3 * n; i++) moved[i] += 1.0; /* still identical */
+        CHECK_RESULT(sqffd_kdtree_refit(&f.tree, moved), SQFFD_OK);
+        CHECK(sqffd_kdtree_nearest(&f.tree, q, &d_after) < n && d_after == kd_dist2(moved, q));
+        moved[3 * 10] += 1e-9;
+        CHECK_RESULT(sqffd_kdtree_refit(&f.tree, moved), SQFFD_ERROR_DEGENERATE);
+    }
+    free(f.workspace);
+    free(p); free(moved);
 }
 
 static void test_kdtree_errors(void)
@@ -404,7 +486,7 @@ static void test_kdtree_workspace_bounds(void)
         sqffd_kdtree_nearest(&tree, q, &d);
         if (shift == 0) d_ref = d;
         CHECK(d == d_ref);
-        kd_check_tree(&tree);
+        kd_check_tree(&tree, 0);
         if (shift + 1 < 16) /* the same block one byte further is one byte short */
             CHECK_RESULT(sqffd_kdtree_build(&tree, p, n, block + shift + 1, size - 1),
                          SQFFD_ERROR_WORKSPACE_TOO_SMALL);
@@ -451,6 +533,8 @@ void suite_kdtree(void)
     RUN_TEST(test_kdtree_small_sets);
     RUN_TEST(test_kdtree_huge_coordinates);
     RUN_TEST(test_kdtree_exponential_spacing);
+    RUN_TEST(test_kdtree_refit);
+    RUN_TEST(test_kdtree_refit_errors);
     RUN_TEST(test_kdtree_errors);
     RUN_TEST(test_kdtree_nonfinite_query);
     RUN_TEST(test_kdtree_workspace_bounds);
