@@ -1876,12 +1876,16 @@ SQFFD_DEF sqffd_result sqffd_kdtree_refit(sqffd_kdtree *tree, const double *poin
 }
 
 /* ---- Queries --------------------------------------------------------------
-   Results live in the caller's arrays as a max-heap on squared distance
-   (the worst kept point on top), sorted once at the end. */
+   Results live in the caller's arrays: up to SQFFD__KD_SORTED_MAX of them
+   kept sorted by insertion (cheaper than a heap for few), more as a max-heap
+   on squared distance (the worst kept point on top), sorted once at the end. */
+#define SQFFD__KD_SORTED_MAX 8
+
 typedef struct sqffd__kd_results {
     size_t *index;
     double *dist2;
     size_t capacity, size;
+    size_t worst;   /* where the worst kept point is: size - 1 when sorted, 0 in a heap */
     size_t within;  /* points seen at distance^2 <= reach (the radius count) */
     double reach;   /* points and subtrees farther than this (squared) cannot change the answer */
     int counting;   /* radius: every point within reach counts, so a full heap keeps reach */
@@ -1906,7 +1910,14 @@ static void sqffd__kd_sift_down(size_t *index, double *dist2, size_t size, size_
    `capacity` seen so far. */
 static void sqffd__kd_offer(sqffd__kd_results *r, size_t point, double d)
 {
-    if (r->size < r->capacity) { /* not full: sift up from the end */
+    if (r->capacity <= SQFFD__KD_SORTED_MAX) { /* insertion, the worst dropped when full */
+        size_t i;
+        if (r->size == r->capacity && (r->size == 0 || !(d < r->dist2[r->size - 1]))) return;
+        i = r->size < r->capacity ? r->size++ : r->size - 1;
+        for (; i > 0 && r->dist2[i - 1] > d; i--) { r->index[i] = r->index[i - 1]; r->dist2[i] = r->dist2[i - 1]; }
+        r->index[i] = point; r->dist2[i] = d;
+        r->worst = r->size - 1;
+    } else if (r->size < r->capacity) { /* not full: sift up from the end */
         size_t i = r->size++;
         while (i > 0 && r->dist2[(i - 1) / 2] < d) {
             r->index[i] = r->index[(i - 1) / 2]; r->dist2[i] = r->dist2[(i - 1) / 2];
@@ -1919,7 +1930,7 @@ static void sqffd__kd_offer(sqffd__kd_results *r, size_t point, double d)
     } else {
         return;
     }
-    if (!r->counting && r->size == r->capacity) r->reach = r->dist2[0];
+    if (!r->counting && r->size == r->capacity) r->reach = r->dist2[r->worst];
 }
 
 /* Scans a leaf. A leaf bigger than the leaf size holds identical points only:
@@ -1933,7 +1944,7 @@ static void sqffd__kd_scan_leaf(const sqffd_kdtree *tree, const sqffd_kdtree_nod
         double d = sqffd__dist2_3(tree->points + 3 * (size_t)index[begin], q);
         if (!(d <= r->reach)) return;
         r->within += end - begin;
-        for (i = begin; i < end && (r->size < r->capacity || (r->size && d < r->dist2[0])); i++)
+        for (i = begin; i < end && (r->size < r->capacity || (r->size && d < r->dist2[r->worst])); i++)
             sqffd__kd_offer(r, index[i], d);
         return;
     }
@@ -1994,10 +2005,10 @@ static void sqffd__kd_search(const sqffd_kdtree *tree, const double q[3], sqffd_
     }
 }
 
-/* Sorts the heap by increasing distance. */
+/* Sorts a heap by increasing distance. */
 static void sqffd__kd_sort(sqffd__kd_results *r)
 {
-    size_t end = r->size;
+    size_t end = r->capacity <= SQFFD__KD_SORTED_MAX ? 0 : r->size;
     while (end > 1) {
         size_t i0 = r->index[0];
         double d0 = r->dist2[0];
@@ -2016,6 +2027,7 @@ static size_t sqffd__kd_query(const sqffd_kdtree *tree, const double q[3], doubl
     r.dist2 = dist2;
     r.capacity = capacity;
     r.size = 0;
+    r.worst = 0;
     r.within = 0;
     r.reach = limit;
     r.counting = counting;
@@ -2557,39 +2569,58 @@ static void sqffd__sq_eval_init(sqffd__sq_eval *ev, const sqffd_superquadric *sq
     ev->cost = cost;
 }
 
+/* The first links of the residual's chain: world p -> tapered local
+   q = R^T (p - c) -> untapered u = (q0 / fx, q1 / fy, q2) -> ln F(u)
+   (returned); inv_f and clamped are the tapering's, for the derivatives. */
+static double sqffd__sq_local_log_f(const sqffd__sq_eval *ev, const double p[3], double q[3], double u[3],
+                                    double inv_f[2], int clamped[2], double *parts)
+{
+    int k;
+    sqffd__sq_to_local(ev->sq, p, q);
+    for (k = 0; k < 2; k++) {
+        double f = 1.0 + ev->taper_over_a3[k] * q[2];
+        clamped[k] = f < SQFFD__SQ_MIN_TAPER;
+        if (clamped[k]) f = SQFFD__SQ_MIN_TAPER;
+        inv_f[k] = 1.0 / f;
+        u[k] = q[k] * inv_f[k];
+    }
+    u[2] = q[2];
+    return sqffd__sq_log_f(u, ev->log_size, &ev->x, parts);
+}
+
+/* The last link: the residual of `cost` from u and ln F. *power receives the
+   power of F it took: F^e1 for Solina's sqrt(a1 a2 a3) (F^e1 - 1), F^(-e1/2)
+   for the radial |u| (1 - F^(-e1/2)). */
+static double sqffd__sq_value(const sqffd__sq_eval *ev, int cost, const double u[3], double lf, double *power)
+{
+    if (cost == SQFFD_SQ_COST_SOLINA) {
+        *power = exp(ev->e1 * lf < 700.0 ? ev->e1 * lf : 700.0);
+        return ev->volume_scale * (*power - 1.0);
+    }
+    *power = exp(-0.5 * ev->e1 * lf);
+    return sqrt(sqffd__dot3(u, u)) * (1.0 - *power);
+}
+
 /* Residual of one point, and (grad not NULL) its derivatives with respect to
-   the 13 parameters. Chain: world p -> tapered local q = R^T (p - c) ->
-   untapered u = (q0 / fx, q1 / fy, q2) -> ln F(u) -> residual. */
+   the 13 parameters, along the chain above. */
 static double sqffd__sq_residual(const sqffd__sq_eval *ev, const double p[3], double *grad)
 {
     const sqffd_superquadric *sq = ev->sq;
     double e1 = ev->e1;
-    double q[3], f[2], inv_f[2], u[3], parts[SQFFD__SQ_PARTS], lf, r, kf, extra_e1, extra_size, t[3], gq[3], h[3];
+    double q[3], inv_f[2], u[3], parts[SQFFD__SQ_PARTS], lf, r, pw, kf, extra_e1, extra_size, t[3], gq[3], h[3];
     int k, clamped[2];
-    sqffd__sq_to_local(sq, p, q);
-    for (k = 0; k < 2; k++) {
-        f[k] = 1.0 + ev->taper_over_a3[k] * q[2];
-        clamped[k] = f[k] < SQFFD__SQ_MIN_TAPER;
-        if (clamped[k]) f[k] = SQFFD__SQ_MIN_TAPER;
-        inv_f[k] = 1.0 / f[k];
-        u[k] = q[k] * inv_f[k];
-    }
-    u[2] = q[2];
-    lf = sqffd__sq_log_f(u, ev->log_size, &ev->x, grad ? parts : NULL);
-    if (ev->cost == SQFFD_SQ_COST_SOLINA) { /* sqrt(a1 a2 a3) (F^e1 - 1) */
-        double pw = exp(e1 * lf < 700.0 ? e1 * lf : 700.0);
-        r = ev->volume_scale * (pw - 1.0);
-        if (!grad) return r;
+    lf = sqffd__sq_local_log_f(ev, p, q, u, inv_f, clamped, grad ? parts : NULL);
+    r = sqffd__sq_value(ev, ev->cost, u, lf, &pw);
+    if (!grad) return r;
+    if (ev->cost == SQFFD_SQ_COST_SOLINA) {
         kf = ev->volume_scale * pw * e1; /* d r / d ln F */
         extra_e1 = ev->volume_scale * pw * lf;
         extra_size = 0.5 * r; /* from d sqrt(a1 a2 a3) / d ln a_i */
         t[0] = t[1] = t[2] = 0.0;
-    } else { /* |u| (1 - F^(-e1/2)) */
-        double rho = sqrt(sqffd__dot3(u, u)), qm = exp(-0.5 * e1 * lf), along = rho > 0.0 ? (1.0 - qm) / rho : 0.0;
-        r = rho * (1.0 - qm);
-        if (!grad) return r;
-        kf = 0.5 * rho * qm * e1;
-        extra_e1 = 0.5 * rho * qm * lf;
+    } else {
+        double rho = sqrt(sqffd__dot3(u, u)), along = rho > 0.0 ? (1.0 - pw) / rho : 0.0;
+        kf = 0.5 * rho * pw * e1;
+        extra_e1 = 0.5 * rho * pw * lf;
         extra_size = 0.0;
         for (k = 0; k < 3; k++) t[k] = along * u[k];
     }
@@ -3199,17 +3230,25 @@ static void sqffd__sq_reweight(sqffd__sq_mixture *mix, const sqffd_superquadric 
     sqffd__sq_mstep(mix, m);
 }
 
-/* Weighted mean of the squared radial distance (weights NULL = 1). */
-static double sqffd__sq_mean_d2(const sqffd_superquadric *sq, const double *pts, const double *weights, size_t m)
+/* Weighted (weights NULL = 1) mean of the squared radial distance, and the
+   weighted sum of squared residuals of the fit's cost into *cost: one ln F
+   per point serves both. */
+static double sqffd__sq_mean_d2(const sqffd__sq_fit *fit, const sqffd_superquadric *sq, const double *pts,
+                                const double *weights, size_t m, double *cost)
 {
-    double sum = 0.0, sum_w = 0.0;
+    double sum = 0.0, sum_w = 0.0, q[3], u[3], inv_f[2], power;
     sqffd__sq_eval ev;
     size_t k;
-    sqffd__sq_eval_init(&ev, sq, SQFFD_SQ_COST_RADIAL);
+    int clamped[2];
+    sqffd__sq_eval_init(&ev, sq, fit->cost);
+    *cost = 0.0;
     for (k = 0; k < m; k++) {
-        double w = weights ? weights[k] : 1.0, d = sqffd__sq_residual(&ev, pts + 3 * k, NULL);
+        double w = weights ? weights[k] : 1.0, lf = sqffd__sq_local_log_f(&ev, pts + 3 * k, q, u, inv_f, clamped, NULL);
+        double d = sqffd__sq_value(&ev, SQFFD_SQ_COST_RADIAL, u, lf, &power);
+        double r = fit->cost == SQFFD_SQ_COST_RADIAL ? d : sqffd__sq_value(&ev, fit->cost, u, lf, &power);
         sum += w * d * d;
         sum_w += w;
+        *cost += w * r * r;
     }
     return sum_w > 0.0 ? sum / sum_w : 0.0;
 }
@@ -3527,7 +3566,7 @@ SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_
     sqffd__sq_mixture mix; /* robust mode's mixture */
     double centroid[3], scale, centre[3], cov[9], values[3], axes[9], best_cost = 0.0;
     const double *start_pts, *final_pts, *weights;
-    double rms;
+    double rms, mean_d2, final_cost;
     int k, best_start = 0, converged = 0;
     if (!points || !sq || !sqffd__sq_options_valid(o)) return SQFFD_ERROR_INVALID_ARGUMENT;
     if (n < SQFFD_SQ_FIT_MIN_POINTS) return SQFFD_ERROR_TOO_FEW_POINTS;
@@ -3630,14 +3669,15 @@ SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_
        within the box enlarged by the margin. */
     weights = o->robust ? w.weights : NULL;
     /* robust mode: the last EM step's sigma^2 is this weighted mean already */
-    rms = sqrt(o->robust ? mix.sigma2 : sqffd__sq_mean_d2(&best, w.points, weights, n));
+    mean_d2 = sqffd__sq_mean_d2(&fit, &best, w.points, weights, n, &final_cost);
+    rms = sqrt(o->robust ? mix.sigma2 : mean_d2);
     if (rms > SQFFD__SQ_CLOSE_FIT * (best.size[0] + best.size[1] + best.size[2]) / 3.0 && sqffd__sq_contain(&fit, &best))
-        rms = sqrt(sqffd__sq_mean_d2(&best, w.points, weights, n));
+        rms = sqrt(sqffd__sq_mean_d2(&fit, &best, w.points, weights, n, &final_cost));
     if (report) {
-        double sum_w = 0.0, final = sqffd__sq_accumulate(&fit, &best, w.points, weights, n, NULL, NULL);
+        double sum_w = 0.0;
         for (i = 0; i < n; i++) sum_w += weights ? weights[i] : 1.0;
         report->iterations = fit.iterations;
-        report->cost = final * (o->cost == SQFFD_SQ_COST_SOLINA ? scale * scale * scale : scale * scale);
+        report->cost = final_cost * (o->cost == SQFFD_SQ_COST_SOLINA ? scale * scale * scale : scale * scale);
         report->rms_radial = scale * rms;
         report->start = best_start;
         report->converged = converged;
@@ -4759,7 +4799,7 @@ static void sqffd__fit_fill(const sqffd__fit_ring *rings, size_t m, const double
             r = rings + v;
             for (k = 0; k < r->count; ++k) {
                 size_t w = sqffd__fit_ring_at(r, k);
-                if (state[w] != 2) continue;
+                if (sweep == 0 && state[w] != 2) continue; /* (after the first sweep all are known) */
                 sum[0] += disp[3 * w]; sum[1] += disp[3 * w + 1]; sum[2] += disp[3 * w + 2];
                 used++;
             }
