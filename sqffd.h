@@ -650,10 +650,12 @@ SQFFD_DEF size_t sqffd_model_distances_workspace_size(size_t n, const sqffd_mode
 SQFFD_DEF sqffd_result sqffd_model_distances(const sqffd_model *model, const double *points, size_t n,
                                              double *per_point, sqffd_distance_stats *stats,
                                              void *workspace, size_t workspace_size);
-/* Model-to-data: for each vertex of the model's grid mesh, the distance to
-   the nearest data point (per_vertex may be NULL), statistics relative to the
-   data's diagonal. Shows whether parts of the model wander off where there is
-   no data. The workspace holds a tree over the data. */
+/* Model-to-data: for each vertex of the model's grid mesh (in
+   sqffd_model_mesh's order), the distance to the nearest data point
+   (per_vertex may be NULL), statistics relative to the data's diagonal.
+   Shows whether parts of the model wander off where there is no data. The
+   workspace holds a tree over the data. Both distance functions measure on
+   model->grid: to measure on another mesh, set grid on a copy of the model. */
 SQFFD_DEF size_t sqffd_model_reverse_distances_workspace_size(size_t n, const sqffd_model *model);
 SQFFD_DEF sqffd_result sqffd_model_reverse_distances(const sqffd_model *model, const double *points, size_t n,
                                                      double *per_vertex, sqffd_distance_stats *stats,

@@ -256,8 +256,8 @@ static void print_vec3(const char *label, const double *v)
 }
 
 static void fit_report(const fit_args *a, size_t n, const sqffd_model *model, const sqffd_fit_report *r,
-                       size_t mesh_vertices, size_t mesh_triangles, double model_to_data_rms,
-                       double model_to_data_max, const double t[4])
+                       size_t mesh_vertices, size_t mesh_triangles, const sqffd_distance_stats *model_to_data,
+                       const double t[4])
 {
     const sqffd_superquadric *sq = &model->sq;
     const sqffd_ffd *ffd = &model->ffd;
@@ -282,37 +282,29 @@ static void fit_report(const fit_args *a, size_t n, const sqffd_model *model, co
     printf("  iterations       %d%s\n", r->iterations, r->converged ? " (converged)" : " (iteration cap)");
     printf("  model mesh       %s: %lu vertices, %lu triangles; model-to-data RMS %.4f %%, max %.4f %%\n",
            a->output, (unsigned long)mesh_vertices, (unsigned long)mesh_triangles,
-           100.0 * model_to_data_rms / r->error.diagonal, 100.0 * model_to_data_max / r->error.diagonal);
+           100.0 * model_to_data->rms_relative, 100.0 * model_to_data->max_relative);
     if (a->points_output) printf("  data points      %s (with their distance to the model)\n", a->points_output);
     printf("  time             %.1f ms (read %.1f, fit %.1f, mesh and write %.1f)\n", 1e3 * (t[3] - t[0]),
            1e3 * (t[1] - t[0]), 1e3 * (t[2] - t[1]), 1e3 * (t[3] - t[2]));
 }
 
-/* Distance from each of n queries to the nearest of the points: per-query
-   values, their RMS and max. 0 on success. */
-static int nearest_distances(const double *points, size_t n, const double *queries, size_t m, double *out,
-                             double *rms, double *max)
+/* Model-to-data distances at the vertices of the written mesh: the library's
+   measure, on a copy of the model whose grid is the mesh's (the vertices come
+   in sqffd_model_mesh's order). */
+static sqffd_result mesh_to_data(const sqffd_model *model, const int mesh[2], const double *points, size_t n,
+                                 double *per_vertex, sqffd_distance_stats *stats)
 {
-    size_t size = sqffd_kdtree_workspace_size(n), i;
-    void *work = size ? malloc(size) : NULL;
-    sqffd_kdtree tree;
-    double sum = 0.0;
-    if (!work) return 1;
-    if (sqffd_kdtree_build(&tree, points, n, work, size) != SQFFD_OK) {
-        free(work);
-        return 1;
-    }
-    *max = 0.0;
-    for (i = 0; i < m; i++) {
-        double d2;
-        sqffd_kdtree_nearest(&tree, queries + 3 * i, &d2);
-        out[i] = sqrt(d2);
-        sum += d2;
-        if (out[i] > *max) *max = out[i];
-    }
-    *rms = m ? sqrt(sum / (double)m) : 0.0;
+    sqffd_model shown = *model;
+    size_t size;
+    void *work;
+    sqffd_result r;
+    shown.grid[0] = mesh[0];
+    shown.grid[1] = mesh[1];
+    size = sqffd_model_reverse_distances_workspace_size(n, &shown);
+    work = size ? malloc(size) : NULL;
+    r = work ? sqffd_model_reverse_distances(&shown, points, n, per_vertex, stats, work, size) : SQFFD_ERROR_TOO_LARGE;
     free(work);
-    return 0;
+    return r;
 }
 
 static int cmd_fit(int argc, char **argv)
@@ -322,7 +314,7 @@ static int cmd_fit(int argc, char **argv)
     sqffd_fit_report report;
     sqffd_result r;
     double *points = NULL, *vertices = NULL, *vertex_error = NULL, *point_error = NULL, t[4];
-    double mesh_rms = 0.0, mesh_max = 0.0;
+    sqffd_distance_stats mesh_stats;
     uint32_t *triangles = NULL;
     void *work = NULL;
     size_t n, work_size, nv = 0, nt = 0;
@@ -369,9 +361,14 @@ static int cmd_fit(int argc, char **argv)
     vertex_error = (double *)malloc(nv * sizeof *vertex_error);
     triangles = (uint32_t *)malloc(3 * nt * sizeof *triangles);
     if (!vertices || !vertex_error || !triangles ||
-        sqffd_model_mesh(&model, a.mesh[0], a.mesh[1], vertices, triangles) != SQFFD_OK ||
-        nearest_distances(points, n, vertices, nv, vertex_error, &mesh_rms, &mesh_max)) {
+        sqffd_model_mesh(&model, a.mesh[0], a.mesh[1], vertices, triangles) != SQFFD_OK) {
         fprintf(stderr, "%s: could not build the model mesh (out of memory?)\n", a.output);
+        goto done;
+    }
+    r = mesh_to_data(&model, a.mesh, points, n, vertex_error, &mesh_stats);
+    if (r != SQFFD_OK) {
+        fprintf(stderr, "%s: could not measure the mesh's distances to the data: %s\n", a.output,
+                sqffd_result_string(r));
         goto done;
     }
     scalar.name = "error";
@@ -400,7 +397,7 @@ static int cmd_fit(int argc, char **argv)
         }
     }
     t[3] = seconds_now();
-    if (!a.quiet) fit_report(&a, n, &model, &report, nv, nt, mesh_rms, mesh_max, t);
+    if (!a.quiet) fit_report(&a, n, &model, &report, nv, nt, &mesh_stats, t);
     status = 0;
 done:
     free(points);
