@@ -10,6 +10,8 @@
 #include <stdio.h>
 #include <string.h>
 
+#define MAX_RUNS 31 /* the 6,000-point rows: this VM's speed drifts by tens of percent for seconds at a time */
+
 typedef struct row {
     double total, sq, ffd0, ffd, pass; /* medians, seconds */
     double sq_error, error, reverse;
@@ -56,7 +58,7 @@ static double closest_pass(const sqffd_model *m, const double *pts, size_t n)
 
 static int measure(const double *pts, size_t n, const sqffd_fit_options *o, int runs, row *r)
 {
-    double total[11], sq[11], ffd0[11], ffd[11], pass[11];
+    double total[MAX_RUNS], sq[MAX_RUNS], ffd0[MAX_RUNS], ffd[MAX_RUNS], pass[MAX_RUNS];
     size_t size = sqffd_fit_workspace_size(n, o), k, sq_size;
     size_t sq_n = o->sq_max_points && n > o->sq_max_points ? o->sq_max_points : n;
     size_t ffd_n = o->ffd_max_points && n > o->ffd_max_points ? o->ffd_max_points : n;
@@ -119,7 +121,7 @@ static void print_row(const char *name, size_t n, const row *r)
 int main(void)
 {
     const size_t sizes[3] = {6000, 100000, 1000000};
-    const int runs[3] = {11, 5, 3};
+    const int runs[3] = {MAX_RUNS, 5, 3};
     phantom_lv ph = phantom_lv_default();
     sqffd_fit_options o = sqffd_fit_options_default();
     row r;
