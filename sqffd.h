@@ -264,8 +264,9 @@ SQFFD_DEF sqffd_result sqffd_ncg_minimize(int n, sqffd_objective_fn f, sqffd_pro
    stay alive and unchanged while the tree is used (points that move a
    little, as a deforming surface's do, can take the tree along:
    sqffd_kdtree_refit). Memory: 4 bytes per point for the permutation plus at
-   most one 24-byte node per 2.5 points (under 14 bytes per point in all). The fields are readable but belong to the
-   library. A built tree is read-only: any number of threads may query it.
+   most one 24-byte node per 2.5 points (under 14 bytes per point in all). The
+   fields are readable but belong to the library. A built tree is read-only:
+   any number of threads may query it.
 
    Splits: the widest side of a node's tight bounding box is cut at its middle
    (so the cut always lies inside the data), each child keeps at least 5 points
@@ -3232,10 +3233,11 @@ static void sqffd__sq_reweight(sqffd__sq_mixture *mix, const sqffd_superquadric 
     sqffd__sq_mstep(mix, m);
 }
 
-/* Weighted (weights NULL = 1) mean of the squared radial distance, and the
-   weighted sum of squared residuals of the fit's cost into *cost: one ln F
-   per point serves both. */
-static double sqffd__sq_mean_d2(const sqffd__sq_fit *fit, const sqffd_superquadric *sq, const double *pts,
+/* The closing statistics over m points: the weighted (weights NULL = 1)
+   mean of the squared radial distance (returned), and the weighted sum of
+   squared residuals of the fit's cost into *cost; one ln F per point serves
+   both. */
+static double sqffd__sq_closing_stats(const sqffd__sq_fit *fit, const sqffd_superquadric *sq, const double *pts,
                                 const double *weights, size_t m, double *cost)
 {
     double sum = 0.0, sum_w = 0.0, q[3], u[3], inv_f[2], power;
@@ -3568,7 +3570,7 @@ SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_
     sqffd__sq_mixture mix; /* robust mode's mixture */
     double centroid[3], scale, centre[3], cov[9], values[3], axes[9], best_cost = 0.0;
     const double *start_pts, *final_pts, *weights;
-    double rms, mean_d2, final_cost;
+    double rms, mean_d2 = 0.0, final_cost = 0.0;
     int k, best_start = 0, converged = 0;
     if (!points || !sq || !sqffd__sq_options_valid(o)) return SQFFD_ERROR_INVALID_ARGUMENT;
     if (n < SQFFD_SQ_FIT_MIN_POINTS) return SQFFD_ERROR_TOO_FEW_POINTS;
@@ -3671,10 +3673,10 @@ SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_
        within the box enlarged by the margin. */
     weights = o->robust ? w.weights : NULL;
     /* robust mode: the last EM step's sigma^2 is this weighted mean already */
-    mean_d2 = sqffd__sq_mean_d2(&fit, &best, w.points, weights, n, &final_cost);
+    if (!o->robust || report) mean_d2 = sqffd__sq_closing_stats(&fit, &best, w.points, weights, n, &final_cost);
     rms = sqrt(o->robust ? mix.sigma2 : mean_d2);
     if (rms > SQFFD__SQ_CLOSE_FIT * (best.size[0] + best.size[1] + best.size[2]) / 3.0 && sqffd__sq_contain(&fit, &best))
-        rms = sqrt(sqffd__sq_mean_d2(&fit, &best, w.points, weights, n, &final_cost));
+        rms = sqrt(sqffd__sq_closing_stats(&fit, &best, w.points, weights, n, &final_cost));
     if (report) {
         double sum_w = 0.0;
         for (i = 0; i < n; i++) sum_w += weights ? weights[i] : 1.0;
@@ -4063,7 +4065,7 @@ typedef struct sqffd__fit_search {
     /* the warm start (anchor NULL: none), per data point */
     uint32_t *anchor;        /* the nearest vertex at the last tree query */
     double *outside;         /* lower bound on the distance to any vertex outside the anchor's closed ring */
-    double *vertex_slack;    /* the gap between the nearest vertex and the runner-up less twice the largest moves since */
+    double *vertex_slack;    /* the gap between the nearest vertex and the runner-up (or outside) less the moves since */
     uint32_t (*triangle)[3]; /* the closest triangle of the last fan search (its corner 0: the fan's vertex) */
     double *triangle_slack;  /* that fan's gap less twice its largest moves since (< 0: search the fan) */
     double moved;            /* largest vertex move since the previous pass */
@@ -4250,6 +4252,7 @@ static void sqffd__fit_search_init(sqffd__fit_search *s, const double *x, const 
     s->exact = 1;
     s->tree_ws = tree_ws;
     s->tree_size = tree_size;
+    s->tree_state = SQFFD__FIT_TREE_NONE;
 }
 
 /* One pass over the data against the search's mesh: each point's distance
