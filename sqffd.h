@@ -3930,6 +3930,52 @@ static size_t sqffd__fit_ring_at(const sqffd__fit_ring *r, size_t k)
     return r->pole_row != SQFFD__FIT_NOT_POLE ? r->pole_row + k : r->v[k];
 }
 
+/* Blocks: the grid cut into at most SQFFD__FIT_BLOCKS x SQFFD__FIT_BLOCKS
+   rectangles of rows and columns, then one block per pole (the last two).
+   A block's hood is itself and the blocks next to it (columns wrapping; a
+   pole's hood is its adjacent block row, that row's hood includes the pole),
+   so a vertex's closed ring always lies in its block's hood. The closest-point
+   search bounds the moves near a point by its hood's and only those farther
+   away by the largest of all. */
+#define SQFFD__FIT_BLOCKS 8
+#define SQFFD__FIT_MAX_BLOCKS (SQFFD__FIT_BLOCKS * SQFFD__FIT_BLOCKS + 2)
+
+typedef struct sqffd__fit_blocks {
+    int rows, cols;           /* regular blocks: rows x cols, then the south and north pole */
+    unsigned char row[SQFFD__FIT_MAX_BLOCKS], col[SQFFD__FIT_MAX_BLOCKS]; /* of each regular block */
+    unsigned char *of;        /* per mesh vertex: its block */
+} sqffd__fit_blocks;
+
+static void sqffd__fit_block_table(const int grid[2], sqffd__fit_blocks *b)
+{
+    size_t i, j, rows = (size_t)grid[0], cols = (size_t)grid[1];
+    b->rows = grid[0] < SQFFD__FIT_BLOCKS ? grid[0] : SQFFD__FIT_BLOCKS;
+    b->cols = grid[1] < SQFFD__FIT_BLOCKS ? grid[1] : SQFFD__FIT_BLOCKS;
+    for (i = 0; i < rows; ++i)
+        for (j = 0; j < cols; ++j)
+            b->of[i * cols + j] = (unsigned char)(i * (size_t)b->rows / rows * (size_t)b->cols + j * (size_t)b->cols / cols);
+    for (i = 0; i < (size_t)(b->rows * b->cols); ++i) {
+        b->row[i] = (unsigned char)(i / (size_t)b->cols);
+        b->col[i] = (unsigned char)(i % (size_t)b->cols);
+    }
+    b->of[rows * cols] = (unsigned char)(b->rows * b->cols);
+    b->of[rows * cols + 1] = (unsigned char)(b->rows * b->cols + 1);
+}
+
+/* Whether block c is in block a's hood (a symmetric relation). */
+static int sqffd__fit_in_hood(const sqffd__fit_blocks *b, int a, int c)
+{
+    int regular = b->rows * b->cols, dj;
+    if (a >= regular && c >= regular) return a == c;
+    if (a >= regular || c >= regular) { /* a pole and a regular block: the pole's adjacent row */
+        int pole = a >= regular ? a : c, row = b->row[a >= regular ? c : a];
+        return row == (pole == regular ? 0 : b->rows - 1);
+    }
+    dj = b->col[a] - b->col[c];
+    dj = dj < 0 ? -dj : dj;
+    return b->row[a] - b->row[c] <= 1 && b->row[c] - b->row[a] <= 1 && (dj <= 1 || dj == b->cols - 1);
+}
+
 /* Closest point to q on the triangle (v, v + ea, v + eb), from ap = q - v:
    its barycentric weights w (of v, a, b; w[0] is exactly 0 on the edge ab
    and its ends), by the Voronoi regions of the vertices, edges and face
@@ -4031,18 +4077,23 @@ static double sqffd__fit_walk(const double *x, const sqffd__fit_ring *rings, con
    A data point's answer (its nearest mesh vertex, and the closest triangle of
    that vertex's fan) rarely changes between two iterations, whose model
    points move little, and a distance to a vertex or to a triangle changes by
-   at most the largest move of the vertices involved. So each point keeps
-   three bounds, each less the moves summed since it was taken:
-   - the gap between its nearest and runner-up vertex: while the moves
-     (the nearest's own plus the largest) stay below it, the nearest vertex
-     is the same;
-   - a lower bound on the distance to every vertex outside the anchor's
-     closed ring (anchor: the nearest vertex at its last tree query): while
-     the nearest vertex of that ring is nearer, it is the nearest of all;
+   at most the move of the vertex involved. Moves differ by region (a region
+   no data reach drifts most), so vertices in the hood of the anchor's block
+   (anchor: the nearest vertex at the point's last tree query) are bounded by
+   the hood's largest move and only those outside it by the largest of all.
+   Each point keeps four bounds, each less the moves since it was taken:
+   - the gap between its nearest vertex and every other vertex in the hood;
+   - the gap between its nearest vertex and every vertex outside the hood:
+     while both stay positive, the nearest vertex is the same;
+   - a lower bound on the distance to the hood's vertices outside the
+     anchor's closed ring: while the nearest vertex of that ring is nearer,
+     and nearer than the vertices outside the hood (their blocks' bounding
+     boxes are measured when the gap above no longer tells), it is the
+     nearest of all;
    - the gap between the fan's closest and runner-up triangles: while the
      moves (the triangle's own corners' plus the fan's largest) stay below
      it, only that triangle is measured again.
-   Only when the first two fail is the tree asked; it is built once and
+   Only when the first three fail is the tree asked; it is built once and
    refitted to the moved vertices when next asked (O(M) instead of a
    rebuild's O(M log M): the mesh deforms smoothly, so its partition stays
    good). Every way the answer is the one a fresh
@@ -4064,13 +4115,20 @@ typedef struct sqffd__fit_search {
     int tree_state;          /* SQFFD__FIT_TREE_... */
     /* the warm start (anchor NULL: none), per data point */
     uint32_t *anchor;        /* the nearest vertex at the last tree query */
-    double *outside;         /* lower bound on the distance to any vertex outside the anchor's closed ring */
-    double *vertex_slack;    /* the gap between the nearest vertex and the runner-up (or outside) less the moves since */
+    double *outside;         /* lower bound on the distance to the hood's vertices outside the anchor's closed ring */
+    double *vertex_slack;    /* the gap between the nearest vertex and the hood's others, less the moves since */
+    double *far_slack;       /* the gap between the nearest vertex and the vertices outside the hood, less the moves since */
     uint32_t (*triangle)[3]; /* the closest triangle of the last fan search (its corner 0: the fan's vertex) */
     double *triangle_slack;  /* that fan's gap less twice its largest moves since (< 0: search the fan) */
+    sqffd__fit_blocks blocks;
     double moved;            /* largest vertex move since the previous pass */
     double *vertex_moved;    /* per mesh vertex: its move since the previous pass */
     double *fan_moved;       /* per mesh vertex: largest move of its fan's vertices since the previous pass */
+    double *block_moved;     /* per block: largest move of its vertices since the previous pass */
+    double *hood_moved;      /* per block: largest of its hood's block_moved */
+    double (*box)[6];        /* per block: its vertices' bounding box (low, high), when boxes_current */
+    double *separation;      /* per block: the gap between its box and those outside its hood (< 0: not measured) */
+    int boxes_current;
     double margin;           /* allowance for rounding in the distances */
     int exact;               /* 0: a pass between a fit's first and last (see above) */
 } sqffd__fit_search;
@@ -4090,36 +4148,98 @@ static int sqffd__fit_in_ring(const sqffd__fit_ring *r, size_t v, size_t u)
     return 0;
 }
 
+/* The squared distance from q to a bounding box (low, high). */
+static double sqffd__fit_box_dist2(const double box[6], const double q[3])
+{
+    double d2 = 0.0;
+    int k;
+    for (k = 0; k < 3; ++k) {
+        double below = box[k] - q[k], above = q[k] - box[3 + k];
+        double d = below > 0.0 ? below : above > 0.0 ? above : 0.0;
+        d2 += d * d;
+    }
+    return d2;
+}
+
+/* A lower bound on the distance from q to every vertex outside block a's
+   hood: the gap between a's bounding box and the nearest of those blocks'
+   (measured once a pass), less q's distance from a's box. */
+static double sqffd__fit_far(sqffd__fit_search *s, const double q[3], int a)
+{
+    const sqffd__fit_blocks *b = &s->blocks;
+    int count = b->rows * b->cols + 2, c, k;
+    if (!s->boxes_current) {
+        size_t v;
+        for (c = 0; c < count; ++c) {
+            for (k = 0; k < 3; ++k) { s->box[c][k] = HUGE_VAL; s->box[c][3 + k] = -HUGE_VAL; }
+            s->separation[c] = -1.0;
+        }
+        for (v = 0; v < s->count; ++v) {
+            double *box = s->box[b->of[v]];
+            const double *p = s->x + 3 * v;
+            for (k = 0; k < 3; ++k) {
+                box[k] = p[k] < box[k] ? p[k] : box[k];
+                box[3 + k] = p[k] > box[3 + k] ? p[k] : box[3 + k];
+            }
+        }
+        s->boxes_current = 1;
+    }
+    if (s->separation[a] < 0.0) {
+        double best = HUGE_VAL;
+        for (c = 0; c < count; ++c)
+            if (!sqffd__fit_in_hood(b, a, c)) {
+                double d2 = 0.0;
+                for (k = 0; k < 3; ++k) {
+                    double below = s->box[c][k] - s->box[a][3 + k], above = s->box[a][k] - s->box[c][3 + k];
+                    double d = below > 0.0 ? below : above > 0.0 ? above : 0.0;
+                    d2 += d * d;
+                }
+                best = d2 < best ? d2 : best;
+            }
+        s->separation[a] = sqrt(best);
+    }
+    return s->separation[a] - sqrt(sqffd__fit_box_dist2(s->box[a], q));
+}
+
 /* The nearest mesh vertex to data point i at q. */
 static sqffd_result sqffd__fit_nearest_vertex(sqffd__fit_search *s, size_t i, const double q[3], size_t *nearest)
 {
     size_t near[SQFFD__FIT_KNN], k, count;
     double d2[SQFFD__FIT_KNN], d[SQFFD__FIT_KNN];
     const sqffd__fit_ring *r;
-    if (s->anchor) {
-        s->outside[i] -= s->moved;
-        if (s->triangle[i][0] != UINT32_MAX) /* (else no answer yet) others came nearer, it went farther */
-            s->vertex_slack[i] -= s->moved + s->vertex_moved[s->triangle[i][0]];
-        if (s->vertex_slack[i] > s->margin) { /* still the last pass's nearest vertex */
-            *nearest = s->triangle[i][0];
+    if (s->anchor && s->triangle[i][0] != UINT32_MAX) { /* (else no answer yet) */
+        size_t v = s->triangle[i][0], a = s->anchor[i];
+        double local = s->hood_moved[s->blocks.of[a]];
+        /* others came nearer by at most their moves, v went farther by at most its own */
+        s->outside[i] -= local;
+        s->vertex_slack[i] -= local + s->vertex_moved[v];
+        s->far_slack[i] -= s->moved + s->vertex_moved[v];
+        if (s->vertex_slack[i] > s->margin && s->far_slack[i] > s->margin) { /* still the last pass's nearest vertex */
+            *nearest = v;
             return SQFFD_OK;
         }
         if (s->outside[i] > s->margin) { /* the nearest of the anchor's closed ring, if nearer than the rest */
-            size_t v = s->anchor[i];
-            double best = sqffd__dist2_3(q, s->x + 3 * v), second = HUGE_VAL;
-            r = s->rings + v;
-            *nearest = v;
+            double best = sqffd__dist2_3(q, s->x + 3 * a), second = HUGE_VAL, last = 0.0, far;
+            r = s->rings + a;
+            *nearest = a;
+            if (v == a) last = best;
             for (k = 0; k < r->count; ++k) {
                 size_t u = sqffd__fit_ring_at(r, k);
                 double du = sqffd__dist2_3(q, s->x + 3 * u);
+                if (u == v) last = du;
                 if (du < best) { second = best; best = du; *nearest = u; }
                 else if (du < second) second = du;
             }
             best = sqrt(best);
+            far = s->far_slack[i] + sqrt(last); /* v is in the closed ring (last = 0 would still be a bound) */
             if (best < s->outside[i] - s->margin) {
-                second = sqrt(second);
-                s->vertex_slack[i] = (second < s->outside[i] ? second : s->outside[i]) - best;
-                return SQFFD_OK;
+                if (!(best < far - s->margin)) far = sqffd__fit_far(s, q, s->blocks.of[a]);
+                if (best < far - s->margin) {
+                    second = sqrt(second);
+                    s->vertex_slack[i] = (second < s->outside[i] ? second : s->outside[i]) - best;
+                    s->far_slack[i] = far - best;
+                    return SQFFD_OK;
+                }
             }
         }
     }
@@ -4143,6 +4263,7 @@ static sqffd_result sqffd__fit_nearest_vertex(sqffd__fit_search *s, size_t i, co
         r = s->rings + near[0];
         for (k = 1; k < count; ++k)
             if (d[k] < s->outside[i] && !sqffd__fit_in_ring(r, near[0], near[k])) s->outside[i] = d[k];
+        s->far_slack[i] = s->outside[i] - d[0]; /* a bound for the whole rest, the outside of the hood included */
     }
     return SQFFD_OK;
 }
@@ -4181,17 +4302,46 @@ static sqffd_result sqffd__fit_closest(sqffd__fit_search *s, size_t i, const dou
     return SQFFD_OK;
 }
 
+/* Per block, the largest move in its hood (see sqffd__fit_in_hood). */
+static void sqffd__fit_hood_moves(const sqffd__fit_blocks *b, const double *block_moved, double *hood_moved)
+{
+    int regular = b->rows * b->cols, i, j, di, dj;
+    hood_moved[regular] = block_moved[regular];
+    hood_moved[regular + 1] = block_moved[regular + 1];
+    for (i = 0; i < b->rows; ++i)
+        for (j = 0; j < b->cols; ++j) {
+            double m = 0.0, own = block_moved[i * b->cols + j];
+            for (di = i > 0 ? -1 : 0; di <= 1 && i + di < b->rows; ++di)
+                for (dj = -1; dj <= 1; ++dj) {
+                    double other = block_moved[(i + di) * b->cols + (j + dj + b->cols) % b->cols];
+                    m = other > m ? other : m;
+                }
+            if (i == 0) { /* the south pole's hood is this row */
+                m = block_moved[regular] > m ? block_moved[regular] : m;
+                hood_moved[regular] = own > hood_moved[regular] ? own : hood_moved[regular];
+            }
+            if (i == b->rows - 1) {
+                m = block_moved[regular + 1] > m ? block_moved[regular + 1] : m;
+                hood_moved[regular + 1] = own > hood_moved[regular + 1] ? own : hood_moved[regular + 1];
+            }
+            hood_moved[i * b->cols + j] = m;
+        }
+}
+
 /* The moves from x to next into the search's warm start (each vertex's,
-   largest overall and per fan); returns the sum of their squares. */
+   largest overall, per fan and per hood); returns the sum of their squares. */
 static double sqffd__fit_moves(sqffd__fit_search *s, const double *x, const double *next)
 {
     size_t v, k;
+    int c, blocks = s->blocks.rows * s->blocks.cols + 2;
     double sum2 = 0.0, max = 0.0;
+    for (c = 0; c < blocks; ++c) s->block_moved[c] = 0.0;
     for (v = 0; v < s->count; ++v) {
-        double move2 = sqffd__dist2_3(next + 3 * v, x + 3 * v);
+        double move2 = sqffd__dist2_3(next + 3 * v, x + 3 * v), *block = s->block_moved + s->blocks.of[v];
         sum2 += move2;
         s->vertex_moved[v] = sqrt(move2);
         max = s->vertex_moved[v] > max ? s->vertex_moved[v] : max;
+        *block = s->vertex_moved[v] > *block ? s->vertex_moved[v] : *block;
     }
     for (v = 0; v < s->count; ++v) {
         const sqffd__fit_ring *r = s->rings + v;
@@ -4202,7 +4352,9 @@ static double sqffd__fit_moves(sqffd__fit_search *s, const double *x, const doub
         }
         s->fan_moved[v] = fan;
     }
+    sqffd__fit_hood_moves(&s->blocks, s->block_moved, s->hood_moved);
     s->moved = max;
+    s->boxes_current = 0;
     if (s->tree_state == SQFFD__FIT_TREE_CURRENT) s->tree_state = SQFFD__FIT_TREE_MOVED;
     return sum2;
 }
@@ -4276,16 +4428,14 @@ static sqffd_result sqffd__fit_pass(const double *points, size_t n, sqffd__fit_s
         sum += d; sum2 += d2;
         if (d > max) max = d;
         if (per_point) per_point[i] = d;
-        if (sums) {
-            double c[3], dq[3];
+        if (sums) { /* (scalars, not a small array: a store-to-load stall per point otherwise) */
             const double *a = x + 3 * tri[0], *b = x + 3 * tri[1], *e = x + 3 * tri[2];
-            for (k = 0; k < 3; ++k) {
-                c[k] = w[0] * a[k] + w[1] * b[k] + w[2] * e[k];
-                dq[k] = q[k] - c[k];
-            }
+            double dx = q[0] - (w[0] * a[0] + w[1] * b[0] + w[2] * e[0]);
+            double dy = q[1] - (w[0] * a[1] + w[1] * b[1] + w[2] * e[1]);
+            double dz = q[2] - (w[0] * a[2] + w[1] * b[2] + w[2] * e[2]);
             for (k = 0; k < 3; ++k) {
                 double *s = sums + 3 * tri[k];
-                s[0] += w[k] * dq[0]; s[1] += w[k] * dq[1]; s[2] += w[k] * dq[2];
+                s[0] += w[k] * dx; s[1] += w[k] * dy; s[2] += w[k] * dz;
                 weights[tri[k]] += w[k];
             }
         }
@@ -4564,6 +4714,7 @@ typedef struct sqffd__fit_system {
     sqffd_solver solver;
     double *weights;     /* M x stride */
     sqffd__fit_ring *rings; /* M: the mesh's ring table */
+    sqffd__fit_blocks blocks; /* and its blocks */
     uint32_t *run;       /* runs + 1: the first point of each run, then M */
     size_t runs;
     double *matrix;      /* L x L: Cholesky factor, or V of the stacked system's SVD */
@@ -4587,9 +4738,10 @@ typedef struct sqffd__fit_work {
     void *tree_ws;       /* tree over the model points */
     size_t tree_size;
     uint32_t *anchor, (*triangle)[3]; /* per FFD data point: the closest-point search's warm start */
-    double *outside, *vertex_slack, *triangle_slack;
+    double *outside, *vertex_slack, *far_slack, *triangle_slack;
     double *fan_moved;   /* M */
     double *vertex_moved;/* M */
+    double *block_moved, *hood_moved, *separation, (*box)[6]; /* per block */
     void *data_ws;       /* tree over the data (symmetric option) */
     size_t data_size;
     double *sample;      /* the FFD subsample (NULL: all points) */
@@ -4633,6 +4785,7 @@ static void sqffd__fit_layout(sqffd__arena *a, size_t n, const int dims[3], cons
     s->weights = (double *)sqffd__arena_take(a, m, s->stride * sizeof(double));
     s->run = (uint32_t *)sqffd__arena_take(a, m + 1, sizeof(uint32_t));
     s->rings = (sqffd__fit_ring *)sqffd__arena_take(a, m, sizeof(sqffd__fit_ring));
+    s->blocks.of = (unsigned char *)sqffd__arena_take(a, m, 1);
     s->matrix = (double *)sqffd__arena_take(a, l * l, sizeof(double));
     s->inverse_s2 = (double *)sqffd__arena_take(a, l, sizeof(double));
     s->rhs0 = (double *)sqffd__arena_take(a, 3 * l, sizeof(double));
@@ -4662,10 +4815,15 @@ static void sqffd__fit_layout(sqffd__arena *a, size_t n, const int dims[3], cons
     w->anchor = (uint32_t *)sqffd__arena_take(a, w->sample_count, sizeof(uint32_t));
     w->outside = (double *)sqffd__arena_take(a, w->sample_count, sizeof(double));
     w->vertex_slack = (double *)sqffd__arena_take(a, w->sample_count, sizeof(double));
+    w->far_slack = (double *)sqffd__arena_take(a, w->sample_count, sizeof(double));
     w->triangle = (uint32_t (*)[3])sqffd__arena_take(a, w->sample_count, 3 * sizeof(uint32_t));
     w->triangle_slack = (double *)sqffd__arena_take(a, w->sample_count, sizeof(double));
     w->fan_moved = (double *)sqffd__arena_take(a, m, sizeof(double));
     w->vertex_moved = (double *)sqffd__arena_take(a, m, sizeof(double));
+    w->block_moved = (double *)sqffd__arena_take(a, SQFFD__FIT_MAX_BLOCKS, sizeof(double));
+    w->hood_moved = (double *)sqffd__arena_take(a, SQFFD__FIT_MAX_BLOCKS, sizeof(double));
+    w->separation = (double *)sqffd__arena_take(a, SQFFD__FIT_MAX_BLOCKS, sizeof(double));
+    w->box = (double (*)[6])sqffd__arena_take(a, SQFFD__FIT_MAX_BLOCKS, 6 * sizeof(double));
     if (o->symmetric) {
         w->data_size = sqffd_kdtree_workspace_size(w->sample_count);
         if (w->data_size == 0) a->overflow = 1;
@@ -4714,6 +4872,7 @@ static sqffd_result sqffd__fit_prepare(const sqffd_model *model, const sqffd_fit
     alpha = o->alpha * (double)m / (double)l;
     root = sqrt(alpha);
     sqffd__fit_rings(s->grid, s->rings);
+    sqffd__fit_block_table(s->grid, &s->blocks);
     s->runs = 0;
     for (v = 0; v < m; ++v) {
         double eta, omega, pt[3], stu[3];
@@ -4906,12 +5065,18 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
     search.anchor = w->anchor;
     search.outside = w->outside;
     search.vertex_slack = w->vertex_slack;
+    search.far_slack = w->far_slack;
+    search.blocks = s->blocks;
+    search.block_moved = w->block_moved;
+    search.hood_moved = w->hood_moved;
+    search.box = w->box;
+    search.separation = w->separation;
     search.triangle_slack = w->triangle_slack;
     search.fan_moved = w->fan_moved;
     search.vertex_moved = w->vertex_moved;
     for (i = 0; i < n; ++i) { /* no warm start yet */
         w->anchor[i] = 0;
-        w->outside[i] = w->vertex_slack[i] = -HUGE_VAL;
+        w->outside[i] = w->vertex_slack[i] = w->far_slack[i] = -HUGE_VAL;
         w->triangle[i][0] = UINT32_MAX;
         for (p = 0; p < 3; ++p) magnitude = fabs(points[3 * i + p]) > magnitude ? fabs(points[3 * i + p]) : magnitude;
     }

@@ -36,5 +36,6 @@ void suite_kdtree(void);
 void suite_superquadric(void);
 void suite_ffd(void);
 void suite_io(void);
+void suite_internal(void);
 
 #endif

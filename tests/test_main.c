@@ -43,6 +43,7 @@ int main(int argc, char **argv)
     suite_superquadric();
     suite_ffd();
     suite_io();
+    suite_internal();
     printf("%d passed, %d failed\n", passed, failed);
     return failed ? 1 : 0;
 }
