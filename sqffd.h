@@ -4103,7 +4103,7 @@ static double sqffd__fit_walk(const double *x, const sqffd__fit_ring *rings, con
    triangle while its closest point stays inside it: a local closest point,
    the same in practice (the fan search it saves is most of a pass's cost on
    smooth surfaces, where neighbouring triangles are all about as close). */
-#define SQFFD__FIT_KNN 4 /* neighbours a tree query fetches (measured: fewer repeat queries vs dearer ones) */
+#define SQFFD__FIT_KNN 3 /* neighbours a tree query fetches (measured: fewer repeat queries vs dearer ones) */
 
 typedef struct sqffd__fit_search {
     const double *x;         /* mesh vertices (the model points) */
@@ -5087,11 +5087,14 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
     for (it = 0;; ++it) {
         double step2;
         sqffd_result res;
-        memset(t, 0, 3 * m * sizeof(double));
-        memset(w->weights, 0, m * sizeof(double));
+        int last = it == o->max_iterations || rep->converged;
+        if (!last) { /* (the last pass only measures) */
+            memset(t, 0, 3 * m * sizeof(double));
+            memset(w->weights, 0, m * sizeof(double));
+        }
         search.x = x;
-        search.exact = it == 0 || it == o->max_iterations || rep->converged;
-        res = sqffd__fit_pass(points, n, &search, diagonal, NULL, t, w->weights, &rep->error);
+        search.exact = it == 0 || last;
+        res = sqffd__fit_pass(points, n, &search, diagonal, NULL, last ? NULL : t, w->weights, &rep->error);
         if (res != SQFFD_OK) return res;
         if (it == 0) rep->sq_error = rep->error;
         else {
@@ -5099,7 +5102,7 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
             if (o->progress && o->progress(o->progress_user, SQFFD_STAGE_FFD, it, rep->error.rms_relative))
                 return SQFFD_ERROR_CANCELLED;
         }
-        if (it == o->max_iterations || rep->converged) break;
+        if (last) break;
         /* step 1: X^a = X + each model point's weighted mean displacement (each data
            point pulls the three corners of its closest mesh triangle by their
            barycentric weights), interpolated where no data point pulled */
