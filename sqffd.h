@@ -2220,15 +2220,22 @@ static void sqffd__sq_taper(const sqffd_superquadric *sq, double s[3])
     s[1] *= f[1];
 }
 
+/* The world point of the untapered local point s: tapered, turned, moved. */
+static void sqffd__sq_place(const sqffd_superquadric *sq, const double s[3], double point[3])
+{
+    double q[3];
+    q[0] = s[0]; q[1] = s[1]; q[2] = s[2];
+    sqffd__sq_taper(sq, q);
+    sqffd__mat3_vec(sq->rotation, q, point);
+    point[0] += sq->center[0]; point[1] += sq->center[1]; point[2] += sq->center[2];
+}
+
 SQFFD_DEF void sqffd_sq_point(const sqffd_superquadric *sq, double eta, double omega, double point[3], double normal[3])
 {
     double s[3], q[3];
     SQFFD_ASSERT(sq && point);
     sqffd__sq_local_point(sq, eta, omega, s);
-    q[0] = s[0]; q[1] = s[1]; q[2] = s[2];
-    sqffd__sq_taper(sq, q);
-    sqffd__mat3_vec(sq->rotation, q, point);
-    point[0] += sq->center[0]; point[1] += sq->center[1]; point[2] += sq->center[2];
+    sqffd__sq_place(sq, s, point);
     if (normal) {
         /* Untapered normal: the direction of grad F, which on the surface is
            (C^(2-e1) C^(2-e2) / a1, C^(2-e1) S^(2-e2) / a2, S^(2-e1) / a3);
@@ -4313,7 +4320,8 @@ static void sqffd__fit_hood_moves(const sqffd__fit_blocks *b, const double *bloc
             double m = 0.0, own = block_moved[i * b->cols + j];
             for (di = i > 0 ? -1 : 0; di <= 1 && i + di < b->rows; ++di)
                 for (dj = -1; dj <= 1; ++dj) {
-                    double other = block_moved[(i + di) * b->cols + (j + dj + b->cols) % b->cols];
+                    int col = j + dj < 0 ? b->cols - 1 : j + dj >= b->cols ? 0 : j + dj;
+                    double other = block_moved[(i + di) * b->cols + col];
                     m = other > m ? other : m;
                 }
             if (i == 0) { /* the south pole's hood is this row */
@@ -4463,14 +4471,43 @@ SQFFD_DEF void sqffd_model_point(const sqffd_model *model, double eta, double om
 }
 
 /* The model's surface at every vertex of a grid. */
+/* The superquadric's points on the grid into x, each as sqffd_sq_point gives
+   it (to the bit) but with each row's and each column's powers taken once:
+   the columns' are parked in row 0's slots (its x and y), which rows
+   rows - 1 ... 1 read and row 0 reads last, each slot before it is
+   overwritten. */
+static void sqffd__fit_sq_grid(const sqffd_superquadric *sq, const int grid[2], double *x)
+{
+    size_t rows = (size_t)grid[0], cols = (size_t)grid[1], i, j, v;
+    double eta, omega, s[3];
+    for (j = 0; j < cols; ++j) {
+        sqffd__fit_grid_angles(grid, j, &eta, &omega);
+        x[3 * j] = sqffd__sq_spow(cos(omega), sq->shape[1]);
+        x[3 * j + 1] = sqffd__sq_spow(sin(omega), sq->shape[1]);
+    }
+    for (i = rows; i-- > 0;) {
+        double ce;
+        sqffd__fit_grid_angles(grid, i * cols, &eta, &omega);
+        ce = sqffd__sq_spow(cos(eta), sq->shape[0]);
+        s[2] = sq->size[2] * sqffd__sq_spow(sin(eta), sq->shape[0]);
+        for (j = 0; j < cols; ++j) {
+            s[0] = sq->size[0] * ce * x[3 * j];
+            s[1] = sq->size[1] * ce * x[3 * j + 1];
+            sqffd__sq_place(sq, s, x + 3 * (i * cols + j));
+        }
+    }
+    for (v = rows * cols; v < rows * cols + 2; ++v) {
+        sqffd__fit_grid_angles(grid, v, &eta, &omega);
+        sqffd_sq_point(sq, eta, omega, x + 3 * v, NULL);
+    }
+}
+
+/* The model's surface points on the grid into x. */
 static void sqffd__fit_surface(const sqffd_model *model, const int grid[2], double *x)
 {
     size_t v, count = sqffd__fit_grid_count(grid);
-    for (v = 0; v < count; ++v) {
-        double eta, omega;
-        sqffd__fit_grid_angles(grid, v, &eta, &omega);
-        sqffd_model_point(model, eta, omega, x + 3 * v);
-    }
+    sqffd__fit_sq_grid(&model->sq, grid, x);
+    for (v = 0; v < count; ++v) sqffd_ffd_deform(&model->ffd, x + 3 * v, x + 3 * v);
 }
 
 static int sqffd__fit_model_valid(const sqffd_model *model)
@@ -4871,9 +4908,9 @@ static void sqffd__fit_gram(const sqffd__fit_system *s, double *pairs, double *m
 }
 
 /* B's rows, the regularisation's right-hand side and the factor, from the
-   model's superquadric, box and grid. */
+   model's superquadric, box and grid (points: M x 3 scratch). */
 static sqffd_result sqffd__fit_prepare(const sqffd_model *model, const sqffd_fit_options *o, sqffd__fit_system *s,
-                                       double *pairs)
+                                       double *pairs, double *points)
 {
     sqffd_ffd regular; /* P0 */
     double alpha, root, run_u = 0.0;
@@ -4888,12 +4925,11 @@ static sqffd_result sqffd__fit_prepare(const sqffd_model *model, const sqffd_fit
     sqffd__fit_rings(s->grid, s->rings);
     sqffd__fit_block_table(s->grid, &s->blocks);
     s->runs = 0;
+    sqffd__fit_sq_grid(&model->sq, s->grid, points);
     for (v = 0; v < m; ++v) {
-        double eta, omega, pt[3], stu[3];
-        sqffd__fit_grid_angles(s->grid, v, &eta, &omega);
-        sqffd_sq_point(&model->sq, eta, omega, pt, NULL);
-        if (!sqffd__finite3(pt)) return SQFFD_ERROR_NON_FINITE;
-        sqffd_ffd_local(&model->ffd, pt, stu);
+        double stu[3];
+        if (!sqffd__finite3(points + 3 * v)) return SQFFD_ERROR_NON_FINITE;
+        sqffd_ffd_local(&model->ffd, points + 3 * v, stu);
         if (v > 0 && fabs(stu[2] - run_u) <= SQFFD__FIT_SNAP) stu[2] = run_u;
         else { s->run[s->runs++] = (uint32_t)v; run_u = stu[2]; }
         sqffd__ffd_axis_weights(s->dims, stu, s->weights + v * s->stride);
@@ -5245,7 +5281,7 @@ SQFFD_DEF sqffd_result sqffd_fit_ffd(const double *points, size_t n, const sqffd
     sqffd__fit_layout(&a, n, model->ffd.dims, model->grid, options, &s, &w);
     if (a.overflow) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
     memset(&local, 0, sizeof local);
-    res = sqffd__fit_prepare(model, options, &s, w.pairs);
+    res = sqffd__fit_prepare(model, options, &s, w.pairs, w.x);
     if (res == SQFFD_OK) res = sqffd__fit_run(points, n, diagonal, options, &s, &w, model, &local);
     if (report) *report = local;
     return res;
@@ -5290,7 +5326,7 @@ SQFFD_DEF sqffd_result sqffd_fit(const double *points, size_t n, const sqffd_fit
     res = sqffd_sq_fit(sample ? sample : points, k, &sq_options, &sq, &local.sq, sq_ws, sq_size);
     if (res == SQFFD_OK) res = sqffd_model_init(model, &sq, options);
     /* stage 2: the FFD */
-    if (res == SQFFD_OK) res = sqffd__fit_prepare(model, options, &s, w.pairs);
+    if (res == SQFFD_OK) res = sqffd__fit_prepare(model, options, &s, w.pairs, w.x);
     if (res == SQFFD_OK) res = sqffd__fit_run(points, n, diagonal, options, &s, &w, model, &local);
     if (report) *report = local;
     return res;
