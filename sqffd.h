@@ -3733,8 +3733,9 @@ static void sqffd__ffd_axis_weights(const int dims[3], const double stu[3], doub
 
 /* q_ij = sum_k wu_k P_ijk for every (i, j) (l*m entries): the first of the
    sums in sum_ijk ws_i wt_j wu_k P_ijk. The model fit shares it between the
-   points with the same u. */
-static void sqffd__ffd_sum_u(const int dims[3], const double (*control)[3], const double *wu, double (*q)[3])
+   points with the same u. Sums over points are kept in four lanes, the
+   fourth zero: the compiler does x, y, z (and the idle lane) as one vector. */
+static void sqffd__ffd_sum_u(const int dims[3], const double (*control)[3], const double *wu, double (*q)[4])
 {
     int ij, k;
     for (ij = 0; ij < dims[0] * dims[1]; ++ij) {
@@ -3745,24 +3746,23 @@ static void sqffd__ffd_sum_u(const int dims[3], const double (*control)[3], cons
             y += wu[k] * p[k][1];
             z += wu[k] * p[k][2];
         }
-        q[ij][0] = x; q[ij][1] = y; q[ij][2] = z;
+        q[ij][0] = x; q[ij][1] = y; q[ij][2] = z; q[ij][3] = 0.0;
     }
 }
 
 /* sum_ij ws_i wt_j q_ij: the rest of the sums. */
-static void sqffd__ffd_sum_st(const int dims[3], const double (*q)[3], const double *ws, const double *wt, double out[3])
+static void sqffd__ffd_sum_st(const int dims[3], const double (*q)[4], const double *ws, const double *wt, double out[3])
 {
-    double x = 0.0, y = 0.0, z = 0.0;
-    int i, j;
+    double sum[4] = {0.0, 0.0, 0.0, 0.0};
+    int i, j, c;
     for (i = 0; i < dims[0]; ++i) {
-        const double (*qi)[3] = q + i * dims[1];
-        double xi = 0.0, yi = 0.0, zi = 0.0;
-        for (j = 0; j < dims[1]; ++j) {
-            xi += wt[j] * qi[j][0]; yi += wt[j] * qi[j][1]; zi += wt[j] * qi[j][2];
-        }
-        x += ws[i] * xi; y += ws[i] * yi; z += ws[i] * zi;
+        const double (*qi)[4] = q + i * dims[1];
+        double row[4] = {0.0, 0.0, 0.0, 0.0};
+        for (j = 0; j < dims[1]; ++j)
+            for (c = 0; c < 4; ++c) row[c] += wt[j] * qi[j][c];
+        for (c = 0; c < 4; ++c) sum[c] += ws[i] * row[c];
     }
-    out[0] = x; out[1] = y; out[2] = z;
+    out[0] = sum[0]; out[1] = sum[1]; out[2] = sum[2];
 }
 
 static int sqffd__ffd_dims_valid(const int dims[3])
@@ -3815,12 +3815,12 @@ SQFFD_DEF void sqffd_ffd_local(const sqffd_ffd *ffd, const double point[3], doub
 
 SQFFD_DEF void sqffd_ffd_eval(const sqffd_ffd *ffd, const double stu[3], double out[3])
 {
-    double w[3 * SQFFD_MAX_LATTICE], q[SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE][3];
+    double w[3 * SQFFD_MAX_LATTICE], q[SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE][4];
     const int *d = ffd->dims;
     SQFFD_ASSERT(sqffd__ffd_dims_valid(d));
     sqffd__ffd_axis_weights(d, stu, w);
     sqffd__ffd_sum_u(d, (const double (*)[3])ffd->control, w + d[0] + d[1], q);
-    sqffd__ffd_sum_st(d, (const double (*)[3])q, w, w + d[0], out);
+    sqffd__ffd_sum_st(d, (const double (*)[4])q, w, w + d[0], out);
 }
 
 SQFFD_DEF void sqffd_ffd_deform(const sqffd_ffd *ffd, const double point[3], double out[3])
@@ -5083,14 +5083,14 @@ static void sqffd__fit_solve(const sqffd__fit_system *s, double *rhs, double *sc
 /* x = B P for every model point, run by run. */
 static void sqffd__fit_evaluate(const sqffd__fit_system *s, const sqffd_ffd *ffd, double *x)
 {
-    double q[SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE][3];
+    double q[SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE][4];
     size_t r, v;
     for (r = 0; r < s->runs; ++r) {
         const double *c = s->weights + (size_t)s->run[r] * s->stride + s->dims[0] + s->dims[1];
         sqffd__ffd_sum_u(s->dims, (const double (*)[3])ffd->control, c, q);
         for (v = s->run[r]; v < s->run[r + 1]; ++v) {
             const double *a = s->weights + v * s->stride;
-            sqffd__ffd_sum_st(s->dims, (const double (*)[3])q, a, a + s->dims[0], x + 3 * v);
+            sqffd__ffd_sum_st(s->dims, (const double (*)[4])q, a, a + s->dims[0], x + 3 * v);
         }
     }
 }
