@@ -4155,13 +4155,14 @@ static int sqffd__fit_in_ring(const sqffd__fit_ring *r, size_t v, size_t u)
     return 0;
 }
 
-/* The squared distance from q to a bounding box (low, high). */
-static double sqffd__fit_box_dist2(const double box[6], const double q[3])
+/* The squared gap between a bounding box (low, high) and the box from low
+   to high (a point when they are the same). */
+static double sqffd__fit_box_gap2(const double box[6], const double low[3], const double high[3])
 {
     double d2 = 0.0;
     int k;
     for (k = 0; k < 3; ++k) {
-        double below = box[k] - q[k], above = q[k] - box[3 + k];
+        double below = box[k] - high[k], above = low[k] - box[3 + k];
         double d = below > 0.0 ? below : above > 0.0 ? above : 0.0;
         d2 += d * d;
     }
@@ -4195,17 +4196,12 @@ static double sqffd__fit_far(sqffd__fit_search *s, const double q[3], int a)
         double best = HUGE_VAL;
         for (c = 0; c < count; ++c)
             if (!sqffd__fit_in_hood(b, a, c)) {
-                double d2 = 0.0;
-                for (k = 0; k < 3; ++k) {
-                    double below = s->box[c][k] - s->box[a][3 + k], above = s->box[a][k] - s->box[c][3 + k];
-                    double d = below > 0.0 ? below : above > 0.0 ? above : 0.0;
-                    d2 += d * d;
-                }
+                double d2 = sqffd__fit_box_gap2(s->box[c], s->box[a], s->box[a] + 3);
                 best = d2 < best ? d2 : best;
             }
         s->separation[a] = sqrt(best);
     }
-    return s->separation[a] - sqrt(sqffd__fit_box_dist2(s->box[a], q));
+    return s->separation[a] - sqrt(sqffd__fit_box_gap2(s->box[a], q, q));
 }
 
 /* The nearest mesh vertex to data point i at q. */
@@ -4470,7 +4466,6 @@ SQFFD_DEF void sqffd_model_point(const sqffd_model *model, double eta, double om
     sqffd_ffd_deform(&model->ffd, p, point);
 }
 
-/* The model's surface at every vertex of a grid. */
 /* The superquadric's points on the grid into x, each as sqffd_sq_point gives
    it (to the bit) but with each row's and each column's powers taken once:
    the columns' are parked in row 0's slots (its x and y), which rows
