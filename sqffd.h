@@ -4417,7 +4417,8 @@ static void sqffd__fit_search_init(sqffd__fit_search *s, const double *x, const 
    its closest mesh point is also spread over that triangle's vertices with
    the barycentric weights. Points go in batches: the searches of a batch
    first, then their sums (measured: each loop short enough for the processor
-   to overlap one point's search with the next, 6% off a fit). */
+   to overlap one point's search with the next: 20.8 -> 19.9 ms on the
+   6,000-point fit). */
 #define SQFFD__FIT_BATCH 16
 
 static sqffd_result sqffd__fit_pass(const double *points, size_t n, sqffd__fit_search *search, double diagonal,
