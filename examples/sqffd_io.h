@@ -14,6 +14,7 @@
    coordinates. Element indices in messages count from 0 (like PLY face
    indices), line numbers from 1. Coordinates keep the precision of their
    source: a PLY float property gives a float's value, in ascii files too.
+   sqffd_io_read_off_mesh also reads an OFF file's faces, as triangles.
 
    Writing: PLY (binary little endian, or ascii) of a point set or a triangle
    mesh, float x y z plus up to SQFFD_IO_MAX_SCALARS per-vertex float
@@ -302,21 +303,47 @@ static inline int sqffd_io__off_keyword(const char *tok, size_t len, int *other_
     return len - i == 3 && memcmp(tok + i, "OFF", 3) == 0;
 }
 
-/* OFF: keyword, counts line "vertices faces [edges]" (may follow the keyword
-   on its line), then one vertex per line (first three numbers; colours and
-   normals after them ignored); faces are not read. */
-static inline int sqffd_io_read_off(const void *data, size_t size, const char *name, double **points,
-                                    size_t *count, char *err, size_t err_size)
+/* Triangles as vertex index triples, the output of the OFF mesh reader. */
+typedef struct sqffd_io__triangles {
+    uint32_t *index;
+    size_t count, capacity;
+} sqffd_io__triangles;
+
+/* Appends the triangle (a, b, c); 0 on success. */
+static inline int sqffd_io__add_triangle(sqffd_io__triangles *tris, uint32_t a, uint32_t b, uint32_t c)
+{
+    if (tris->count == tris->capacity) {
+        size_t capacity = tris->capacity ? 2 * tris->capacity : 1024;
+        uint32_t *grown;
+        if (capacity > (size_t)-1 / (3 * sizeof(uint32_t))) return 1;
+        grown = (uint32_t *)realloc(tris->index, capacity * 3 * sizeof(uint32_t));
+        if (!grown) return 1;
+        tris->index = grown;
+        tris->capacity = capacity;
+    }
+    tris->index[3 * tris->count] = a;
+    tris->index[3 * tris->count + 1] = b;
+    tris->index[3 * tris->count + 2] = c;
+    tris->count++;
+    return 0;
+}
+
+/* The OFF parser behind both OFF readers: keyword, counts line "vertices
+   faces [edges]" (may follow the keyword on its line), then one vertex per
+   line (first three numbers; colours and normals after them ignored) into
+   pts. With tris non-NULL, then one face per line, "n i0 ... i(n-1)"
+   (colours after the indices ignored), as the fan of triangles
+   (i0, i(k-1), ik), k = 2 .. n-1; with tris NULL the faces are not read.
+   On failure the caller frees pts->xyz and tris->index. */
+static inline int sqffd_io__read_off(const void *data, size_t size, const char *name, sqffd_io__points *pts,
+                                     sqffd_io__triangles *tris, char *err, size_t err_size)
 {
     sqffd_io__text t;
-    sqffd_io__points pts = {NULL, 0, 0};
     const char *s, *e, *tok;
     size_t len, remaining;
     uint64_t counts[2], i;
     int other_dimension, k;
     char q[32];
-    *points = NULL;
-    *count = 0;
     t.p = (const char *)data;
     t.end = t.p + size;
     t.line = 0;
@@ -344,23 +371,110 @@ static inline int sqffd_io_read_off(const void *data, size_t size, const char *n
     if (counts[0] > (uint64_t)(remaining + 1) / 6)
         return sqffd_io__fail(err, err_size, name, "header says %llu vertices, file holds %llu bytes of data",
                               (unsigned long long)counts[0], (unsigned long long)remaining);
-    if (sqffd_io__reserve(&pts, (size_t)counts[0]))
+    if (sqffd_io__reserve(pts, (size_t)counts[0]))
         return sqffd_io__fail(err, err_size, name, "out of memory for %llu vertices", (unsigned long long)counts[0]);
     for (i = 0; i < counts[0]; i++) {
         char what[64];
-        if (!sqffd_io__next_line(&t, &s, &e)) {
-            free(pts.xyz);
+        if (!sqffd_io__next_line(&t, &s, &e))
             return sqffd_io__fail(err, err_size, name, "file ends after %llu of %llu vertices",
                                   (unsigned long long)i, (unsigned long long)counts[0]);
-        }
         snprintf(what, sizeof what, "vertex %llu (line %llu)", (unsigned long long)i, t.line);
-        if (sqffd_io__line_xyz(s, e, pts.xyz + 3 * i, name, what, err, err_size)) {
-            free(pts.xyz);
-            return 1;
+        if (sqffd_io__line_xyz(s, e, pts->xyz + 3 * i, name, what, err, err_size)) return 1;
+        pts->count++;
+    }
+    if (!tris) return 0;
+    if (counts[0] > UINT32_MAX)
+        return sqffd_io__fail(err, err_size, name, "%llu vertices, more than 32-bit indices reach",
+                              (unsigned long long)counts[0]);
+    /* each face line holds at least "3 a b c" and a line break */
+    remaining = (size_t)(t.end - t.p);
+    if (counts[1] > (uint64_t)(remaining + 1) / 8)
+        return sqffd_io__fail(err, err_size, name, "header says %llu faces, file holds %llu bytes after the vertices",
+                              (unsigned long long)counts[1], (unsigned long long)remaining);
+    for (i = 0; i < counts[1]; i++) {
+        char what[64];
+        uint64_t n, j, index, first = 0, previous = 0;
+        if (!sqffd_io__next_line(&t, &s, &e))
+            return sqffd_io__fail(err, err_size, name, "file ends after %llu of %llu faces", (unsigned long long)i,
+                                  (unsigned long long)counts[1]);
+        snprintf(what, sizeof what, "face %llu (line %llu)", (unsigned long long)i, t.line);
+        if (!sqffd_io__line_token(&s, e, &tok, &len))
+            return sqffd_io__fail(err, err_size, name, "%s: expected the face's vertex count", what);
+        if (sqffd_io__parse_count(tok, len, &n))
+            return sqffd_io__fail(err, err_size, name, "%s: %s is not a valid vertex count", what,
+                                  sqffd_io__quote(tok, len, q));
+        if (n < 3)
+            return sqffd_io__fail(err, err_size, name, "%s: %llu vertices, a face needs at least 3", what,
+                                  (unsigned long long)n);
+        /* n is not trusted: the indices are read one by one up to the line's end */
+        for (j = 0; j < n; j++) {
+            if (!sqffd_io__line_token(&s, e, &tok, &len))
+                return sqffd_io__fail(err, err_size, name, "%s: expected %llu vertex indices, found %llu", what,
+                                      (unsigned long long)n, (unsigned long long)j);
+            if (sqffd_io__parse_count(tok, len, &index))
+                return sqffd_io__fail(err, err_size, name, "%s: %s is not a valid vertex index", what,
+                                      sqffd_io__quote(tok, len, q));
+            if (index >= counts[0])
+                return sqffd_io__fail(err, err_size, name, "%s: vertex index %llu out of range (%llu vertices)",
+                                      what, (unsigned long long)index, (unsigned long long)counts[0]);
+            if (j == 0) first = index;
+            if (j >= 2 && sqffd_io__add_triangle(tris, (uint32_t)first, (uint32_t)previous, (uint32_t)index))
+                return sqffd_io__fail(err, err_size, name, "%s: out of memory", what);
+            previous = index;
         }
-        pts.count++;
+    }
+    return 0;
+}
+
+/* OFF: the vertices (see sqffd_io__read_off); faces are not read
+   (sqffd_io_read_off_mesh reads them). */
+static inline int sqffd_io_read_off(const void *data, size_t size, const char *name, double **points,
+                                    size_t *count, char *err, size_t err_size)
+{
+    sqffd_io__points pts = {NULL, 0, 0};
+    *points = NULL;
+    *count = 0;
+    if (sqffd_io__read_off(data, size, name, &pts, NULL, err, err_size)) {
+        free(pts.xyz);
+        return 1;
     }
     return sqffd_io__finish(&pts, points, count, name, err, err_size);
+}
+
+/* An OFF triangle mesh: the vertices as sqffd_io_read_off reads them, and
+   the faces as triangles (three vertex indices each; a face of n > 3
+   vertices becomes the n - 2 triangles of a fan from its first vertex),
+   every index checked against the vertex count. Returns 0 with *vertices
+   and *triangles malloc'd (free() both), or 1 with both NULL, both counts
+   0 and a message. A file without vertices or without faces is an error. */
+static inline int sqffd_io_read_off_mesh(const void *data, size_t size, const char *name, double **vertices,
+                                         size_t *vertex_count, uint32_t **triangles, size_t *triangle_count,
+                                         char *err, size_t err_size)
+{
+    sqffd_io__points pts = {NULL, 0, 0};
+    sqffd_io__triangles tris = {NULL, 0, 0};
+    *vertices = NULL;
+    *vertex_count = 0;
+    *triangles = NULL;
+    *triangle_count = 0;
+    if (sqffd_io__read_off(data, size, name, &pts, &tris, err, err_size)) {
+        free(pts.xyz);
+        free(tris.index);
+        return 1;
+    }
+    if (sqffd_io__finish(&pts, vertices, vertex_count, name, err, err_size)) {
+        free(tris.index);
+        return 1;
+    }
+    if (tris.count == 0) {
+        free(*vertices);
+        *vertices = NULL;
+        *vertex_count = 0;
+        return sqffd_io__fail(err, err_size, name, "holds no faces");
+    }
+    *triangles = tris.index;
+    *triangle_count = tris.count;
+    return 0;
 }
 
 /* ---- OBJ ----------------------------------------------------------------- */
@@ -873,6 +987,24 @@ static inline int sqffd_io_read_file(const char *path, double **points, size_t *
     *count = 0;
     if (sqffd_io_load_file(path, &data, &size, err, err_size)) return 1;
     r = sqffd_io_read_points(data, size, path, points, count, err, err_size);
+    free(data);
+    return r;
+}
+
+/* Reads the OFF triangle mesh at `path` (sqffd_io_read_off_mesh). */
+static inline int sqffd_io_read_off_mesh_file(const char *path, double **vertices, size_t *vertex_count,
+                                              uint32_t **triangles, size_t *triangle_count, char *err,
+                                              size_t err_size)
+{
+    unsigned char *data;
+    size_t size;
+    int r;
+    *vertices = NULL;
+    *vertex_count = 0;
+    *triangles = NULL;
+    *triangle_count = 0;
+    if (sqffd_io_load_file(path, &data, &size, err, err_size)) return 1;
+    r = sqffd_io_read_off_mesh(data, size, path, vertices, vertex_count, triangles, triangle_count, err, err_size);
     free(data);
     return r;
 }

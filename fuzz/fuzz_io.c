@@ -25,6 +25,29 @@ static void check_reader(reader_fn read, const uint8_t *data, size_t size, const
     }
 }
 
+/* The OFF mesh reader: success also means at least one triangle, every
+   index below the vertex count. */
+static void check_mesh(const uint8_t *data, size_t size)
+{
+    double *vertices = NULL;
+    uint32_t *triangles = NULL;
+    size_t vertex_count = 0, triangle_count = 0, i;
+    char err[256];
+    if (sqffd_io_read_off_mesh(data, size, "fuzz.off", &vertices, &vertex_count, &triangles, &triangle_count, err,
+                               sizeof err) == 0) {
+        if (vertex_count == 0 || triangle_count == 0 || !vertices || !triangles) abort();
+        for (i = 0; i < 3 * vertex_count; i++)
+            if (!isfinite(vertices[i])) abort();
+        for (i = 0; i < 3 * triangle_count; i++)
+            if (triangles[i] >= vertex_count) abort();
+        free(vertices);
+        free(triangles);
+    } else {
+        if (vertices || triangles || vertex_count || triangle_count) abort();
+        if (strncmp(err, "fuzz.off: ", 10) != 0) abort();
+    }
+}
+
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
@@ -33,5 +56,6 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     check_reader(sqffd_io_read_off, data, size, "fuzz.off");
     check_reader(sqffd_io_read_xyz, data, size, "fuzz.xyz");
     check_reader(sqffd_io_read_obj, data, size, "fuzz.obj");
+    check_mesh(data, size);
     return 0;
 }

@@ -373,6 +373,85 @@ static void test_io_off(void)
     EXPECT_ERROR("OFF\n0 0 0\n", "t.off", "holds no points");
 }
 
+/* Reading the OFF mesh must fail with a message "NAME: ..." that contains
+   `want`, and leave every output empty. */
+static void expect_mesh_error(const char *text, const char *want, const char *file, int line)
+{
+    double *vertices = (double *)&line; /* must be reset to NULL */
+    uint32_t *triangles = (uint32_t *)&line;
+    size_t vertex_count = 7, triangle_count = 7;
+    char err[256] = "";
+    if (sqffd_io_read_off_mesh(text, strlen(text), "m.off", &vertices, &vertex_count, &triangles, &triangle_count,
+                               err, sizeof err) != 1)
+        test_fail(file, line, "read succeeded, expected an error with \"%s\"", want);
+    else if (vertices || triangles || vertex_count || triangle_count)
+        test_fail(file, line, "failed read left vertices/triangles/counts set");
+    else if (strncmp(err, "m.off: ", 7) != 0 || !strstr(err, want))
+        test_fail(file, line, "message \"%s\" is not \"m.off: ...%s...\"", err, want);
+}
+#define EXPECT_MESH_ERROR(text, want) expect_mesh_error(text, want, __FILE__, __LINE__)
+
+/* Reads `text` as an OFF mesh and compares vertices and triangles exactly. */
+static void expect_mesh(const char *text, const double *want_vertices, size_t nv, const uint32_t *want_triangles,
+                        size_t nt, const char *file, int line)
+{
+    double *vertices;
+    uint32_t *triangles;
+    size_t vertex_count, triangle_count;
+    char err[256] = "";
+    if (sqffd_io_read_off_mesh(text, strlen(text), "m.off", &vertices, &vertex_count, &triangles, &triangle_count,
+                               err, sizeof err)) {
+        test_fail(file, line, "%s", err);
+        return;
+    }
+    if (vertex_count != nv || triangle_count != nt)
+        test_fail(file, line, "%lu vertices, %lu triangles; expected %lu, %lu", (unsigned long)vertex_count,
+                  (unsigned long)triangle_count, (unsigned long)nv, (unsigned long)nt);
+    else if (memcmp(vertices, want_vertices, 3 * nv * sizeof *vertices) != 0)
+        test_fail(file, line, "vertices differ");
+    else if (memcmp(triangles, want_triangles, 3 * nt * sizeof *triangles) != 0)
+        test_fail(file, line, "triangles differ: first is %lu %lu %lu", (unsigned long)triangles[0],
+                  (unsigned long)triangles[1], (unsigned long)triangles[2]);
+    free(vertices);
+    free(triangles);
+}
+
+static void test_io_off_mesh(void)
+{
+    static const double tetrahedron[] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1.5};
+    static const uint32_t faces[] = {0, 1, 2, 0, 1, 3, 0, 2, 3, 1, 2, 3};
+    static const double square[] = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0, 0.5, 0.5, 1};
+    /* the quad and the pentagon as fans from their first vertex, the triangle as it is */
+    static const uint32_t fans[] = {0, 1, 2, 0, 2, 3, 4, 3, 2, 4, 2, 1, 4, 1, 0, 0, 1, 4};
+    double *vertices;
+    uint32_t *triangles;
+    size_t vertex_count, triangle_count;
+    char err[256];
+    expect_mesh("OFF\n# a tetrahedron\n4 4 6\n0 0 0\n1 0 0\n\n0 1 0\n0 0 1.5\n3 0 1 2\n3 0 1 3 255 0 0\n"
+                "3 0 2 3\n3 1 2 3", tetrahedron, 4, faces, 4, __FILE__, __LINE__);
+    expect_mesh("COFF 5 3 0\r\n0 0 0 9 9 9\r\n1 0 0\r\n1 1 0\r\n0 1 0\r\n0.5 0.5 1\r\n4 0 1 2 3\r\n"
+                "5 4 3 2 1 0\r\n3 0 1 4\r\n", square, 5, fans, 6, __FILE__, __LINE__);
+    EXPECT_MESH_ERROR("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n",
+                      "face 0 (line 6): vertex index 3 out of range (3 vertices)");
+    EXPECT_MESH_ERROR("OFF\n3 2 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n\n\n\n\n\n\n\n\n", "file ends after 1 of 2 faces");
+    EXPECT_MESH_ERROR("OFF\n3 2 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
+                      "header says 2 faces, file holds 8 bytes after the vertices");
+    EXPECT_MESH_ERROR("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n4 0 1 2\n",
+                      "face 0 (line 6): expected 4 vertex indices, found 3");
+    EXPECT_MESH_ERROR("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n2 0 1 # an edge\n",
+                      "face 0 (line 6): 2 vertices, a face needs at least 3");
+    EXPECT_MESH_ERROR("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 -1 2\n",
+                      "face 0 (line 6): '-1' is not a valid vertex index");
+    EXPECT_MESH_ERROR("OFF\n3 0 0\n0 0 0\n1 0 0\n0 1 0\n", "holds no faces");
+    EXPECT_MESH_ERROR("OFF\n0 0 0\n", "holds no points");
+    /* the point reader does not read faces, so their errors do not concern it */
+    EXPECT_POINTS("OFF\n4 1 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1.5\n3 0 1 9\n", "t.off", tetrahedron, 4);
+    CHECK(sqffd_io_read_off_mesh_file("tests/data/no-such-file.off", &vertices, &vertex_count, &triangles,
+                                      &triangle_count, err, sizeof err) == 1);
+    CHECK(!vertices && !triangles && vertex_count == 0 && triangle_count == 0);
+    CHECK_MSG(strstr(err, "tests/data/no-such-file.off: cannot open: ") == err, "%s", err);
+}
+
 static void test_io_obj(void)
 {
     static const double want[] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
@@ -523,6 +602,7 @@ void suite_io(void)
     RUN_TEST(test_io_ply_bad_headers);
     RUN_TEST(test_io_xyz);
     RUN_TEST(test_io_off);
+    RUN_TEST(test_io_off_mesh);
     RUN_TEST(test_io_obj);
     RUN_TEST(test_io_detect);
     RUN_TEST(test_io_missing_file);
