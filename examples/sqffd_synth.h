@@ -159,6 +159,57 @@ static inline size_t synth_sq_surface(synth_rng *r, const sqffd_superquadric *sq
     return n;
 }
 
+/* n points uniformly distributed by area over a triangle mesh (vertices:
+   x y z each; triangles: three vertex indices each), written to out (3n
+   doubles). Each point picks a triangle with probability proportional to
+   its area (binary search in the cumulative areas), then a uniform point in
+   it: barycentric weights 1 - sqrt(u), sqrt(u) (1 - v), sqrt(u) v for u, v
+   uniform in [0, 1). Returns n, or 0 when memory ran out or the mesh has no
+   area. */
+static inline size_t synth_sample_triangles(synth_rng *r, const double *vertices, const uint32_t *triangles,
+                                            size_t triangle_count, size_t n, double *out)
+{
+    double *cumulative, total = 0.0;
+    size_t i, t;
+    int k;
+    if (n == 0 || triangle_count == 0) return 0;
+    cumulative = (double *)malloc(triangle_count * sizeof *cumulative);
+    if (!cumulative) return 0;
+    for (t = 0; t < triangle_count; t++) {
+        const double *a = vertices + 3 * (size_t)triangles[3 * t];
+        const double *b = vertices + 3 * (size_t)triangles[3 * t + 1];
+        const double *c = vertices + 3 * (size_t)triangles[3 * t + 2];
+        double u[3], v[3], x, y, z;
+        for (k = 0; k < 3; k++) {
+            u[k] = b[k] - a[k];
+            v[k] = c[k] - a[k];
+        }
+        x = u[1] * v[2] - u[2] * v[1];
+        y = u[2] * v[0] - u[0] * v[2];
+        z = u[0] * v[1] - u[1] * v[0];
+        total += 0.5 * sqrt(x * x + y * y + z * z);
+        cumulative[t] = total;
+    }
+    if (!(total > 0.0)) { free(cumulative); return 0; }
+    for (i = 0; i < n; i++) {
+        double target = synth_uniform(r) * total, root = sqrt(synth_uniform(r)), v = synth_uniform(r);
+        double wa = 1.0 - root, wb = root * (1.0 - v), wc = root * v;
+        size_t lo = 0, hi = triangle_count - 1;
+        const double *a, *b, *c;
+        while (lo < hi) { /* the first triangle whose cumulative area exceeds target: never one of no area */
+            size_t mid = lo + (hi - lo) / 2;
+            if (cumulative[mid] > target) hi = mid;
+            else lo = mid + 1;
+        }
+        a = vertices + 3 * (size_t)triangles[3 * lo];
+        b = vertices + 3 * (size_t)triangles[3 * lo + 1];
+        c = vertices + 3 * (size_t)triangles[3 * lo + 2];
+        for (k = 0; k < 3; k++) out[3 * i + k] = wa * a[k] + wb * b[k] + wc * c[k];
+    }
+    free(cumulative);
+    return n;
+}
+
 /* Axis-aligned bounding box of n points. */
 static inline void synth_bounds(const double *points, size_t n, double lo[3], double hi[3])
 {
