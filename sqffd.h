@@ -555,8 +555,8 @@ typedef enum sqffd_regularization {
 } sqffd_regularization;
 
 typedef enum sqffd_solver {
-    SQFFD_SOLVER_CHOLESKY = 0,  /* Cholesky factor of the normal matrix B^T B + a D^T D, built and factored once (default; needs alpha > 0 where B alone is rank-deficient) */
-    SQFFD_SOLVER_SVD = 1        /* SVD of the stacked [B; sqrt(a) D], once, as in the paper: pseudo-inverse solution, singular values below 1e-10 of the largest dropped (rank-deficient B is fine, alpha may be 0) */
+    SQFFD_SOLVER_CHOLESKY = 0,  /* Cholesky factor of each step's normal matrix (default); where it is singular (alpha = 0 with parts of the lattice no data reach) the SVD's minimum-norm solution instead */
+    SQFFD_SOLVER_SVD = 1        /* every step by the SVD of its normal matrix: pseudo-inverse solution, singular values below 1e-10 of the largest dropped (as the paper's resolution; slower) */
 } sqffd_solver;
 
 typedef struct sqffd_fit_options {
@@ -564,12 +564,13 @@ typedef struct sqffd_fit_options {
     int lattice[3];              /* control points per axis, 2..SQFFD_MAX_LATTICE (default 5 x 5 x 5) */
     double box_margin;           /* box = the tapered superquadric's local bounding box, axes along its axes, grown by this fraction per side (default 0.1) */
     int grid[2];                 /* model-point grid n_eta x n_omega (default 32 x 64: 2,050 model points) */
-    double alpha;                /* regularisation weight >= 0 (default 1e-5); the solver uses a = alpha M / L (M model points, L control points), i.e. alpha weighs the mean spring energy per control point against the mean squared residual per model point */
+    double alpha;                /* spring weight >= 0 (default 1e-5): weighs the mean spring energy per control point against the mean squared error per data point (see THE ENERGY below) */
+    double tether;               /* weight >= 0 of the pull of every model point toward the superquadric (default 0.01): keeps the parts no data reach from drifting */
     sqffd_regularization regularization;
     sqffd_solver solver;
-    int max_iterations;          /* two-step iterations (default 30) */
+    int max_iterations;          /* two-step iterations (default 30; 0: the superquadric alone, identity lattice) */
     double tolerance;            /* stop when RMS ||X_{n+1} - X_n|| / diagonal <= this (default 1e-4; 0 = always max_iterations) */
-    int symmetric;               /* non-zero: also pull model points toward their closest data points (X^a halfway between step 1's target and the closest data point; builds a tree over the data) */
+    int symmetric;               /* non-zero: the energy also holds the model -> data distances (each model point's to its nearest data point; builds a tree over the data) */
     size_t sq_max_points;        /* stage 1 runs on an even subsample of at most this many points (default 20,000; 0 = all) */
     size_t ffd_max_points;       /* the FFD iterations run on an even subsample of at most this many points (default 200,000; 0 = all); report.error is always over all points */
     sqffd_progress_fn progress;  /* per FFD iteration k = 1, 2, ...: stage SQFFD_STAGE_FFD, error = relative RMS error after it */
@@ -596,6 +597,8 @@ typedef struct sqffd_fit_report {
     double history[SQFFD_FIT_HISTORY]; /* relative RMS error after iteration 1, 2, ... (over the FFD subsample;
                                           before the last, the passes' own errors, a hair above
                                           the exact ones: 2e-6 relative on the phantom; see sqffd_fit) */
+    double energy;                 /* the energy of the final model (THE ENERGY, over the FFD subsample) */
+    double energy_history[SQFFD_FIT_HISTORY]; /* after iteration 1, 2, ...: never rising */
 } sqffd_fit_report;
 
 SQFFD_DEF sqffd_fit_options sqffd_fit_options_default(void);
@@ -4080,6 +4083,50 @@ static double sqffd__fit_walk(const double *x, const sqffd__fit_ring *rings, con
     return best;
 }
 
+/* The grid mesh's triangles (as sqffd_model_mesh lists them). */
+static void sqffd__fit_triangles(const int grid[2], uint32_t (*triangles)[3])
+{
+    size_t ne = (size_t)grid[1], rows = (size_t)grid[0] * ne, i, j, t = 0;
+    for (j = 0; j < ne; ++j) { /* south cap: (S, (0, j+1), (0, j)) */
+        triangles[t][0] = (uint32_t)rows;
+        triangles[t][1] = (uint32_t)((j + 1) % ne);
+        triangles[t++][2] = (uint32_t)j;
+    }
+    for (i = 0; i + 1 < (size_t)grid[0]; ++i)
+        for (j = 0; j < ne; ++j) {
+            uint32_t a = (uint32_t)(i * ne + j), b = (uint32_t)(i * ne + (j + 1) % ne);
+            uint32_t c = (uint32_t)((i + 1) * ne + (j + 1) % ne), d = (uint32_t)((i + 1) * ne + j);
+            triangles[t][0] = a; triangles[t][1] = b; triangles[t++][2] = c;
+            triangles[t][0] = a; triangles[t][1] = c; triangles[t++][2] = d;
+        }
+    for (j = 0; j < ne; ++j) { /* north cap: ((n-1, j), (n-1, j+1), N) */
+        triangles[t][0] = (uint32_t)(rows - ne + j);
+        triangles[t][1] = (uint32_t)(rows - ne + (j + 1) % ne);
+        triangles[t++][2] = (uint32_t)(rows + 1);
+    }
+}
+
+/* A bounding-volume tree over the mesh triangles (see sqffd__fit_certify). */
+typedef struct sqffd__fit_bvh {
+    uint32_t (*triangles)[3];
+    double *centroids;   /* 3 per triangle */
+    sqffd_kdtree tree;   /* over the centroids */
+    void *tree_ws;
+    size_t tree_size;
+    double (*boxes)[6];  /* per tree node: its triangles' bounding box (low, high) */
+} sqffd__fit_bvh;
+
+static void sqffd__fit_bvh_layout(sqffd__arena *a, const int grid[2], sqffd__fit_bvh *h)
+{
+    size_t count = 2 * (size_t)grid[0] * (size_t)grid[1];
+    h->triangles = (uint32_t (*)[3])sqffd__arena_take(a, count, 3 * sizeof(uint32_t));
+    h->centroids = (double *)sqffd__arena_take(a, count, 3 * sizeof(double));
+    h->tree_size = sqffd_kdtree_workspace_size(count);
+    if (h->tree_size == 0) a->overflow = 1;
+    h->tree_ws = sqffd__arena_take(a, h->tree_size, 1);
+    h->boxes = (double (*)[6])sqffd__arena_take(a, sqffd__kd_max_nodes(count), 6 * sizeof(double));
+}
+
 /* ---- the closest-point search, with a warm start -------------------------
    A data point's answer (its nearest mesh vertex, and the closest triangle of
    that vertex's fan) rarely changes between two iterations, whose model
@@ -4127,6 +4174,10 @@ typedef struct sqffd__fit_search {
     double *far_slack;       /* the gap between the nearest vertex and the vertices outside the hood, less the moves since */
     uint32_t (*triangle)[3]; /* the closest triangle of the last fan search (its corner 0: the fan's vertex) */
     double *triangle_slack;  /* that fan's gap less twice its largest moves since (< 0: search the fan) */
+    uint32_t (*matched)[3];  /* a fit's: the triangle each point was matched to in the last pass (NULL: none) */
+    struct sqffd__fit_bvh *bvh; /* the exact passes' tree over the triangles, when bvh_current */
+    int bvh_current;
+    int grid[2];
     sqffd__fit_blocks blocks;
     double moved;            /* largest vertex move since the previous pass */
     double *vertex_moved;    /* per mesh vertex: its move since the previous pass */
@@ -4204,12 +4255,26 @@ static double sqffd__fit_far(sqffd__fit_search *s, const double q[3], int a)
     return s->separation[a] - sqrt(sqffd__fit_box_gap2(s->box[a], q, q));
 }
 
+/* The tree over the mesh vertices as they are: built on first need, refitted
+   after moves. */
+static sqffd_result sqffd__fit_tree(sqffd__fit_search *s)
+{
+    sqffd_result res;
+    if (s->tree_state == SQFFD__FIT_TREE_CURRENT) return SQFFD_OK;
+    res = s->tree_state == SQFFD__FIT_TREE_MOVED ? sqffd_kdtree_refit(&s->tree, s->x) : SQFFD_ERROR_DEGENERATE;
+    if (res == SQFFD_ERROR_DEGENERATE) /* not built, or a refit cannot follow (a pile of identical points split up) */
+        res = sqffd_kdtree_build(&s->tree, s->x, s->count, s->tree_ws, s->tree_size);
+    if (res == SQFFD_OK) s->tree_state = SQFFD__FIT_TREE_CURRENT;
+    return res;
+}
+
 /* The nearest mesh vertex to data point i at q. */
 static sqffd_result sqffd__fit_nearest_vertex(sqffd__fit_search *s, size_t i, const double q[3], size_t *nearest)
 {
     size_t near[SQFFD__FIT_KNN], k, count;
     double d2[SQFFD__FIT_KNN], d[SQFFD__FIT_KNN];
     const sqffd__fit_ring *r;
+    sqffd_result res;
     if (s->anchor && s->triangle[i][0] != UINT32_MAX) { /* (else no answer yet) */
         size_t v = s->triangle[i][0], a = s->anchor[i];
         double local = s->hood_moved[s->blocks.of[a]];
@@ -4246,14 +4311,8 @@ static sqffd_result sqffd__fit_nearest_vertex(sqffd__fit_search *s, size_t i, co
             }
         }
     }
-    if (s->tree_state != SQFFD__FIT_TREE_CURRENT) {
-        sqffd_result res = s->tree_state == SQFFD__FIT_TREE_MOVED ? sqffd_kdtree_refit(&s->tree, s->x)
-                                                                  : SQFFD_ERROR_DEGENERATE;
-        if (res == SQFFD_ERROR_DEGENERATE) /* not built, or a refit cannot follow (a pile of identical points split up) */
-            res = sqffd_kdtree_build(&s->tree, s->x, s->count, s->tree_ws, s->tree_size);
-        if (res != SQFFD_OK) return res;
-        s->tree_state = SQFFD__FIT_TREE_CURRENT;
-    }
+    res = sqffd__fit_tree(s);
+    if (res != SQFFD_OK) return res;
     count = sqffd_kdtree_knn(&s->tree, q, s->anchor ? SQFFD__FIT_KNN : 1, near, d2);
     if (count == 0) return SQFFD_ERROR_NON_FINITE;
     *nearest = near[0];
@@ -4271,8 +4330,95 @@ static sqffd_result sqffd__fit_nearest_vertex(sqffd__fit_search *s, size_t i, co
     return SQFFD_OK;
 }
 
+/* The exact closest point from a first answer (best2, tri, w) for q: a
+   bounding-volume tree over the mesh triangles (a kd-tree over their
+   centroids whose nodes get the bounding boxes of their triangles, made
+   once per pass when first needed) is walked nearest box first, skipping
+   every box farther than the best so far. The first answer is usually the
+   closest already, so few boxes stay open. */
+static void sqffd__fit_bvh_boxes(sqffd__fit_bvh *h, const double *x)
+{
+    const sqffd_kdtree *t = &h->tree;
+    size_t i, k, c;
+    for (i = t->node_count; i-- > 0;) { /* children come after their parent */
+        const sqffd_kdtree_node *node = t->nodes + i;
+        double *box = h->boxes[i];
+        for (c = 0; c < 3; ++c) { box[c] = HUGE_VAL; box[3 + c] = -HUGE_VAL; }
+        if (node->axis == SQFFD_KDTREE_LEAF) {
+            for (k = node->u.leaf.begin; k < node->u.leaf.end; ++k) {
+                const uint32_t *tri = h->triangles[t->index[k]];
+                int corner;
+                for (corner = 0; corner < 3; ++corner)
+                    for (c = 0; c < 3; ++c) {
+                        double v = x[3 * (size_t)tri[corner] + c];
+                        box[c] = v < box[c] ? v : box[c];
+                        box[3 + c] = v > box[3 + c] ? v : box[3 + c];
+                    }
+            }
+        } else {
+            const double *lo = h->boxes[i + 1], *hi = h->boxes[node->high_child];
+            for (c = 0; c < 3; ++c) {
+                box[c] = lo[c] < hi[c] ? lo[c] : hi[c];
+                box[3 + c] = lo[3 + c] > hi[3 + c] ? lo[3 + c] : hi[3 + c];
+            }
+        }
+    }
+}
+
+static sqffd_result sqffd__fit_certify(sqffd__fit_search *s, const double q[3], double *best2, size_t tri[3],
+                                       double w[3])
+{
+    sqffd__fit_bvh *h = s->bvh;
+    uint32_t stack[SQFFD_KDTREE_MAX_DEPTH + 1];
+    int top = 0;
+    if (!s->bvh_current) {
+        size_t k, count = 2 * ((size_t)s->grid[0] * (size_t)s->grid[1]);
+        sqffd_result res;
+        sqffd__fit_triangles(s->grid, h->triangles);
+        for (k = 0; k < count; ++k) {
+            const uint32_t *t = h->triangles[k];
+            int c;
+            for (c = 0; c < 3; ++c)
+                h->centroids[3 * k + (size_t)c] =
+                    (s->x[3 * (size_t)t[0] + (size_t)c] + s->x[3 * (size_t)t[1] + (size_t)c] + s->x[3 * (size_t)t[2] + (size_t)c]) / 3.0;
+        }
+        res = sqffd_kdtree_build(&h->tree, h->centroids, count, h->tree_ws, h->tree_size);
+        if (res != SQFFD_OK) return res;
+        sqffd__fit_bvh_boxes(h, s->x);
+        s->bvh_current = 1;
+    }
+    stack[top++] = 0;
+    while (top > 0) {
+        uint32_t i = stack[--top];
+        const sqffd_kdtree_node *node = h->tree.nodes + i;
+        if (sqffd__fit_box_gap2(h->boxes[i], q, q) >= *best2) continue;
+        if (node->axis == SQFFD_KDTREE_LEAF) {
+            size_t k;
+            for (k = node->u.leaf.begin; k < node->u.leaf.end; ++k) {
+                const uint32_t *t = h->triangles[h->tree.index[k]];
+                size_t corners[3];
+                double tw[3], d;
+                corners[0] = t[0]; corners[1] = t[1]; corners[2] = t[2];
+                d = sqffd__fit_corner_triangle(s->x, corners, q, tw);
+                if (d < *best2) {
+                    *best2 = d;
+                    memcpy(tri, corners, sizeof corners);
+                    memcpy(w, tw, sizeof tw);
+                }
+            }
+        } else { /* the nearer box on top */
+            uint32_t low = i + 1, high = node->high_child;
+            int low_first = sqffd__fit_box_gap2(h->boxes[low], q, q) <= sqffd__fit_box_gap2(h->boxes[high], q, q);
+            stack[top++] = low_first ? high : low;
+            stack[top++] = low_first ? low : high;
+        }
+    }
+    return SQFFD_OK;
+}
+
 /* The closest point on the mesh to data point i at q ("the error"): squared
-   distance, triangle and barycentric weights. */
+   distance, triangle and barycentric weights; exact in an exact pass (see
+   sqffd__fit_certify), else the local answer described above. */
 static sqffd_result sqffd__fit_closest(sqffd__fit_search *s, size_t i, const double q[3], double *dist2, size_t tri[3],
                                        double w[3])
 {
@@ -4292,7 +4438,7 @@ static sqffd_result sqffd__fit_closest(sqffd__fit_search *s, size_t i, const dou
             d = sqffd__fit_corner_triangle(s->x, tri, q, w);
             if (w[0] != 0.0 && (held || (w[1] > 0.0 && w[2] > 0.0))) { /* (else the full search would walk on) */
                 *dist2 = d;
-                return SQFFD_OK;
+                return s->exact ? sqffd__fit_certify(s, q, dist2, tri, w) : SQFFD_OK;
             }
         }
     }
@@ -4302,7 +4448,7 @@ static sqffd_result sqffd__fit_closest(sqffd__fit_search *s, size_t i, const dou
         s->triangle_slack[i] = w[0] == 0.0 ? -1.0 : sqrt(second) - sqrt(d);
     }
     *dist2 = sqffd__fit_walk(s->x, s->rings, q, d, tri, w);
-    return SQFFD_OK;
+    return s->exact ? sqffd__fit_certify(s, q, dist2, tri, w) : SQFFD_OK;
 }
 
 /* Per block, the largest move in its hood (see sqffd__fit_in_hood). */
@@ -4359,6 +4505,7 @@ static double sqffd__fit_moves(sqffd__fit_search *s, const double *x, const doub
     sqffd__fit_hood_moves(&s->blocks, s->block_moved, s->hood_moved);
     s->moved = max;
     s->boxes_current = 0;
+    s->bvh_current = 0;
     if (s->tree_state == SQFFD__FIT_TREE_CURRENT) s->tree_state = SQFFD__FIT_TREE_MOVED;
     return sum2;
 }
@@ -4399,7 +4546,7 @@ static void sqffd__fit_stats(double sum, double sum2, double max, size_t n, doub
 /* A search over the mesh with vertices x on the grid (its ring table and
    tree workspace given, the tree built on first need), without a warm start. */
 static void sqffd__fit_search_init(sqffd__fit_search *s, const double *x, const int grid[2], const sqffd__fit_ring *rings,
-                                   void *tree_ws, size_t tree_size)
+                                   void *tree_ws, size_t tree_size, sqffd__fit_bvh *bvh)
 {
     memset(s, 0, sizeof *s);
     s->x = x;
@@ -4409,23 +4556,41 @@ static void sqffd__fit_search_init(sqffd__fit_search *s, const double *x, const 
     s->tree_ws = tree_ws;
     s->tree_size = tree_size;
     s->tree_state = SQFFD__FIT_TREE_NONE;
+    s->bvh = bvh;
+    s->grid[0] = grid[0];
+    s->grid[1] = grid[1];
 }
+
+/* Step 1's accumulators of a pass. */
+typedef struct sqffd__fit_step1 {
+    double *sums;    /* M x 3: summed weighted displacements per model point (NULL: measure only) */
+    double *weights; /* M: the summed weights */
+    double nu2;      /* robust mode's Welsch scale squared (0: plain squares) */
+    double energy;   /* out: the sum of rho(d) over the points */
+} sqffd__fit_step1;
 
 /* One pass over the data against the search's mesh: each point's distance
    to the mesh (the error) into the statistics and per_point (may be NULL).
-   With sums/weights (step 1 of the fit) each point's displacement to it from
-   its closest mesh point is also spread over that triangle's vertices with
-   the barycentric weights. Points go in batches: the searches of a batch
-   first, then their sums (measured: each loop short enough for the processor
-   to overlap one point's search with the next: 20.8 -> 19.9 ms on the
-   6,000-point fit). */
+   With step1 (may be NULL) the pass also sums the data term of the energy
+   and, with its sums, spreads each point's displacement from its closest
+   mesh point over that triangle's vertices with the barycentric weights
+   (times the point's Welsch weight in robust mode). In a fit (matched set)
+   a point keeps the triangle it was matched to in the last pass where that
+   is closer than the search's answer: each step's bound then holds point by
+   point, so the energy cannot rise (the search looks at the fan of the
+   nearest vertex only, which a stretched mesh can miss); an exact pass
+   still reports the error as defined. Points go in batches:
+   the searches of a batch first, then their sums (measured: each loop short
+   enough for the processor to overlap one point's search with the next:
+   20.8 -> 19.9 ms on the 6,000-point fit). */
 #define SQFFD__FIT_BATCH 16
 
 static sqffd_result sqffd__fit_pass(const double *points, size_t n, sqffd__fit_search *search, double diagonal,
-                                    double *per_point, double *sums, double *weights, sqffd_distance_stats *stats)
+                                    double *per_point, sqffd__fit_step1 *step1, sqffd_distance_stats *stats)
 {
     const double *x = search->x;
-    double sum = 0.0, sum2 = 0.0, max = 0.0;
+    double sum = 0.0, sum2 = 0.0, max = 0.0, energy = 0.0, nu2 = step1 ? step1->nu2 : 0.0;
+    double *sums = step1 ? step1->sums : NULL;
     size_t first, j;
     int k;
     for (first = 0; first < n; first += SQFFD__FIT_BATCH) {
@@ -4437,8 +4602,26 @@ static sqffd_result sqffd__fit_pass(const double *points, size_t n, sqffd__fit_s
         }
         for (j = 0; j < count; ++j) {
             const double *q = points + 3 * (first + j), *wj = w[j];
-            double d = sqrt(dist2[j]);
-            sum += d; sum2 += dist2[j];
+            double d = sqrt(dist2[j]), robust;
+            if (search->matched) { /* a fit keeps a point's last triangle where it stays closer */
+                uint32_t *mt = search->matched[first + j];
+                if (mt[0] != UINT32_MAX) {
+                    size_t t[3];
+                    double wm[3], dm;
+                    t[0] = mt[0]; t[1] = mt[1]; t[2] = mt[2];
+                    dm = sqffd__fit_corner_triangle(x, t, q, wm);
+                    if (dm < dist2[j]) {
+                        dist2[j] = dm;
+                        memcpy(tri[j], t, sizeof t);
+                        memcpy(w[j], wm, sizeof wm);
+                    }
+                }
+                for (k = 0; k < 3; ++k) mt[k] = (uint32_t)tri[j][k];
+            }
+            robust = nu2 > 0.0 ? exp(-dist2[j] / nu2) : 1.0;
+            energy += nu2 > 0.0 ? nu2 * (1.0 - robust) : dist2[j];
+            if (!search->exact) d = sqrt(dist2[j]); /* (an exact pass reports the error as defined) */
+            sum += d; sum2 += d * d;
             if (d > max) max = d;
             if (per_point) per_point[first + j] = d;
             if (sums) { /* (scalars, not a small array: a store-to-load stall per point otherwise) */
@@ -4447,13 +4630,14 @@ static sqffd_result sqffd__fit_pass(const double *points, size_t n, sqffd__fit_s
                 double dy = q[1] - (wj[0] * a[1] + wj[1] * b[1] + wj[2] * e[1]);
                 double dz = q[2] - (wj[0] * a[2] + wj[1] * b[2] + wj[2] * e[2]);
                 for (k = 0; k < 3; ++k) {
-                    double *s = sums + 3 * tri[j][k];
-                    s[0] += wj[k] * dx; s[1] += wj[k] * dy; s[2] += wj[k] * dz;
-                    weights[tri[j][k]] += wj[k];
+                    double *s = sums + 3 * tri[j][k], wk = robust * wj[k];
+                    s[0] += wk * dx; s[1] += wk * dy; s[2] += wk * dz;
+                    step1->weights[tri[j][k]] += wk;
                 }
             }
         }
     }
+    if (step1) step1->energy = energy;
     sqffd__fit_stats(sum, sum2, max, n, diagonal, stats);
     return SQFFD_OK;
 }
@@ -4526,7 +4710,6 @@ SQFFD_DEF sqffd_result sqffd_model_mesh_size(int n_eta, int n_omega, size_t *ver
 SQFFD_DEF sqffd_result sqffd_model_mesh(const sqffd_model *model, int n_eta, int n_omega, double *vertices, uint32_t *triangles)
 {
     int grid[2];
-    size_t ne, rows, i, j, t = 0;
     sqffd_result r;
     if (!model || !sqffd__ffd_dims_valid(model->ffd.dims)) return SQFFD_ERROR_INVALID_ARGUMENT;
     grid[0] = n_eta; grid[1] = n_omega;
@@ -4534,24 +4717,7 @@ SQFFD_DEF sqffd_result sqffd_model_mesh(const sqffd_model *model, int n_eta, int
     if (r != SQFFD_OK) return r;
     if (vertices) sqffd__fit_surface(model, grid, vertices);
     if (!triangles) return SQFFD_OK;
-    ne = (size_t)n_omega; rows = (size_t)n_eta * ne;
-    for (j = 0; j < ne; ++j) { /* south cap: (S, (0, j+1), (0, j)) */
-        triangles[t++] = (uint32_t)rows;
-        triangles[t++] = (uint32_t)((j + 1) % ne);
-        triangles[t++] = (uint32_t)j;
-    }
-    for (i = 0; i + 1 < (size_t)n_eta; ++i)
-        for (j = 0; j < ne; ++j) {
-            uint32_t a = (uint32_t)(i * ne + j), b = (uint32_t)(i * ne + (j + 1) % ne);
-            uint32_t c = (uint32_t)((i + 1) * ne + (j + 1) % ne), d = (uint32_t)((i + 1) * ne + j);
-            triangles[t++] = a; triangles[t++] = b; triangles[t++] = c;
-            triangles[t++] = a; triangles[t++] = c; triangles[t++] = d;
-        }
-    for (j = 0; j < ne; ++j) { /* north cap: ((n-1, j), (n-1, j+1), N) */
-        triangles[t++] = (uint32_t)(rows - ne + j);
-        triangles[t++] = (uint32_t)(rows - ne + (j + 1) % ne);
-        triangles[t++] = (uint32_t)(rows + 1);
-    }
+    sqffd__fit_triangles(grid, (uint32_t (*)[3])triangles);
     return SQFFD_OK;
 }
 
@@ -4561,14 +4727,17 @@ SQFFD_DEF sqffd_result sqffd_model_mesh(const sqffd_model *model, int n_eta, int
 typedef struct sqffd__fit_mesh_work {
     double *x;
     sqffd__fit_ring *rings;
+    sqffd__fit_bvh bvh;
     void *tree_ws;
     size_t tree_size;
 } sqffd__fit_mesh_work;
 
-static void sqffd__fit_distances_layout(sqffd__arena *a, size_t n_tree, size_t vertices, int reverse, sqffd__fit_mesh_work *w)
+static void sqffd__fit_distances_layout(sqffd__arena *a, size_t n_tree, const int grid[2], int reverse, sqffd__fit_mesh_work *w)
 {
+    size_t vertices = sqffd__fit_grid_count(grid);
     w->x = (double *)sqffd__arena_take(a, vertices, 3 * sizeof(double));
     w->rings = reverse ? NULL : (sqffd__fit_ring *)sqffd__arena_take(a, vertices, sizeof(sqffd__fit_ring));
+    if (!reverse) sqffd__fit_bvh_layout(a, grid, &w->bvh);
     w->tree_size = sqffd_kdtree_workspace_size(n_tree);
     if (w->tree_size == 0) a->overflow = 1;
     w->tree_ws = sqffd__arena_take(a, w->tree_size, 1);
@@ -4582,7 +4751,7 @@ static size_t sqffd__fit_distances_size(size_t n, const sqffd_model *model, int 
     if (!model || !sqffd__fit_model_valid(model) || n == 0) return 0;
     m = sqffd__fit_grid_count(model->grid);
     sqffd__arena_measure(&a);
-    sqffd__fit_distances_layout(&a, reverse ? n : m, m, reverse, &w);
+    sqffd__fit_distances_layout(&a, reverse ? n : m, model->grid, reverse, &w);
     return sqffd__arena_required(&a);
 }
 
@@ -4612,7 +4781,7 @@ static sqffd_result sqffd__fit_distances_setup(const sqffd_model *model, const d
     if (r != SQFFD_OK) return r;
     m = sqffd__fit_grid_count(model->grid);
     sqffd__arena_init(&a, workspace, workspace_size);
-    sqffd__fit_distances_layout(&a, reverse ? n : m, m, reverse, w);
+    sqffd__fit_distances_layout(&a, reverse ? n : m, model->grid, reverse, w);
     if (a.overflow) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
     sqffd__fit_surface(model, model->grid, w->x);
     if (!reverse) sqffd__fit_rings(model->grid, w->rings);
@@ -4629,8 +4798,8 @@ SQFFD_DEF sqffd_result sqffd_model_distances(const sqffd_model *model, const dou
     double diagonal = 0.0;
     sqffd_result r = sqffd__fit_distances_setup(model, points, n, 0, workspace, workspace_size, &w, &diagonal);
     if (r != SQFFD_OK) return r;
-    sqffd__fit_search_init(&search, w.x, model->grid, w.rings, w.tree_ws, w.tree_size);
-    r = sqffd__fit_pass(points, n, &search, diagonal, per_point, NULL, NULL, &s);
+    sqffd__fit_search_init(&search, w.x, model->grid, w.rings, w.tree_ws, w.tree_size, &w.bvh);
+    r = sqffd__fit_pass(points, n, &search, diagonal, per_point, NULL, &s);
     if (r == SQFFD_OK && stats) *stats = s;
     return r;
 }
@@ -4672,6 +4841,7 @@ SQFFD_DEF sqffd_fit_options sqffd_fit_options_default(void)
     o.grid[0] = 32;
     o.grid[1] = 64;
     o.alpha = 1e-5;
+    o.tether = 1e-2;
     o.regularization = SQFFD_REG_DISPLACEMENT;
     o.solver = SQFFD_SOLVER_CHOLESKY;
     o.max_iterations = 30;
@@ -4690,6 +4860,7 @@ SQFFD_DEF sqffd_fit_options sqffd_fit_options_default(void)
 static sqffd_result sqffd__fit_check_options(const sqffd_fit_options *o)
 {
     if (!(o->alpha >= 0.0) || !isfinite(o->alpha)) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if (!(o->tether >= 0.0) || !isfinite(o->tether)) return SQFFD_ERROR_INVALID_ARGUMENT;
     if (!(o->tolerance >= 0.0) || !isfinite(o->tolerance)) return SQFFD_ERROR_INVALID_ARGUMENT;
     if (o->max_iterations < 0) return SQFFD_ERROR_INVALID_ARGUMENT;
     if (o->regularization != SQFFD_REG_DISPLACEMENT && o->regularization != SQFFD_REG_POSITION)
@@ -4729,13 +4900,30 @@ SQFFD_DEF sqffd_result sqffd_model_init(sqffd_model *model, const sqffd_superqua
     return sqffd_ffd_init(&model->ffd, options->lattice, origin, edges);
 }
 
-/* ---- the fixed part of the least-squares problem --------------------------
-   B (model points x control points) never changes during a fit, nor between
-   the frames of a sequence that keep the superquadric and the box, so the
-   normal matrix B^T B + a D^T D is built and factored once. B's row at a
-   model point is the tensor product a (x) b (x) c of three 1-D Bernstein
-   vectors (in s, t, u); only those l + m + n numbers are stored per point.
+/* ---- the least-squares problem of step 2 -----------------------------------
+   THE ENERGY the FFD stage decreases (x_v(P) = (B P)_v, the M model points;
+   d_i(P) the error of data point i, n data points, L control points):
+     E(P) = 1/n sum_i rho(d_i)                      data -> model
+          + alpha / L ||D (P - P0)||^2              lattice springs (or ||D P||^2)
+          + tether / M sum_v |x_v(P) - x_v(P0)|^2   model points held to the superquadric
+          [+ 1/M sum_v |x_v - nearest data point|^2 with `symmetric`]
+   rho(d) = d^2, or with `robust` the Welsch nu^2 (1 - exp(-d^2 / nu^2)).
+   The tether keeps the parts of the model that no data reach where the
+   superquadric put them instead of letting them drift.
+   Each iteration is a majorisation-minimisation step: with each data point's
+   closest triangle and barycentric weights w held, Jensen's inequality
+   bounds its squared distance by sum_k w_k |x_k - (x_k + displacement)|^2,
+   so E is majorised by a weighted least-squares problem in the model points,
+     sum_v W_v |x_v(P) - y_v|^2 + springs + tether,
+   (W_v: the data points' summed weights at v, y_v: their weighted mean
+   target; robust mode multiplies each point's weights by exp(-d^2 / nu^2)),
+   whose minimiser cannot raise E. Anderson acceleration extrapolates these
+   steps; a step that raised E is replaced by the plain one.
 
+   B (model points x control points) never changes during a fit, nor between
+   the frames of a sequence that keep the superquadric and the box. B's row
+   at a model point is the tensor product a (x) b (x) c of three 1-D Bernstein
+   vectors (in s, t, u); only those l + m + n numbers are stored per point.
    Runs: the model points of one grid row share eta, and when the box is
    aligned with the superquadric's axes (as sqffd_model_init makes it) their
    u, which then depends on eta alone, agrees to rounding; prepare makes it
@@ -4743,10 +4931,10 @@ SQFFD_DEF sqffd_result sqffd_model_init(sqffd_model *model, const sqffd_superqua
    the same c, B's products factor:
      (B P)_v   = sum_ij a_i b_j (sum_k c_k P_ijk), the inner sums once per run;
      B^T y     = sum over runs of (sum_v (a (x) b) y_v) (x) c;
-     B^T B     = sum over runs of (sum_v (a (x) b)(a (x) b)^T) (x) c c^T.
-   That cuts the first two's cost about n-fold and B^T B's about n^2-fold. For
-   another box the runs are single points and the same code does the plain
-   products. */
+     B^T W B   = sum over runs of (sum_v W_v (a (x) b)(a (x) b)^T) (x) c c^T.
+   That cuts the first two's cost about n-fold and B^T W B's about n^2-fold.
+   For another box the runs are single points and the same code does the
+   plain products. */
 typedef struct sqffd__fit_system {
     int dims[3];
     int grid[2];
@@ -4759,29 +4947,43 @@ typedef struct sqffd__fit_system {
     sqffd__fit_blocks blocks; /* and its blocks */
     uint32_t *run;       /* runs + 1: the first point of each run, then M */
     size_t runs;
-    double *matrix;      /* L x L: Cholesky factor, or V of the stacked system's SVD */
-    double *inverse_s2;  /* SVD: 1 / s_k^2 for the kept singular values, 0 for the dropped */
-    double *rhs0;        /* 3 x L: a D^T D P0 (displacement springs), zero for the paper's springs */
-    double *stacked;     /* SVD, while preparing: [B; sqrt(a) D] */
+    double *rest;        /* M x 3: the model points of P0 (the superquadric's) */
+    double *rest_control;/* L x 3: P0 */
+    double spring;       /* alpha M / L: the springs' weight in the step's units */
+    double tether;
+    double *fixed;       /* L x L, lower triangle: spring D^T D + tether B^T B */
+    double *rhs0;        /* 3 x L: the fixed part's pull toward P0 */
+    double *matrix;      /* L x L: the step's normal matrix, then its factor */
+    double *singular;    /* L: SVD solves: singular values, then their kept inverses */
+    double *v;           /* L x L: SVD solves: V (NULL: Cholesky only) */
     void *svd_ws;
     size_t svd_size;
 } sqffd__fit_system;
 
+/* Anderson acceleration keeps the last SQFFD__FIT_AA differences of the
+   steps (measured: 3-8 converge alike on the dev shapes). */
+#define SQFFD__FIT_AA 5
+
 /* The iteration's scratch: model-sized, plus the optional subsample and data tree. */
 typedef struct sqffd__fit_work {
     double *x, *next;    /* M x 3: current and next model points */
-    double *target;      /* M x 3: sums of data points, then displacements, then X^a */
-    double *weights;     /* M: summed barycentric weights of the data points per model point */
-    uint32_t *order;     /* M: breadth-first order of the fill */
-    unsigned char *state;/* M */
-    double *rhs;         /* 3 x L, then the new control points */
+    double *target;      /* M x 3: summed weighted displacements, then W_v y_v */
+    double *weights;     /* M: W_v */
+    double *rhs;         /* 3 x L, coordinate by coordinate */
     double *scratch;     /* L */
-    double *pairs;       /* (l m)^2: a run's sum of (a (x) b)(a (x) b)^T while preparing */
+    double *accepted;    /* L x 3 (as sqffd_ffd's): the last accepted control points */
+    double *plain;       /* L x 3: the plain step from them */
+    double *aa_f, *aa_g; /* SQFFD__FIT_AA x 3L each: differences of residuals and of steps */
+    double *last_f, *last_g; /* L x 3: the previous residual and plain step */
+    double *pairs;       /* (l m)^2: a run's sum of (a (x) b)(a (x) b)^T */
+    double *distance;    /* robust: per data point, for the scale (NULL otherwise) */
     void *tree_ws;       /* tree over the model points */
     size_t tree_size;
     uint32_t *anchor, (*triangle)[3]; /* per FFD data point: the closest-point search's warm start */
     double *outside, *vertex_slack, *far_slack, *triangle_slack;
+    uint32_t (*matched)[3]; /* per FFD data point: its triangle in the last pass */
     double *fan_moved;   /* M */
+    sqffd__fit_bvh bvh;  /* the exact passes' tree over the triangles */
     double *vertex_moved;/* M */
     double *block_moved, *hood_moved, *separation, (*box)[6]; /* per block */
     void *data_ws;       /* tree over the data (symmetric option) */
@@ -4796,11 +4998,6 @@ static size_t sqffd__fit_cap(size_t n, size_t cap)
     return cap && n > cap ? cap : n;
 }
 
-static size_t sqffd__fit_spring_count(const int d[3])
-{
-    return (size_t)((d[0] - 1) * d[1] * d[2] + d[0] * (d[1] - 1) * d[2] + d[0] * d[1] * (d[2] - 1));
-}
-
 /* The lattice neighbour of control point p one step along axis; 0 if none. */
 static int sqffd__fit_spring(const int d[3], size_t p, int axis, size_t *other)
 {
@@ -4810,6 +5007,12 @@ static int sqffd__fit_spring(const int d[3], size_t p, int axis, size_t *other)
     if (axis == 1 && j + 1 < (size_t)d[1]) { *other = p + n; return 1; }
     if (axis == 2 && k + 1 < n) { *other = p + 1; return 1; }
     return 0;
+}
+
+/* Whether a step may meet a singular normal matrix (then it is solved by SVD). */
+static int sqffd__fit_needs_svd(const sqffd_fit_options *o)
+{
+    return o->solver == SQFFD_SOLVER_SVD || o->alpha == 0.0;
 }
 
 static void sqffd__fit_layout(sqffd__arena *a, size_t n, const int dims[3], const int grid[2], const sqffd_fit_options *o,
@@ -4828,39 +5031,45 @@ static void sqffd__fit_layout(sqffd__arena *a, size_t n, const int dims[3], cons
     s->run = (uint32_t *)sqffd__arena_take(a, m + 1, sizeof(uint32_t));
     s->rings = (sqffd__fit_ring *)sqffd__arena_take(a, m, sizeof(sqffd__fit_ring));
     s->blocks.of = (unsigned char *)sqffd__arena_take(a, m, 1);
-    s->matrix = (double *)sqffd__arena_take(a, l * l, sizeof(double));
-    s->inverse_s2 = (double *)sqffd__arena_take(a, l, sizeof(double));
+    s->rest = (double *)sqffd__arena_take(a, m, 3 * sizeof(double));
+    s->rest_control = (double *)sqffd__arena_take(a, 3 * l, sizeof(double));
+    s->fixed = (double *)sqffd__arena_take(a, l * l, sizeof(double));
     s->rhs0 = (double *)sqffd__arena_take(a, 3 * l, sizeof(double));
-    if (o->solver == SQFFD_SOLVER_SVD) {
-        size_t rows = m + sqffd__fit_spring_count(dims);
-        if (rows > 0x7fffffff) a->overflow = 1;
-        else {
-            s->stacked = (double *)sqffd__arena_take(a, rows, l * sizeof(double));
-            s->svd_size = sqffd_svd_workspace_size((int)rows, (int)l);
-            if (s->svd_size == 0) a->overflow = 1;
-            s->svd_ws = sqffd__arena_take(a, s->svd_size, 1);
-        }
+    s->matrix = (double *)sqffd__arena_take(a, l * l, sizeof(double));
+    if (sqffd__fit_needs_svd(o)) {
+        s->singular = (double *)sqffd__arena_take(a, l, sizeof(double));
+        s->v = (double *)sqffd__arena_take(a, l * l, sizeof(double));
+        s->svd_size = sqffd_svd_workspace_size((int)l, (int)l);
+        if (s->svd_size == 0) a->overflow = 1;
+        s->svd_ws = sqffd__arena_take(a, s->svd_size, 1);
     }
     w->x = (double *)sqffd__arena_take(a, m, 3 * sizeof(double));
     w->next = (double *)sqffd__arena_take(a, m, 3 * sizeof(double));
     w->target = (double *)sqffd__arena_take(a, m, 3 * sizeof(double));
     w->weights = (double *)sqffd__arena_take(a, m, sizeof(double));
-    w->order = (uint32_t *)sqffd__arena_take(a, m, sizeof(uint32_t));
-    w->state = (unsigned char *)sqffd__arena_take(a, m, 1);
     w->rhs = (double *)sqffd__arena_take(a, 3 * l, sizeof(double));
     w->scratch = (double *)sqffd__arena_take(a, l, sizeof(double));
+    w->accepted = (double *)sqffd__arena_take(a, 3 * l, sizeof(double));
+    w->plain = (double *)sqffd__arena_take(a, 3 * l, sizeof(double));
+    w->aa_f = (double *)sqffd__arena_take(a, SQFFD__FIT_AA * 3 * l, sizeof(double));
+    w->aa_g = (double *)sqffd__arena_take(a, SQFFD__FIT_AA * 3 * l, sizeof(double));
+    w->last_f = (double *)sqffd__arena_take(a, 3 * l, sizeof(double));
+    w->last_g = (double *)sqffd__arena_take(a, 3 * l, sizeof(double));
     w->pairs = (double *)sqffd__arena_take(a, (size_t)(dims[0] * dims[1] * dims[0] * dims[1]), sizeof(double));
     w->tree_size = sqffd_kdtree_workspace_size(m);
     w->tree_ws = sqffd__arena_take(a, w->tree_size, 1);
     w->sample_count = sqffd__fit_cap(n, o->ffd_max_points);
     if (w->sample_count < n) w->sample = (double *)sqffd__arena_take(a, w->sample_count, 3 * sizeof(double));
+    if (o->sq.robust) w->distance = (double *)sqffd__arena_take(a, w->sample_count, sizeof(double));
     w->anchor = (uint32_t *)sqffd__arena_take(a, w->sample_count, sizeof(uint32_t));
     w->outside = (double *)sqffd__arena_take(a, w->sample_count, sizeof(double));
     w->vertex_slack = (double *)sqffd__arena_take(a, w->sample_count, sizeof(double));
     w->far_slack = (double *)sqffd__arena_take(a, w->sample_count, sizeof(double));
     w->triangle = (uint32_t (*)[3])sqffd__arena_take(a, w->sample_count, 3 * sizeof(uint32_t));
     w->triangle_slack = (double *)sqffd__arena_take(a, w->sample_count, sizeof(double));
+    w->matched = (uint32_t (*)[3])sqffd__arena_take(a, w->sample_count, 3 * sizeof(uint32_t));
     w->fan_moved = (double *)sqffd__arena_take(a, m, sizeof(double));
+    sqffd__fit_bvh_layout(a, grid, &w->bvh);
     w->vertex_moved = (double *)sqffd__arena_take(a, m, sizeof(double));
     w->block_moved = (double *)sqffd__arena_take(a, SQFFD__FIT_MAX_BLOCKS, sizeof(double));
     w->hood_moved = (double *)sqffd__arena_take(a, SQFFD__FIT_MAX_BLOCKS, sizeof(double));
@@ -4873,21 +5082,22 @@ static void sqffd__fit_layout(sqffd__arena *a, size_t n, const int dims[3], cons
     }
 }
 
-/* The lower triangle of B^T B into matrix (L x L, zeroed), run by run. */
-static void sqffd__fit_gram(const sqffd__fit_system *s, double *pairs, double *matrix)
+/* matrix (L x L, lower triangle) += B^T diag(scale w) B, run by run (w NULL: all 1). */
+static void sqffd__fit_gram(const sqffd__fit_system *s, const double *w, double scale, double *pairs, double *matrix)
 {
     const int *d = s->dims;
     size_t l = s->lattice, lm = (size_t)(d[0] * d[1]), n = (size_t)d[2], r, v, e, f, k, h;
     for (r = 0; r < s->runs; ++r) {
         const double *c = s->weights + (size_t)s->run[r] * s->stride + d[0] + d[1];
         memset(pairs, 0, lm * lm * sizeof(double));
-        for (v = s->run[r]; v < s->run[r + 1]; v += 4) { /* pairs += (a (x) b)(a (x) b)^T, lower triangle, */
+        for (v = s->run[r]; v < s->run[r + 1]; v += 4) { /* pairs += W_v (a (x) b)(a (x) b)^T, lower triangle, */
             double ab[4][SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE];       /* four vertices at a time (a quarter of the stores) */
             for (k = 0; k < 4; ++k) {
-                const double *a = s->weights + (v + k < s->run[r + 1] ? v + k : v) * s->stride, *b = a + d[0];
-                double on = v + k < s->run[r + 1] ? 1.0 : 0.0; /* (past the run: zeros) */
+                int inside = v + k < s->run[r + 1];
+                const double *a = s->weights + (inside ? v + k : v) * s->stride, *b = a + d[0];
+                double root = inside ? sqrt(scale * (w ? w[v + k] : 1.0)) : 0.0; /* (past the run: zeros) */
                 for (e = 0; e < (size_t)d[0]; ++e)
-                    for (f = 0; f < (size_t)d[1]; ++f) ab[k][e * (size_t)d[1] + f] = on * a[e] * b[f];
+                    for (f = 0; f < (size_t)d[1]; ++f) ab[k][e * (size_t)d[1] + f] = root * a[e] * b[f];
             }
             for (e = 0; e < lm; ++e)
                 for (f = 0; f <= e; ++f)
@@ -4901,124 +5111,6 @@ static void sqffd__fit_gram(const sqffd__fit_system *s, double *pairs, double *m
                     for (h = 0; h < end; ++h) row[h] += pk * c[h];
                 }
     }
-}
-
-/* B's rows, the regularisation's right-hand side and the factor, from the
-   model's superquadric, box and grid (points: M x 3 scratch). */
-static sqffd_result sqffd__fit_prepare(const sqffd_model *model, const sqffd_fit_options *o, sqffd__fit_system *s,
-                                       double *pairs, double *points)
-{
-    sqffd_ffd regular; /* P0 */
-    double alpha, root, run_u = 0.0;
-    size_t l = s->lattice, m = s->count, v, p, q, r, c;
-    int axis;
-    sqffd_result res = sqffd_ffd_init(&regular, model->ffd.dims, model->ffd.origin, model->ffd.edges);
-    if (res != SQFFD_OK) return res;
-    /* alpha weighs the mean spring energy per control point against the mean
-       squared residual per model point, whatever the grid and the lattice */
-    alpha = o->alpha * (double)m / (double)l;
-    root = sqrt(alpha);
-    sqffd__fit_rings(s->grid, s->rings);
-    sqffd__fit_block_table(s->grid, &s->blocks);
-    s->runs = 0;
-    sqffd__fit_sq_grid(&model->sq, s->grid, points);
-    for (v = 0; v < m; ++v) {
-        double stu[3];
-        if (!sqffd__finite3(points + 3 * v)) return SQFFD_ERROR_NON_FINITE;
-        sqffd_ffd_local(&model->ffd, points + 3 * v, stu);
-        if (v > 0 && fabs(stu[2] - run_u) <= SQFFD__FIT_SNAP) stu[2] = run_u;
-        else { s->run[s->runs++] = (uint32_t)v; run_u = stu[2]; }
-        sqffd__ffd_axis_weights(s->dims, stu, s->weights + v * s->stride);
-    }
-    s->run[s->runs] = (uint32_t)m;
-    memset(s->rhs0, 0, 3 * l * sizeof(double));
-    if (o->regularization == SQFFD_REG_DISPLACEMENT)
-        for (p = 0; p < l; ++p)
-            for (axis = 0; axis < 3; ++axis)
-                if (sqffd__fit_spring(s->dims, p, axis, &q))
-                    for (c = 0; c < 3; ++c) {
-                        double d = alpha * (regular.control[p][c] - regular.control[q][c]);
-                        s->rhs0[c * l + p] += d;
-                        s->rhs0[c * l + q] -= d;
-                    }
-    if (s->solver == SQFFD_SOLVER_CHOLESKY) {
-        memset(s->matrix, 0, l * l * sizeof(double));
-        sqffd__fit_gram(s, pairs, s->matrix);
-        for (p = 0; p < l; ++p) /* + alpha D^T D: the springs' graph Laplacian */
-            for (axis = 0; axis < 3; ++axis)
-                if (sqffd__fit_spring(s->dims, p, axis, &q)) {
-                    s->matrix[p * l + p] += alpha;
-                    s->matrix[q * l + q] += alpha;
-                    s->matrix[q * l + p] -= alpha; /* q > p: lower triangle */
-                }
-        return sqffd_cholesky_factor(s->matrix, (int)l);
-    }
-    /* SVD of the stacked system K = [B; sqrt(a) D]; its pseudo-inverse
-       solution K^+ b equals V diag(1 / s^2) V^T K^T b over the kept singular
-       values, and K^T b is the same right-hand side as the normal equations',
-       so U (model-sized) is never formed. */
-    r = m;
-    for (v = 0; v < m; ++v) sqffd__ffd_expand(s->dims, s->weights + v * s->stride, s->stacked + v * l);
-    for (p = 0; p < l; ++p)
-        for (axis = 0; axis < 3; ++axis)
-            if (sqffd__fit_spring(s->dims, p, axis, &q)) {
-                double *row = s->stacked + r++ * l;
-                memset(row, 0, l * sizeof(double));
-                row[p] = root;
-                row[q] = -root;
-            }
-    res = sqffd_svd(s->stacked, (int)r, (int)l, NULL, s->inverse_s2, s->matrix, s->svd_ws, s->svd_size);
-    if (res != SQFFD_OK) return res;
-    for (c = l; c-- > 0;) {
-        double sv = s->inverse_s2[c];
-        s->inverse_s2[c] = sv > SQFFD__FIT_SVD_RCOND * s->inverse_s2[0] ? 1.0 / (sv * sv) : 0.0;
-    }
-    return SQFFD_OK;
-}
-
-/* ---- the two-step iteration ---------------------------------------------- */
-
-/* Displacements of the model points no data point reached (weight 0),
-   interpolated over the mesh: first in breadth-first order from the reached
-   points (each takes the mean of its already known neighbours), then a few
-   Gauss-Seidel sweeps of neighbour averaging (a discrete harmonic fill). */
-static void sqffd__fit_fill(const sqffd__fit_ring *rings, size_t m, const double *weights, double *disp, uint32_t *order,
-                            unsigned char *state)
-{
-    size_t head = 0, tail = 0, first, v, k, t;
-    int sweep;
-    const sqffd__fit_ring *r;
-    for (v = 0; v < m; ++v) { /* 2 = known, 1 = queued, 0 = not yet seen */
-        state[v] = weights[v] > 0.0 ? 2 : 0;
-        if (state[v]) order[tail++] = (uint32_t)v;
-    }
-    first = tail;
-    if (first == 0 || first == m) return;
-    while (head < tail) {
-        r = rings + order[head++];
-        for (k = 0; k < r->count; ++k) {
-            size_t w = sqffd__fit_ring_at(r, k);
-            if (state[w] == 0) { state[w] = 1; order[tail++] = (uint32_t)w; }
-        }
-    }
-    for (sweep = 0; sweep <= SQFFD__FIT_FILL_SWEEPS; ++sweep)
-        for (t = first; t < tail; ++t) {
-            double sum[3] = {0.0, 0.0, 0.0}, inverse;
-            size_t used = 0;
-            v = order[t];
-            r = rings + v;
-            for (k = 0; k < r->count; ++k) {
-                size_t w = sqffd__fit_ring_at(r, k);
-                if (sweep == 0 && state[w] != 2) continue; /* (after the first sweep all are known) */
-                sum[0] += disp[3 * w]; sum[1] += disp[3 * w + 1]; sum[2] += disp[3 * w + 2];
-                used++;
-            }
-            inverse = 1.0 / (double)used;
-            disp[3 * v] = sum[0] * inverse;
-            disp[3 * v + 1] = sum[1] * inverse;
-            disp[3 * v + 2] = sum[2] * inverse;
-            state[v] = 2;
-        }
 }
 
 /* rhs (3 x L) = B^T y + rhs0, run by run. */
@@ -5051,39 +5143,14 @@ static void sqffd__fit_project(const sqffd__fit_system *s, const double *y, doub
     }
 }
 
-/* rhs (3 x L) <- the normal equations' solution, coordinate by coordinate. */
-static void sqffd__fit_solve(const sqffd__fit_system *s, double *rhs, double *scratch)
-{
-    size_t l = s->lattice, c, r, k;
-    for (c = 0; c < 3; ++c) {
-        double *b = rhs + c * l;
-        if (s->solver == SQFFD_SOLVER_CHOLESKY) {
-            sqffd_cholesky_solve(s->matrix, (int)l, b);
-            continue;
-        }
-        for (k = 0; k < l; ++k) scratch[k] = 0.0; /* y = diag(1/s^2) V^T b */
-        for (r = 0; r < l; ++r) {
-            const double *vr = s->matrix + r * l;
-            for (k = 0; k < l; ++k) scratch[k] += vr[k] * b[r];
-        }
-        for (k = 0; k < l; ++k) scratch[k] *= s->inverse_s2[k];
-        for (r = 0; r < l; ++r) { /* b = V y */
-            const double *vr = s->matrix + r * l;
-            double sum = 0.0;
-            for (k = 0; k < l; ++k) sum += vr[k] * scratch[k];
-            b[r] = sum;
-        }
-    }
-}
-
-/* x = B P for every model point, run by run. */
-static void sqffd__fit_evaluate(const sqffd__fit_system *s, const sqffd_ffd *ffd, double *x)
+/* x = B P for every model point, run by run (P in sqffd_ffd's layout). */
+static void sqffd__fit_evaluate(const sqffd__fit_system *s, const double (*control)[3], double *x)
 {
     double q[SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE][4];
     size_t r, v;
     for (r = 0; r < s->runs; ++r) {
         const double *c = s->weights + (size_t)s->run[r] * s->stride + s->dims[0] + s->dims[1];
-        sqffd__ffd_sum_u(s->dims, (const double (*)[3])ffd->control, c, q);
+        sqffd__ffd_sum_u(s->dims, control, c, q);
         for (v = s->run[r]; v < s->run[r + 1]; ++v) {
             const double *a = s->weights + v * s->stride;
             sqffd__ffd_sum_st(s->dims, (const double (*)[4])q, a, a + s->dims[0], x + 3 * v);
@@ -5091,22 +5158,193 @@ static void sqffd__fit_evaluate(const sqffd__fit_system *s, const sqffd_ffd *ffd
     }
 }
 
-/* The paper's two-step loop from the model's current control points, with
-   the system already prepared for its superquadric, box and grid (tracking
-   reuses it frame after frame). Each round: one pass over the data (error of
-   the current model, and step 1's sums), then step 1's displacement field,
-   step 2's solve and the new model points. rep->sq_error receives the error
-   of the starting model. */
+/* The springs' and the tether's energy at control points P with model points x
+   (in the step's units: alpha M / L ||D (P - P0)||^2 + tether ||x - x0||^2). */
+static double sqffd__fit_prior(const sqffd__fit_system *s, sqffd_regularization reg, const double *control,
+                               const double *x)
+{
+    size_t l = s->lattice, p, q, c, v;
+    double springs = 0.0, tether = 0.0;
+    int axis;
+    for (p = 0; p < l; ++p)
+        for (axis = 0; axis < 3; ++axis)
+            if (sqffd__fit_spring(s->dims, p, axis, &q))
+                for (c = 0; c < 3; ++c) {
+                    double d = control[3 * p + c] - control[3 * q + c];
+                    if (reg == SQFFD_REG_DISPLACEMENT) d -= s->rest_control[3 * p + c] - s->rest_control[3 * q + c];
+                    springs += d * d;
+                }
+    if (s->tether > 0.0)
+        for (v = 0; v < 3 * s->count; ++v) tether += (x[v] - s->rest[v]) * (x[v] - s->rest[v]);
+    return s->spring * springs + s->tether * tether;
+}
+
+/* B's rows, the fixed part of the normal matrix and of the right-hand side,
+   from the model's superquadric, box and grid. */
+static sqffd_result sqffd__fit_prepare(const sqffd_model *model, const sqffd_fit_options *o, sqffd__fit_system *s,
+                                       double *pairs)
+{
+    sqffd_ffd regular; /* P0 */
+    double run_u = 0.0;
+    size_t l = s->lattice, m = s->count, v, p, q, c;
+    int axis;
+    sqffd_result res = sqffd_ffd_init(&regular, model->ffd.dims, model->ffd.origin, model->ffd.edges);
+    if (res != SQFFD_OK) return res;
+    /* alpha weighs the mean spring energy per control point against the mean
+       squared residual per data point, whatever the grid and the lattice */
+    s->spring = o->alpha * (double)m / (double)l;
+    s->tether = o->tether;
+    sqffd__fit_rings(s->grid, s->rings);
+    sqffd__fit_block_table(s->grid, &s->blocks);
+    s->runs = 0;
+    sqffd__fit_sq_grid(&model->sq, s->grid, s->rest);
+    for (v = 0; v < m; ++v) {
+        double stu[3];
+        if (!sqffd__finite3(s->rest + 3 * v)) return SQFFD_ERROR_NON_FINITE;
+        sqffd_ffd_local(&model->ffd, s->rest + 3 * v, stu);
+        if (v > 0 && fabs(stu[2] - run_u) <= SQFFD__FIT_SNAP) stu[2] = run_u;
+        else { s->run[s->runs++] = (uint32_t)v; run_u = stu[2]; }
+        sqffd__ffd_axis_weights(s->dims, stu, s->weights + v * s->stride);
+    }
+    s->run[s->runs] = (uint32_t)m;
+    for (p = 0; p < l; ++p)
+        for (c = 0; c < 3; ++c) s->rest_control[3 * p + c] = regular.control[p][c];
+    /* fixed = spring D^T D (the springs' graph Laplacian) + tether B^T B;
+       rhs0 = fixed P0, less the springs' part for the paper's ||D P||^2 */
+    memset(s->fixed, 0, l * l * sizeof(double));
+    if (s->tether > 0.0) sqffd__fit_gram(s, NULL, s->tether, pairs, s->fixed);
+    memset(s->rhs0, 0, 3 * l * sizeof(double));
+    for (p = 0; p < l; ++p)
+        for (q = 0; q <= p; ++q) {
+            const double h = s->fixed[p * l + q];
+            for (c = 0; c < 3; ++c) {
+                s->rhs0[c * l + p] += h * s->rest_control[3 * q + c];
+                if (q < p) s->rhs0[c * l + q] += h * s->rest_control[3 * p + c];
+            }
+        }
+    for (p = 0; p < l; ++p)
+        for (axis = 0; axis < 3; ++axis)
+            if (sqffd__fit_spring(s->dims, p, axis, &q)) {
+                s->fixed[p * l + p] += s->spring;
+                s->fixed[q * l + q] += s->spring;
+                s->fixed[q * l + p] -= s->spring; /* q > p: lower triangle */
+                if (o->regularization == SQFFD_REG_DISPLACEMENT)
+                    for (c = 0; c < 3; ++c) {
+                        double d = s->spring * (s->rest_control[3 * p + c] - s->rest_control[3 * q + c]);
+                        s->rhs0[c * l + p] += d;
+                        s->rhs0[c * l + q] -= d;
+                    }
+            }
+    return SQFFD_OK;
+}
+
+/* Step 2: rhs (3 x L) <- argmin of the weighted problem, from its normal
+   matrix fixed + B^T W B (W: weights) and right-hand side rhs. Cholesky, or
+   where the matrix is singular (alpha = 0 and parts of the lattice no data
+   reach) or the SVD solver is chosen, the pseudo-inverse's minimum-norm
+   solution over the singular values above SQFFD__FIT_SVD_RCOND of the
+   largest. */
+static sqffd_result sqffd__fit_solve(const sqffd__fit_system *s, const double *weights, double *pairs, double *rhs,
+                                     double *scratch)
+{
+    size_t l = s->lattice, c, r, k;
+    sqffd_result res = SQFFD_ERROR_NOT_POSITIVE_DEFINITE;
+    memcpy(s->matrix, s->fixed, l * l * sizeof(double));
+    sqffd__fit_gram(s, weights, 1.0, pairs, s->matrix);
+    if (s->solver == SQFFD_SOLVER_CHOLESKY) res = sqffd_cholesky_factor(s->matrix, (int)l);
+    if (res == SQFFD_OK) {
+        for (c = 0; c < 3; ++c) sqffd_cholesky_solve(s->matrix, (int)l, rhs + c * l);
+        return SQFFD_OK;
+    }
+    if (res != SQFFD_ERROR_NOT_POSITIVE_DEFINITE || !s->v) return res;
+    memcpy(s->matrix, s->fixed, l * l * sizeof(double)); /* the factor overwrote it */
+    sqffd__fit_gram(s, weights, 1.0, pairs, s->matrix);
+    for (r = 0; r < l; ++r) /* the whole symmetric matrix */
+        for (k = r + 1; k < l; ++k) s->matrix[r * l + k] = s->matrix[k * l + r];
+    res = sqffd_svd(s->matrix, (int)l, (int)l, NULL, s->singular, s->v, s->svd_ws, s->svd_size);
+    if (res != SQFFD_OK) return res;
+    for (k = l; k-- > 0;) /* symmetric positive semi-definite: A = V S V^T, A^+ = V S^+ V^T */
+        s->singular[k] = s->singular[k] > SQFFD__FIT_SVD_RCOND * s->singular[0] ? 1.0 / s->singular[k] : 0.0;
+    for (c = 0; c < 3; ++c) {
+        double *b = rhs + c * l;
+        for (k = 0; k < l; ++k) scratch[k] = 0.0; /* y = S^+ V^T b */
+        for (r = 0; r < l; ++r)
+            for (k = 0; k < l; ++k) scratch[k] += s->v[r * l + k] * b[r];
+        for (k = 0; k < l; ++k) scratch[k] *= s->singular[k];
+        for (r = 0; r < l; ++r) { /* b = V y */
+            double sum = 0.0;
+            for (k = 0; k < l; ++k) sum += s->v[r * l + k] * scratch[k];
+            b[r] = sum;
+        }
+    }
+    return SQFFD_OK;
+}
+
+/* Anderson acceleration (type II) of the fixed-point map P -> G(P) of the
+   steps: with residuals f = G(P) - P, the last `count` differences of f and
+   of G (rings of SQFFD__FIT_AA vectors of size 3L, newest at `newest`),
+   next = G - sum_j gamma_j dG_j with gamma minimising |f - sum_j gamma_j dF_j|.
+   Returns 0 (next untouched) when that small least-squares problem is
+   singular. */
+static int sqffd__fit_anderson(const double *aa_f, const double *aa_g, int count, size_t size, const double *f,
+                               const double *g, double *next)
+{
+    double a[SQFFD__FIT_AA * SQFFD__FIT_AA], b[SQFFD__FIT_AA], trace = 0.0;
+    size_t i;
+    int j, k;
+    for (j = 0; j < count; ++j) {
+        const double *fj = aa_f + (size_t)j * size;
+        for (k = 0; k <= j; ++k) a[j * count + k] = sqffd__la_dot(fj, aa_f + (size_t)k * size, size);
+        b[j] = sqffd__la_dot(fj, f, size);
+        trace += a[j * count + j];
+    }
+    if (!(trace > 0.0)) return 0;
+    for (j = 0; j < count; ++j) a[j * count + j] += 1e-10 * trace; /* a touch of ridge: nearly parallel differences */
+    if (sqffd_cholesky_factor(a, count) != SQFFD_OK) return 0;
+    sqffd_cholesky_solve(a, count, b);
+    for (i = 0; i < size; ++i) {
+        double sum = g[i];
+        for (j = 0; j < count; ++j) sum -= b[j] * aa_g[(size_t)j * size + i];
+        next[i] = sum;
+    }
+    return 1;
+}
+
+/* ---- the iteration --------------------------------------------------------- */
+
+/* The Welsch scale nu of robust mode: this many robust standard deviations
+   (1.4826 x the median) of the starting model's errors. */
+#define SQFFD__FIT_WELSCH 3.0
+
+/* Robust mode: nu^2 from the starting model's distances (scratch: n doubles, reordered). */
+static double sqffd__fit_welsch_nu2(double *distance, size_t n)
+{
+    double nu = SQFFD__FIT_WELSCH * 1.4826 * sqffd__sq_select(distance, n, n / 2);
+    return nu * nu;
+}
+
+/* The two-step loop from the model's current control points, with the
+   system already prepared for its superquadric, box and grid (tracking
+   reuses it frame after frame). Each round: one pass over the data (the
+   energy of the current model, and step 1's sums), then unless the energy
+   rose, step 2's solve and the next control points (Anderson-extrapolated
+   from the last steps). An extrapolation that raised the energy is replaced
+   by the plain step from the last accepted control points, whose energy
+   cannot be higher; should rounding make even that rise, the loop ends on
+   the accepted ones. The first and the last pass are exact; rep->sq_error
+   receives the error of the starting model. */
 static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double diagonal, const sqffd_fit_options *o,
                                        const sqffd__fit_system *s, const sqffd_kdtree *data_tree, sqffd__fit_work *w,
                                        sqffd_model *model, sqffd_fit_report *rep)
 {
-    size_t m = s->count, l = s->lattice, v, p, i;
-    double *x = w->x, *next = w->next, *t = w->target, magnitude = 0.0;
+    size_t m = s->count, l = s->lattice, size = 3 * l, v, p, i;
+    double *x = w->x, *next = w->next, *t = w->target, *control = &model->ffd.control[0][0], *swap;
+    double magnitude = 0.0, scale = (double)m / (double)n, accepted = HUGE_VAL;
     sqffd__fit_search search;
-    int it;
-    sqffd__fit_evaluate(s, &model->ffd, x);
-    sqffd__fit_search_init(&search, x, s->grid, s->rings, w->tree_ws, w->tree_size);
+    sqffd__fit_step1 step1;
+    int it = 0, aa_count = 0, aa_newest = 0, extrapolated = 0, stop = 0, scaled = !w->distance;
+    sqffd__fit_evaluate(s, model->ffd.control, x);
+    sqffd__fit_search_init(&search, x, s->grid, s->rings, w->tree_ws, w->tree_size, &w->bvh);
     search.triangle = w->triangle;
     search.anchor = w->anchor;
     search.outside = w->outside;
@@ -5120,63 +5358,115 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
     search.triangle_slack = w->triangle_slack;
     search.fan_moved = w->fan_moved;
     search.vertex_moved = w->vertex_moved;
+    search.matched = w->matched;
     for (i = 0; i < n; ++i) { /* no warm start yet */
         w->anchor[i] = 0;
+        w->matched[i][0] = UINT32_MAX;
         w->outside[i] = w->vertex_slack[i] = w->far_slack[i] = -HUGE_VAL;
         w->triangle[i][0] = UINT32_MAX;
         for (p = 0; p < 3; ++p) magnitude = fabs(points[3 * i + p]) > magnitude ? fabs(points[3 * i + p]) : magnitude;
     }
     search.margin = 1e-10 * (magnitude + diagonal); /* far above the rounding of distances between such points */
+    step1.weights = w->weights;
+    step1.nu2 = 0.0;
     rep->iterations = 0;
     rep->converged = 0;
     rep->history_count = 0;
-    for (it = 0;; ++it) {
-        double step2;
+    for (;;) {
+        double energy, reverse = 0.0;
+        sqffd_distance_stats stats;
         sqffd_result res;
-        int last = it == o->max_iterations || rep->converged;
-        if (!last) { /* (the last pass only measures) */
+        int last = it == o->max_iterations || rep->converged || stop;
+        step1.sums = last || !scaled ? NULL : t; /* (the last pass only measures) */
+        if (step1.sums) {
             memset(t, 0, 3 * m * sizeof(double));
             memset(w->weights, 0, m * sizeof(double));
         }
         search.x = x;
         search.exact = it == 0 || last;
-        res = sqffd__fit_pass(points, n, &search, diagonal, NULL, last ? NULL : t, w->weights, &rep->error);
+        res = sqffd__fit_pass(points, n, &search, diagonal, scaled ? NULL : w->distance, &step1, &stats);
         if (res != SQFFD_OK) return res;
-        if (it == 0) rep->sq_error = rep->error;
-        else {
-            if (it <= SQFFD_FIT_HISTORY) rep->history[rep->history_count++] = rep->error.rms_relative;
-            if (o->progress && o->progress(o->progress_user, SQFFD_STAGE_FFD, it, rep->error.rms_relative))
+        if (!scaled) { /* robust mode: the Welsch scale from the starting model, then that pass again */
+            step1.nu2 = sqffd__fit_welsch_nu2(w->distance, n); /* (0 for an exact start: plain squares) */
+            scaled = 1;
+            sqffd__fit_moves(&search, x, x);
+            continue;
+        }
+        if (data_tree) /* symmetric: each model point's nearest data point (into next, free until step 2) */
+            for (v = 0; v < m; ++v) {
+                const double *q = points + 3 * sqffd_kdtree_nearest(data_tree, x + 3 * v, NULL);
+                reverse += sqffd__dist2_3(q, x + 3 * v);
+                memcpy(next + 3 * v, q, 3 * sizeof(double));
+            }
+        energy = step1.energy / (double)n + (sqffd__fit_prior(s, o->regularization, control, x) + reverse) / (double)m;
+        if (it > 0 && energy > accepted && !stop) {
+            /* an extrapolation that raised the energy gives way to the plain step;
+               a plain step that did (rounding) to the accepted point, measured once more */
+            memcpy(control, extrapolated ? w->plain : w->accepted, size * sizeof(double));
+            stop = !extrapolated;
+            extrapolated = 0;
+            aa_count = 0;
+            sqffd__fit_evaluate(s, model->ffd.control, next);
+            sqffd__fit_moves(&search, x, next);
+            swap = x; x = next; next = swap;
+            continue;
+        }
+        accepted = energy;
+        memcpy(w->accepted, control, size * sizeof(double));
+        rep->error = stats;
+        rep->energy = energy;
+        if (it == 0) rep->sq_error = stats;
+        else if (!stop) {
+            if (it <= SQFFD_FIT_HISTORY) {
+                rep->history[rep->history_count] = stats.rms_relative;
+                rep->energy_history[rep->history_count++] = energy;
+            }
+            if (o->progress && o->progress(o->progress_user, SQFFD_STAGE_FFD, it, stats.rms_relative))
                 return SQFFD_ERROR_CANCELLED;
         }
         if (last) break;
-        /* step 1: X^a = X + each model point's weighted mean displacement (each data
-           point pulls the three corners of its closest mesh triangle by their
-           barycentric weights), interpolated where no data point pulled */
-        for (v = 0; v < m; ++v)
-            if (w->weights[v] > 0.0)
-                for (p = 0; p < 3; ++p) t[3 * v + p] /= w->weights[v];
-        sqffd__fit_fill(s->rings, m, w->weights, t, w->order, w->state);
-        for (v = 0; v < 3 * m; ++v) t[v] += x[v];
-        if (data_tree)  /* symmetric: halfway to the model point's closest data point */
-            for (v = 0; v < m; ++v) {
-                const double *q = points + 3 * sqffd_kdtree_nearest(data_tree, x + 3 * v, NULL);
-                for (p = 0; p < 3; ++p) t[3 * v + p] = 0.5 * (t[3 * v + p] + q[p]);
+        /* step 1: per model point, W_v and W_v y_v (each data point pulls the three
+           corners of its closest triangle by its barycentric weights), in units
+           where the W_v average 1; symmetric: plus its nearest data point, weight 1 */
+        for (v = 0; v < m; ++v) {
+            double wv = scale * w->weights[v];
+            for (p = 0; p < 3; ++p) t[3 * v + p] = scale * t[3 * v + p] + wv * x[3 * v + p];
+            if (data_tree) {
+                wv += 1.0;
+                for (p = 0; p < 3; ++p) t[3 * v + p] += next[3 * v + p];
             }
-        /* step 2: P = argmin ||B P - X^a||^2 + alpha ||D (P - P0)||^2 (or ||D P||^2) */
-        sqffd__fit_project(s, t, w->rhs);
-        sqffd__fit_solve(s, w->rhs, w->scratch);
-        for (p = 0; p < l; ++p) {
-            model->ffd.control[p][0] = w->rhs[p];
-            model->ffd.control[p][1] = w->rhs[l + p];
-            model->ffd.control[p][2] = w->rhs[2 * l + p];
-            if (!sqffd__finite3(model->ffd.control[p])) return SQFFD_ERROR_NON_FINITE;
+            w->weights[v] = wv;
         }
-        sqffd__fit_evaluate(s, &model->ffd, next);
-        step2 = sqffd__fit_moves(&search, x, next);
-        t = x; x = next; next = t; t = w->target;
-        rep->iterations = it + 1;
-        rep->step = sqrt(step2 / (double)m) / diagonal;
-        rep->converged = rep->step <= o->tolerance;
+        /* step 2: the weighted problem's minimiser, the plain step G(P) */
+        sqffd__fit_project(s, t, w->rhs);
+        res = sqffd__fit_solve(s, w->weights, w->pairs, w->rhs, w->scratch);
+        if (res != SQFFD_OK) return res;
+        for (p = 0; p < l; ++p)
+            for (i = 0; i < 3; ++i) {
+                double g = w->rhs[i * l + p], f = g - control[3 * p + i];
+                if (!isfinite(g)) return SQFFD_ERROR_NON_FINITE;
+                if (it > 0) { /* the differences since the last step, into the rings */
+                    w->aa_f[(size_t)aa_newest * size + 3 * p + i] = f - w->last_f[3 * p + i];
+                    w->aa_g[(size_t)aa_newest * size + 3 * p + i] = g - w->last_g[3 * p + i];
+                }
+                w->last_f[3 * p + i] = f;
+                w->last_g[3 * p + i] = g;
+            }
+        if (it > 0) {
+            aa_newest = (aa_newest + 1) % SQFFD__FIT_AA;
+            aa_count += aa_count < SQFFD__FIT_AA;
+        }
+        memcpy(w->plain, w->last_g, size * sizeof(double));
+        extrapolated = sqffd__fit_anderson(w->aa_f, w->aa_g, aa_count, size, w->last_f, w->last_g, control);
+        if (!extrapolated) memcpy(control, w->plain, size * sizeof(double));
+        sqffd__fit_evaluate(s, model->ffd.control, next);
+        {
+            double step2 = sqffd__fit_moves(&search, x, next);
+            swap = x; x = next; next = swap;
+            rep->iterations = ++it;
+            rep->step = sqrt(step2 / (double)m) / diagonal;
+            rep->converged = rep->step <= o->tolerance;
+        }
     }
     return SQFFD_OK;
 }
@@ -5223,12 +5513,12 @@ SQFFD_DEF size_t sqffd_fit_ffd_workspace_size(size_t n, const sqffd_model *model
 /* The error of the model over all n points (the iterations may run on a
    subsample). */
 static sqffd_result sqffd__fit_error(const double *points, size_t n, double diagonal, const sqffd__fit_system *s,
-                                     const sqffd__fit_work *w, const sqffd_model *model, sqffd_distance_stats *stats)
+                                     sqffd__fit_work *w, const sqffd_model *model, sqffd_distance_stats *stats)
 {
     sqffd__fit_search search;
-    sqffd__fit_evaluate(s, &model->ffd, w->x);
-    sqffd__fit_search_init(&search, w->x, s->grid, s->rings, w->tree_ws, w->tree_size);
-    return sqffd__fit_pass(points, n, &search, diagonal, NULL, NULL, NULL, stats);
+    sqffd__fit_evaluate(s, model->ffd.control, w->x);
+    sqffd__fit_search_init(&search, w->x, s->grid, s->rings, w->tree_ws, w->tree_size, &w->bvh);
+    return sqffd__fit_pass(points, n, &search, diagonal, NULL, NULL, stats);
 }
 
 /* Stage 2 with the system prepared (tracking prepares once for frame 0's
@@ -5277,7 +5567,7 @@ SQFFD_DEF sqffd_result sqffd_fit_ffd(const double *points, size_t n, const sqffd
     sqffd__fit_layout(&a, n, model->ffd.dims, model->grid, options, &s, &w);
     if (a.overflow) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
     memset(&local, 0, sizeof local);
-    res = sqffd__fit_prepare(model, options, &s, w.pairs, w.x);
+    res = sqffd__fit_prepare(model, options, &s, w.pairs);
     if (res == SQFFD_OK) res = sqffd__fit_run(points, n, diagonal, options, &s, &w, model, &local);
     if (report) *report = local;
     return res;
@@ -5322,7 +5612,7 @@ SQFFD_DEF sqffd_result sqffd_fit(const double *points, size_t n, const sqffd_fit
     res = sqffd_sq_fit(sample ? sample : points, k, &sq_options, &sq, &local.sq, sq_ws, sq_size);
     if (res == SQFFD_OK) res = sqffd_model_init(model, &sq, options);
     /* stage 2: the FFD */
-    if (res == SQFFD_OK) res = sqffd__fit_prepare(model, options, &s, w.pairs, w.x);
+    if (res == SQFFD_OK) res = sqffd__fit_prepare(model, options, &s, w.pairs);
     if (res == SQFFD_OK) res = sqffd__fit_run(points, n, diagonal, options, &s, &w, model, &local);
     if (report) *report = local;
     return res;

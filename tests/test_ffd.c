@@ -487,12 +487,11 @@ static void test_fit_in_class_recovery(void)
 /* The iterations' closest-point passes reuse each data point's previous
    answer while the model's moves provably cannot change it. The first and
    last passes are exact: the final error must equal a fresh search
-   (sqffd_model_distances: tree query and fan search for every point) on the
-   model after 1, 2, 5, ... iterations. The passes between keep a triangle
-   whose bound has run out while the point's closest point stays inside it:
-   their errors (the history) are never below the exact ones, and above them
-   by 1e-4 on the phantom's 32 x 64 grid, 0.1-2% on coarse grids and thin
-   parts (measured), hence the tolerances. */
+   (sqffd_model_distances) on the model after 1, 2, 5, ... iterations. The
+   passes between give local closest points (a kept triangle, the nearest
+   vertex's fan, the point's last triangle): their errors (the history) are
+   never below the exact ones, and above them by up to 1.2% on the phantom
+   and the bunny (measured), hence the tolerance. */
 static void check_warm_start(const double *pts, size_t n, sqffd_fit_options o, double history_tolerance, const char *what)
 {
     enum { RUNS = 5 };
@@ -540,18 +539,18 @@ static void test_fit_warm_start_exact(void)
     size_t n = 0;
     char err[256];
     phantom_lv_sample(&ph, 0.0, N, pts);
-    check_warm_start(pts, N, o, 1e-4, "phantom");
+    check_warm_start(pts, N, o, 5e-2, "phantom");
     o.grid[0] = 5; o.grid[1] = 6;
-    check_warm_start(pts, N, o, 3e-2, "phantom, grid 5 x 6");
+    check_warm_start(pts, N, o, 5e-2, "phantom, grid 5 x 6");
     if (sqffd_io_read_file("tests/data/bunny.ply", &bunny, &n, err, sizeof err) != 0) {
         CHECK_MSG(0, "%s (run the tests from the repository root)", err);
     } else {
         o = sqffd_fit_options_default();
-        check_warm_start(bunny, n, o, 3e-3, "bunny");
+        check_warm_start(bunny, n, o, 5e-2, "bunny");
         o.lattice[0] = o.lattice[1] = o.lattice[2] = 8;
         o.alpha = 1e-4;
         o.grid[0] = 48; o.grid[1] = 100;
-        check_warm_start(bunny, n, o, 3e-3, "bunny, 8 x 8 x 8, grid 48 x 100");
+        check_warm_start(bunny, n, o, 5e-2, "bunny, 8 x 8 x 8, grid 48 x 100");
     }
     free(bunny);
     free(pts);
@@ -629,14 +628,20 @@ static void test_fit_bunny(void)
     rev = reverse_rms(&m, pts, n);
     CHECK_MSG(2.0 * r5.error.rms_relative <= r5.sq_error.rms_relative, "5x5x5: error %g, superquadric alone %g",
               r5.error.rms_relative, r5.sq_error.rms_relative);
-    CHECK_MSG(rev < 0.05, "model -> data RMS %g of the diagonal", rev);
+    CHECK_MSG(rev < 0.06, "model -> data RMS %g of the diagonal", rev);
     o.lattice[0] = o.lattice[1] = o.lattice[2] = 8; /* same superquadric, finer lattice */
     CHECK_RESULT(sqffd_model_init(&m, &m.sq, &o), SQFFD_OK);
     CHECK_RESULT(run_fit_ffd(pts, n, &o, &m, &r8), SQFFD_OK);
     CHECK_NEAR(r8.sq_error.rms_relative, r5.sq_error.rms_relative, 1e-12);
     CHECK_MSG(r8.error.rms_relative < r5.error.rms_relative, "8x8x8: error %g, 5x5x5 %g", r8.error.rms_relative,
               r5.error.rms_relative);
-    CHECK(reverse_rms(&m, pts, n) < 0.05);
+    CHECK(reverse_rms(&m, pts, n) < 0.06);
+    o = sqffd_fit_options_default(); /* the model -> data term holds the parts no data reach (5.3% -> 1.3%) */
+    o.symmetric = 1;
+    CHECK_RESULT(run_fit(pts, n, &o, &m, &r5), SQFFD_OK);
+    rev = reverse_rms(&m, pts, n);
+    CHECK_MSG(rev < 0.02 && r5.error.rms_relative < 0.015, "symmetric: model -> data %g, error %g", rev,
+              r5.error.rms_relative);
     free(pts);
 }
 
