@@ -5343,7 +5343,7 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
     sqffd__fit_search search;
     sqffd__fit_step1 step1;
     int it = 0, aa_count = 0, aa_newest = 0, extrapolated = 0, stop = 0, scaled = !w->distance;
-    sqffd__fit_evaluate(s, model->ffd.control, x);
+    sqffd__fit_evaluate(s, (const double (*)[3])model->ffd.control, x);
     sqffd__fit_search_init(&search, x, s->grid, s->rings, w->tree_ws, w->tree_size, &w->bvh);
     search.triangle = w->triangle;
     search.anchor = w->anchor;
@@ -5406,7 +5406,7 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
             stop = !extrapolated;
             extrapolated = 0;
             aa_count = 0;
-            sqffd__fit_evaluate(s, model->ffd.control, next);
+            sqffd__fit_evaluate(s, (const double (*)[3])model->ffd.control, next);
             sqffd__fit_moves(&search, x, next);
             swap = x; x = next; next = swap;
             continue;
@@ -5459,7 +5459,7 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
         memcpy(w->plain, w->last_g, size * sizeof(double));
         extrapolated = sqffd__fit_anderson(w->aa_f, w->aa_g, aa_count, size, w->last_f, w->last_g, control);
         if (!extrapolated) memcpy(control, w->plain, size * sizeof(double));
-        sqffd__fit_evaluate(s, model->ffd.control, next);
+        sqffd__fit_evaluate(s, (const double (*)[3])model->ffd.control, next);
         {
             double step2 = sqffd__fit_moves(&search, x, next);
             swap = x; x = next; next = swap;
