@@ -1,4 +1,4 @@
-/* sqffd.h - v0.1.0 - superquadric + free-form deformation shape fitting
+/* sqffd.h - v0.2.0 - superquadric + free-form deformation shape fitting
    Public domain or MIT, your choice (see the end of this file).
 
    Turns 3-D points into a compact global shape model: a superquadric with
@@ -93,6 +93,11 @@
                                        model-to-data distances
 
    VERSION
+       0.2.0 (2026-11)  the FFD stage minimises a stated energy (MM steps,
+                        Anderson-accelerated); the error is the exact
+                        distance to the model mesh; robust FFD; options
+                        tether; report energy, energy_history; alpha = 0
+                        solves by SVD; max_iterations 0 allowed
        0.1.0 (2026-11)  first release: layers 1-5
 */
 #ifndef SQFFD_H
@@ -102,9 +107,9 @@
 #include <stdint.h>
 
 #define SQFFD_VERSION_MAJOR 0
-#define SQFFD_VERSION_MINOR 1
+#define SQFFD_VERSION_MINOR 2
 #define SQFFD_VERSION_PATCH 0
-#define SQFFD_VERSION_STRING "0.1.0"
+#define SQFFD_VERSION_STRING "0.2.0"
 
 #ifndef SQFFD_DEF
 #ifdef SQFFD_STATIC
@@ -538,11 +543,9 @@ SQFFD_DEF void sqffd_ffd_weights(const int dims[3], const double stu[3], double 
    poles, outward-facing for a proper superquadric).
 
    THE ERROR (used everywhere: report, history, progress, distances): for each
-   data point, its Euclidean distance to the model's triangle mesh on the
-   model's grid, taken as the exact distance to the nearest of the triangles
-   around the mesh vertex nearest to the point; the RMS of these over the
-   points, and relative = that RMS divided by the diagonal of the data's
-   axis-aligned bounding box. */
+   data point, its exact Euclidean distance to the model's triangle mesh on
+   the model's grid; the RMS of these over the points, and relative = that RMS
+   divided by the diagonal of the data's axis-aligned bounding box. */
 typedef struct sqffd_model {
     sqffd_superquadric sq;
     sqffd_ffd ffd;
@@ -605,24 +608,22 @@ SQFFD_DEF sqffd_fit_options sqffd_fit_options_default(void);
 SQFFD_DEF size_t sqffd_fit_workspace_size(size_t n, const sqffd_fit_options *options);
 /* Fit the model to n points (x y z each): the superquadric fit, a box around
    it with the regular lattice P0, model points X0 = B P0 on the grid, then the
-   two-step iteration: (1) each data point's closest point on the model
-   surface (the mesh of the model points: nearest model point by kd-tree, then
-   the triangles around it, as for the error; searched afresh only where the
-   model's moves since the previous iteration could have changed the answer;
-   the first and last passes give exactly a fresh search's answer, the
-   passes between keep a point's triangle while its closest point stays
-   inside it); its displacement to the data
-   point is spread over that triangle's three model points with the
-   barycentric weights and averaged per model point; model points no data
-   point reached are filled by interpolation over the mesh (breadth-first from
-   the reached ones, then neighbour averaging; wraps in omega, the poles are
-   mesh vertices); X^a = X + displacement; (2) control points minimising
-   ||B P - X^a||^2 + a ||D (P - P0)||^2 (or ||D P||^2), X = B P.
+   two-step iteration that minimises THE ENERGY (see "the least-squares
+   problem of step 2" in the implementation, and the README):
+     E(P) = 1/n sum_i rho(d_i) + alpha / L ||D (P - P0)||^2 (or ||D P||^2)
+            + tether / M sum_v |x_v(P) - x_v(P0)|^2 [+ 1/M sum_v |x_v - nearest data point|^2 if symmetric],
+   d_i the error of point i, rho(d) = d^2 or in robust mode (options->sq.robust)
+   Welsch's nu^2 (1 - exp(-d^2 / nu^2)). Each iteration: (1) each data point's
+   closest point on the model mesh (exact in the first and last pass, a
+   proven or local answer in between); its displacement, shared among that
+   triangle's corners by barycentric weight, gives a weighted least-squares
+   bound of E; (2) the control points minimising that bound (it cannot raise
+   E); Anderson acceleration extrapolates the steps, and one that raised E
+   is replaced by the plain step: report->energy_history never rises.
    report may be NULL. Results: INVALID_ARGUMENT (NULL, lattice out of range,
-   grid too coarse to mesh, alpha < 0 or NaN, bad options), TOO_LARGE (grid),
-   NON_FINITE, TOO_FEW_POINTS, DEGENERATE, WORKSPACE_TOO_SMALL, CANCELLED,
-   NOT_POSITIVE_DEFINITE (Cholesky with alpha = 0 on a rank-deficient B), and
-   whatever sqffd_sq_fit rejects. */
+   grid too coarse to mesh, alpha or tether < 0 or NaN, bad options),
+   TOO_LARGE (grid), NON_FINITE, TOO_FEW_POINTS, DEGENERATE,
+   WORKSPACE_TOO_SMALL, CANCELLED, and whatever sqffd_sq_fit rejects. */
 SQFFD_DEF sqffd_result sqffd_fit(const double *points, size_t n, const sqffd_fit_options *options,
                                  sqffd_model *model, sqffd_fit_report *report,
                                  void *workspace, size_t workspace_size);

@@ -212,8 +212,8 @@ static int fit_parse(int argc, char **argv, fit_args *a, int *help)
             if (parse_nonnegative(value, &a->options.alpha))
                 return usage_error(c, "fit: --alpha takes a finite number >= 0, not '%s'", value);
         } else { /* --iterations */
-            if (parse_int(value, 1, 10000, &v))
-                return usage_error(c, "fit: --iterations takes a whole number 1..10000, not '%s'", value);
+            if (parse_int(value, 0, 10000, &v))
+                return usage_error(c, "fit: --iterations takes a whole number 0..10000, not '%s'", value);
             a->options.max_iterations = (int)v;
         }
 #undef IS
@@ -236,7 +236,7 @@ static void fit_details(FILE *f)
             "                         vertex to the nearest data point\n"
             "  --lattice N|LxMxN      FFD control points per axis, 2..%d (default %dx%dx%d)\n"
             "  --alpha A              regularisation weight, >= 0 (default %g)\n"
-            "  --iterations K         FFD iterations at most, 1..10000 (default %d)\n"
+            "  --iterations K         FFD iterations at most, 0..10000 (default %d; 0: the superquadric alone)\n"
             "  --robust               outlier-robust superquadric fit\n"
             "  --no-taper             superquadric without tapering (11 parameters, not 13)\n"
             "  --mesh N|ExO           output mesh grid, eta x omega, 4..1024 (default 64x128)\n"
@@ -279,7 +279,8 @@ static void fit_report(const fit_args *a, size_t n, const sqffd_model *model, co
     printf("    after FFD      %.4f %%   (max %.4f %%)   lattice %dx%dx%d, alpha %g\n",
            100.0 * r->error.rms_relative, 100.0 * r->error.max_relative, ffd->dims[0], ffd->dims[1], ffd->dims[2],
            a->options.alpha);
-    printf("  iterations       %d%s\n", r->iterations, r->converged ? " (converged)" : " (iteration cap)");
+    printf("  iterations       %d%s\n", r->iterations,
+           r->iterations == 0 ? " (the superquadric alone)" : r->converged ? " (converged)" : " (iteration cap)");
     printf("  model mesh       %s: %lu vertices, %lu triangles; model-to-data RMS %.4f %%, max %.4f %%\n",
            a->output, (unsigned long)mesh_vertices, (unsigned long)mesh_triangles,
            100.0 * model_to_data->rms_relative, 100.0 * model_to_data->max_relative);
