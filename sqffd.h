@@ -4111,6 +4111,7 @@ static void sqffd__fit_triangles(const int grid[2], uint32_t (*triangles)[3])
 typedef struct sqffd__fit_bvh {
     uint32_t (*triangles)[3];
     double *centroids;   /* 3 per triangle */
+    double *radius;      /* per triangle: its corners' largest distance from its centroid */
     sqffd_kdtree tree;   /* over the centroids */
     void *tree_ws;
     size_t tree_size;
@@ -4122,6 +4123,7 @@ static void sqffd__fit_bvh_layout(sqffd__arena *a, const int grid[2], sqffd__fit
     size_t count = 2 * (size_t)grid[0] * (size_t)grid[1];
     h->triangles = (uint32_t (*)[3])sqffd__arena_take(a, count, 3 * sizeof(uint32_t));
     h->centroids = (double *)sqffd__arena_take(a, count, 3 * sizeof(double));
+    h->radius = (double *)sqffd__arena_take(a, count, sizeof(double));
     h->tree_size = sqffd_kdtree_workspace_size(count);
     if (h->tree_size == 0) a->overflow = 1;
     h->tree_ws = sqffd__arena_take(a, h->tree_size, 1);
@@ -4159,6 +4161,7 @@ static void sqffd__fit_bvh_layout(sqffd__arena *a, const int grid[2], sqffd__fit
    the same in practice (the fan search it saves is most of a pass's cost on
    smooth surfaces, where neighbouring triangles are all about as close). */
 #define SQFFD__FIT_KNN 3 /* neighbours a tree query fetches (measured: fewer repeat queries vs dearer ones) */
+#define SQFFD__FIT_DESCENT 16 /* vertex-to-vertex moves of a pass between's descent at most */
 
 typedef struct sqffd__fit_search {
     const double *x;         /* mesh vertices (the model points) */
@@ -4312,6 +4315,26 @@ static sqffd_result sqffd__fit_nearest_vertex(sqffd__fit_search *s, size_t i, co
             }
         }
     }
+    if (!s->exact && s->triangle[i][0] != UINT32_MAX) {
+        /* a pass between: no proof, a descent over the mesh from the last
+           nearest vertex (the fit's energy still cannot rise: the pass keeps
+           each point's matched triangle where it stays closer) */
+        size_t v = s->triangle[i][0], step, next;
+        double best = sqffd__dist2_3(q, s->x + 3 * v);
+        for (step = 0; step < SQFFD__FIT_DESCENT; ++step) {
+            r = s->rings + v;
+            for (next = v, k = 0; k < r->count; ++k) {
+                size_t u = sqffd__fit_ring_at(r, k);
+                double du = sqffd__dist2_3(q, s->x + 3 * u);
+                if (du < best) { best = du; next = u; }
+            }
+            if (next == v) break;
+            v = next;
+        }
+        *nearest = v;
+        s->vertex_slack[i] = s->far_slack[i] = s->outside[i] = -HUGE_VAL; /* the next exact pass asks the tree */
+        return SQFFD_OK;
+    }
     res = sqffd__fit_tree(s);
     if (res != SQFFD_OK) return res;
     count = sqffd_kdtree_knn(&s->tree, q, s->anchor ? SQFFD__FIT_KNN : 1, near, d2);
@@ -4371,6 +4394,7 @@ static sqffd_result sqffd__fit_certify(sqffd__fit_search *s, const double q[3], 
 {
     sqffd__fit_bvh *h = s->bvh;
     uint32_t stack[SQFFD_KDTREE_MAX_DEPTH + 1];
+    double gaps[SQFFD_KDTREE_MAX_DEPTH + 1]; /* of the boxes on the stack */
     int top = 0;
     if (!s->bvh_current) {
         size_t k, count = 2 * ((size_t)s->grid[0] * (size_t)s->grid[1]);
@@ -4378,40 +4402,59 @@ static sqffd_result sqffd__fit_certify(sqffd__fit_search *s, const double q[3], 
         sqffd__fit_triangles(s->grid, h->triangles);
         for (k = 0; k < count; ++k) {
             const uint32_t *t = h->triangles[k];
+            double *centre = h->centroids + 3 * k, r2 = 0.0;
             int c;
             for (c = 0; c < 3; ++c)
-                h->centroids[3 * k + (size_t)c] =
-                    (s->x[3 * (size_t)t[0] + (size_t)c] + s->x[3 * (size_t)t[1] + (size_t)c] + s->x[3 * (size_t)t[2] + (size_t)c]) / 3.0;
+                centre[c] = (s->x[3 * (size_t)t[0] + (size_t)c] + s->x[3 * (size_t)t[1] + (size_t)c] + s->x[3 * (size_t)t[2] + (size_t)c]) / 3.0;
+            for (c = 0; c < 3; ++c) {
+                double d2 = sqffd__dist2_3(centre, s->x + 3 * (size_t)t[c]);
+                r2 = d2 > r2 ? d2 : r2;
+            }
+            h->radius[k] = sqrt(r2);
         }
         res = sqffd_kdtree_build(&h->tree, h->centroids, count, h->tree_ws, h->tree_size);
         if (res != SQFFD_OK) return res;
         sqffd__fit_bvh_boxes(h, s->x);
         s->bvh_current = 1;
     }
-    stack[top++] = 0;
+    stack[top] = 0;
+    gaps[top++] = sqffd__fit_box_gap2(h->boxes[0], q, q);
     while (top > 0) {
-        uint32_t i = stack[--top];
-        const sqffd_kdtree_node *node = h->tree.nodes + i;
-        if (sqffd__fit_box_gap2(h->boxes[i], q, q) >= *best2) continue;
+        const sqffd_kdtree_node *node;
+        uint32_t i;
+        --top;
+        if (gaps[top] >= *best2) continue; /* (the best may have improved since it was pushed) */
+        i = stack[top];
+        node = h->tree.nodes + i;
         if (node->axis == SQFFD_KDTREE_LEAF) {
             size_t k;
+            double best = sqrt(*best2);
             for (k = node->u.leaf.begin; k < node->u.leaf.end; ++k) {
-                const uint32_t *t = h->triangles[h->tree.index[k]];
-                size_t corners[3];
-                double tw[3], d;
+                size_t id = h->tree.index[k], corners[3];
+                const uint32_t *t = h->triangles[id];
+                double tw[3], d, reach = best + h->radius[id];
+                if (sqffd__dist2_3(q, h->centroids + 3 * id) >= reach * reach) continue; /* its bounding sphere is farther */
                 corners[0] = t[0]; corners[1] = t[1]; corners[2] = t[2];
                 d = sqffd__fit_corner_triangle(s->x, corners, q, tw);
                 if (d < *best2) {
                     *best2 = d;
+                    best = sqrt(d);
                     memcpy(tri, corners, sizeof corners);
                     memcpy(w, tw, sizeof tw);
                 }
             }
-        } else { /* the nearer box on top */
+        } else { /* the children within reach, the nearer on top */
             uint32_t low = i + 1, high = node->high_child;
-            int low_first = sqffd__fit_box_gap2(h->boxes[low], q, q) <= sqffd__fit_box_gap2(h->boxes[high], q, q);
-            stack[top++] = low_first ? high : low;
-            stack[top++] = low_first ? low : high;
+            double g_low = sqffd__fit_box_gap2(h->boxes[low], q, q), g_high = sqffd__fit_box_gap2(h->boxes[high], q, q);
+            int low_first = g_low <= g_high;
+            if ((low_first ? g_high : g_low) < *best2) {
+                stack[top] = low_first ? high : low;
+                gaps[top++] = low_first ? g_high : g_low;
+            }
+            if ((low_first ? g_low : g_high) < *best2) {
+                stack[top] = low_first ? low : high;
+                gaps[top++] = low_first ? g_low : g_high;
+            }
         }
     }
     return SQFFD_OK;
