@@ -488,10 +488,11 @@ static void test_fit_in_class_recovery(void)
    answer while the model's moves provably cannot change it. The first and
    last passes are exact: the final error must equal a fresh search
    (sqffd_model_distances) on the model after 1, 2, 5, ... iterations. The
-   passes between give local closest points (a kept triangle, the nearest
-   vertex's fan, the point's last triangle): their errors (the history) are
-   never below the exact ones, and above them by up to 1.2% on the phantom
-   and the bunny (measured), hence the tolerance. */
+   passes between give local closest points (a kept triangle, the fan of a
+   vertex found by descending the mesh, the point's last triangle): their
+   errors (the history) are never below the exact ones, and above them by up
+   to 1.2% on the phantom and 15% on the bunny at 8 x 8 x 8 (measured), hence
+   the tolerance. */
 static void check_warm_start(const double *pts, size_t n, sqffd_fit_options o, double history_tolerance, const char *what)
 {
     enum { RUNS = 5 };
@@ -539,18 +540,18 @@ static void test_fit_warm_start_exact(void)
     size_t n = 0;
     char err[256];
     phantom_lv_sample(&ph, 0.0, N, pts);
-    check_warm_start(pts, N, o, 5e-2, "phantom");
+    check_warm_start(pts, N, o, 0.2, "phantom");
     o.grid[0] = 5; o.grid[1] = 6;
-    check_warm_start(pts, N, o, 5e-2, "phantom, grid 5 x 6");
+    check_warm_start(pts, N, o, 0.2, "phantom, grid 5 x 6");
     if (sqffd_io_read_file("tests/data/bunny.ply", &bunny, &n, err, sizeof err) != 0) {
         CHECK_MSG(0, "%s (run the tests from the repository root)", err);
     } else {
         o = sqffd_fit_options_default();
-        check_warm_start(bunny, n, o, 5e-2, "bunny");
+        check_warm_start(bunny, n, o, 0.2, "bunny");
         o.lattice[0] = o.lattice[1] = o.lattice[2] = 8;
         o.alpha = 1e-4;
         o.grid[0] = 48; o.grid[1] = 100;
-        check_warm_start(bunny, n, o, 5e-2, "bunny, 8 x 8 x 8, grid 48 x 100");
+        check_warm_start(bunny, n, o, 0.2, "bunny, 8 x 8 x 8, grid 48 x 100");
     }
     free(bunny);
     free(pts);
