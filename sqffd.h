@@ -458,6 +458,8 @@ typedef struct sqffd_sq_fit_report {
     int start;            /* which start won (0 = principal axes as found, e = 1, 1) */
     int converged;        /* the last optimiser run met its tolerance */
     double inlier_fraction; /* robust mode: sum of weights / n; 1 otherwise */
+    sqffd_superquadric best_start; /* the start nearest the data (first-order distances on the screening subsample) */
+    int fallback;         /* set by sqffd_fit: the fit's error was above best_start's, which was kept (0 here) */
 } sqffd_sq_fit_report;
 
 /* Fewest points sqffd_sq_fit accepts (one per parameter). */
@@ -2557,6 +2559,8 @@ SQFFD_DEF double sqffd_sq_iou(const sqffd_superquadric *a, const sqffd_superquad
 #define SQFFD__SQ_TURNED_SEEDS 3        /* shape seeds tried on a turned basis */
 #define SQFFD__SQ_CLOSE_FIT 0.05   /* RMS radial distance / mean size of a fit allowed past the data's box */
 #define SQFFD__SQ_FLAT_RATIO 1e-10 /* covariance eigenvalue ratio below which data are flat */
+#define SQFFD__SQ_MIN_SIZE 0.5     /* sizes >= this times the data's standard deviation along the axis (a
+                                      superquadric's own is 0.45-0.6 of its size) */
 
 /* Per-evaluation constants of the residual. */
 typedef struct sqffd__sq_eval {
@@ -2728,6 +2732,10 @@ typedef struct sqffd__sq_fit {
     double box_mid[3];    /* normalised data box: centre and half-extents */
     double box_half[3];
     double size_min;
+    double cov[9];        /* covariance of the start set: each size is at least SQFFD__SQ_MIN_SIZE times the
+                             data's standard deviation along its axis */
+    sqffd_superquadric best_start; /* the start that describes the screening points best (sqffd__sq_distance2) */
+    double best_start_spread;
     int iterations;       /* optimiser iterations so far */
     void *ncg_work;       /* CG optimiser scratch */
     size_t ncg_size;
@@ -2795,7 +2803,10 @@ static void sqffd__sq_rotate(double rot[9], const double w[3])
 /* The feasible set: e and K within their bounds, the centre in the data's
    box, each size at most SQFFD__SQ_BOX_MARGIN times the box's half-extent
    along that local axis (this stops the runaway of the F-based cost on data
-   that are no superquadric; sqffd__sq_contain finishes the job). Returns
+   that are no superquadric; sqffd__sq_contain finishes the job) and at least
+   SQFFD__SQ_MIN_SIZE times the data's standard deviation along it (a
+   collapse: the F-based costs can prefer a tiny, fully tapered shape on
+   thin, branched data). Returns
    the value parameter i moves (a log size moves a size; NULL for the free
    rotation increment) and writes its bounds at sq's rotation. */
 static double *sqffd__sq_bounded(const sqffd__sq_fit *fit, sqffd_superquadric *sq, int i, double *lo, double *hi)
@@ -2818,8 +2829,14 @@ static double *sqffd__sq_bounded(const sqffd__sq_fit *fit, sqffd_superquadric *s
         reach = SQFFD__SQ_BOX_MARGIN * (fabs(sq->rotation[k]) * fit->box_half[0] +
                                         fabs(sq->rotation[3 + k]) * fit->box_half[1] +
                                         fabs(sq->rotation[6 + k]) * fit->box_half[2]);
-        *lo = fit->size_min;
-        *hi = reach > fit->size_min ? reach : fit->size_min;
+        {
+            const double r[3] = {sq->rotation[k], sq->rotation[3 + k], sq->rotation[6 + k]};
+            double cr[3], spread;
+            sqffd__mat3_vec(fit->cov, r, cr);
+            spread = SQFFD__SQ_MIN_SIZE * sqrt(sqffd__dot3(r, cr));
+            *lo = spread > fit->size_min ? spread : fit->size_min;
+        }
+        *hi = reach > *lo ? reach : *lo;
         return &sq->size[k];
     }
     if (i >= SQFFD__SQ_P_CENTER) {
@@ -3475,6 +3492,27 @@ static void sqffd__sq_shortlist_add(sqffd__sq_shortlist *list, const sqffd_super
     if (list->count < SQFFD__SQ_KEEP) list->count++;
 }
 
+/* How well sq describes m points, close to their Euclidean distances: each
+   radial distance d divided by the length of its gradient in the point (a
+   first-order distance to the surface: the ray from the centre meets a thin
+   shape's long side at a slant, where d overstates it), squared and
+   averaged. It picks the best start (report->best_start), which sqffd_fit
+   keeps where the fit ends farther from the data: a guard against a
+   collapse or a runaway the bounds did not stop. */
+static double sqffd__sq_distance2(const sqffd_superquadric *sq, const double *pts, size_t m)
+{
+    double g[SQFFD__SQ_ROW], sum = 0.0;
+    sqffd__sq_eval ev;
+    size_t k;
+    sqffd__sq_eval_init(&ev, sq, SQFFD_SQ_COST_RADIAL);
+    for (k = 0; k < m; k++) {
+        double r = sqffd__sq_residual(&ev, pts + 3 * k, g), slope = sqffd__dot3(g + SQFFD__SQ_P_CENTER, g + SQFFD__SQ_P_CENTER);
+        double d2 = slope > 1.0 ? r * r / slope : r * r; /* (a gradient below 1 only where the first order fails) */
+        sum += d2;
+    }
+    return sum / (double)m;
+}
+
 /* Starts: each principal axis of the start set pts (its centre and
    covariance eigenvalues and axes given) as the local z, times the shape
    seeds; when two eigenvalues are close their axes are arbitrary within
@@ -3501,7 +3539,7 @@ static void sqffd__sq_screen(sqffd__sq_fit *fit, const double *pts, size_t m, co
         sqffd__sq_initial_sizes(pts, m, centre, b_axes, hist, b_size);
         for (s = 0; s < 3 * (basis ? SQFFD__SQ_TURNED_SEEDS : n_seeds) && fit->status == SQFFD_OK; s++, id++) {
             sqffd_superquadric cur;
-            double cost;
+            double cost, spread;
             int j;
             memset(&cur, 0, sizeof cur);
             for (j = 0; j < 3; j++) { /* cyclic column permutation: still a rotation */
@@ -3515,6 +3553,11 @@ static void sqffd__sq_screen(sqffd__sq_fit *fit, const double *pts, size_t m, co
             cur.shape[0] = shape_seeds[s / 3][0];
             cur.shape[1] = shape_seeds[s / 3][1];
             sqffd__sq_project(fit, &cur);
+            spread = sqffd__sq_distance2(&cur, screen, m_screen);
+            if (spread < fit->best_start_spread) {
+                fit->best_start_spread = spread;
+                fit->best_start = cur;
+            }
             sqffd__sq_optimize(fit, &cur, screen, NULL, m_screen, SQFFD__SQ_START_ITERATIONS, &cost);
             sqffd__sq_shortlist_add(list, &cur, cost, id);
             if (cost < SQFFD__SQ_EXACT * (double)m_screen) return; /* exact: no start can do better */
@@ -3614,6 +3657,7 @@ SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_
         fit.box_half[k] = 0.5 * (hi - lo);
     }
     fit.box_volume = 8.0 * fit.box_half[0] * fit.box_half[1] * fit.box_half[2];
+    fit.best_start_spread = HUGE_VAL;
 
     /* The starts come from all points, or in robust mode from the polish
        subsample without its isolated points. Every start is screened on a
@@ -3635,6 +3679,7 @@ SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_
         sqffd__sq_moments(start_pts, m_start, centre, cov); /* else those of all points, above */
         sqffd_sym3_eigen(cov, values, axes);
     }
+    memcpy(fit.cov, cov, sizeof cov);
     m_screen = m_start < SQFFD__SQ_SCREEN ? m_start : SQFFD__SQ_SCREEN;
     sqffd__subsample(start_pts, m_start, m_screen, w.screen);
     sqffd__sq_screen(&fit, start_pts, m_start, centre, values, axes, w.screen, m_screen, w.hist, &list);
@@ -3697,6 +3742,12 @@ SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_
         report->start = best_start;
         report->converged = converged;
         report->inlier_fraction = sum_w / (double)n;
+        report->fallback = 0;
+        report->best_start = fit.best_start;
+        for (k = 0; k < 3; k++) {
+            report->best_start.size[k] *= scale;
+            report->best_start.center[k] = centroid[k] + scale * fit.best_start.center[k];
+        }
     }
     *sq = best;
     for (k = 0; k < 3; k++) {
@@ -5617,6 +5668,49 @@ SQFFD_DEF sqffd_result sqffd_fit_ffd(const double *points, size_t n, const sqffd
     return res;
 }
 
+/* Stage 1's guard by the error itself: the superquadric's error (its grid
+   mesh, the identity lattice) on an even subsample of at most
+   SQFFD__FIT_GUARD of the stage's points (in w->target): the RMS, in robust
+   mode the third quartile (outliers do not count). */
+#define SQFFD__FIT_GUARD 1536
+
+static sqffd_result sqffd__fit_sq_error(const sqffd_superquadric *sq, const double *points, size_t n, double diagonal,
+                                        int robust, sqffd__fit_system *s, sqffd__fit_work *w, double *error)
+{
+    sqffd__fit_search search;
+    sqffd_distance_stats stats;
+    size_t m = sqffd__fit_grid_count(s->grid), v;
+    sqffd_result res;
+    sqffd__fit_sq_grid(sq, s->grid, w->x);
+    for (v = 0; v < m; ++v)
+        if (!sqffd__finite3(w->x + 3 * v)) return SQFFD_ERROR_NON_FINITE;
+    sqffd__fit_search_init(&search, w->x, s->grid, s->rings, w->tree_ws, w->tree_size, &w->bvh);
+    res = sqffd__fit_pass(points, n, &search, diagonal, robust ? w->next : NULL, NULL, &stats);
+    *error = robust ? sqffd__sq_select(w->next, n, n * 3 / 4) : stats.rms;
+    return res;
+}
+
+/* The fitted superquadric, or the best start where that is nearer the data
+   (by the error, on the guard subsample): stage 1's cost is no distance, and
+   on shapes that are no superquadric it can end farther than it began. */
+static sqffd_result sqffd__fit_guard(const double *points, size_t n, double diagonal, int robust, sqffd__fit_system *s,
+                                     sqffd__fit_work *w, sqffd_superquadric *sq, sqffd_sq_fit_report *rep)
+{
+    size_t m = sqffd__fit_grid_count(s->grid), k = n < SQFFD__FIT_GUARD ? n : SQFFD__FIT_GUARD;
+    double fitted, start;
+    sqffd_result res;
+    k = k < m ? k : m; /* (the subsample lives in the model-sized target) */
+    sqffd__subsample(points, n, k, w->target);
+    sqffd__fit_rings(s->grid, s->rings);
+    res = sqffd__fit_sq_error(sq, w->target, k, diagonal, robust, s, w, &fitted);
+    if (res == SQFFD_OK) res = sqffd__fit_sq_error(&rep->best_start, w->target, k, diagonal, robust, s, w, &start);
+    if (res == SQFFD_OK && start < fitted) {
+        *sq = rep->best_start;
+        rep->fallback = 1;
+    }
+    return res;
+}
+
 SQFFD_DEF sqffd_result sqffd_fit(const double *points, size_t n, const sqffd_fit_options *options,
                                  sqffd_model *model, sqffd_fit_report *report,
                                  void *workspace, size_t workspace_size)
@@ -5654,6 +5748,7 @@ SQFFD_DEF sqffd_result sqffd_fit(const double *points, size_t n, const sqffd_fit
         sq_options.progress_user = options->progress_user;
     }
     res = sqffd_sq_fit(sample ? sample : points, k, &sq_options, &sq, &local.sq, sq_ws, sq_size);
+    if (res == SQFFD_OK) res = sqffd__fit_guard(sample ? sample : points, k, diagonal, sq_options.robust, &s, &w, &sq, &local.sq);
     if (res == SQFFD_OK) res = sqffd_model_init(model, &sq, options);
     /* stage 2: the FFD */
     if (res == SQFFD_OK) res = sqffd__fit_prepare(model, options, &s, w.pairs);

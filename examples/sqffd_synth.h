@@ -281,4 +281,28 @@ static inline size_t synth_cut_plane(synth_rng *r, double *points, size_t n, dou
     return kept;
 }
 
+/* A thin, branched shape like a hand (the superquadric fit's hard case):
+   points on a flat palm (an ellipsoid 0.5 x 0.6 x 0.12, 3 points in 8) and
+   five fingers (cylinders of radius 0.06 and length 0.6 fanned out above
+   it), n points from the seed. */
+static inline void synth_hand(size_t n, uint64_t seed, double *out)
+{
+    synth_rng r = synth_rng_seed(seed);
+    size_t i;
+    for (i = 0; i < n; i++) {
+        double *p = out + 3 * i, a = synth_range(&r, 0.0, 2.0 * SYNTH_PI), z = synth_range(&r, -1.0, 1.0);
+        int part = (int)synth_index(&r, 8);
+        if (part < 3) {
+            double c = sqrt(1.0 - z * z);
+            p[0] = 0.5 * c * cos(a); p[1] = 0.6 * c * sin(a); p[2] = 0.12 * z;
+        } else {
+            double angle = -0.9 + 0.45 * (double)(part - 3), len = synth_range(&r, 0.0, 0.6);
+            double cx = 0.5 * sin(angle), cy = 0.55 * cos(angle);
+            p[0] = cx + len * sin(angle) + 0.06 * cos(a) * cos(angle);
+            p[1] = cy + len * cos(angle) - 0.06 * cos(a) * sin(angle);
+            p[2] = 0.06 * sin(a);
+        }
+    }
+}
+
 #endif /* SQFFD_SYNTH_H */

@@ -561,6 +561,44 @@ static void test_sq_fit_no_runaway(void)
     free(shape);
 }
 
+/* Sizes are bounded below by half the data's standard deviation along each
+   local axis (a collapse: on thin, branched data the F-based cost can prefer
+   a tiny, fully tapered shape), on hand-like data with one point left out
+   at a time (one of these collapsed to sizes of 0.03-0.13 before). */
+static void test_sq_fit_no_collapse(void)
+{
+    enum { N = 1500 };
+    double *pts = (double *)malloc(3 * N * sizeof *pts), *sub = (double *)malloc(3 * N * sizeof *sub);
+    sqffd_sq_fit_options o = sqffd_sq_fit_options_default();
+    size_t size = sqffd_sq_fit_workspace_size(N, &o), i, d, k;
+    void *ws = malloc(size);
+    int seed;
+    for (seed = 1; seed <= 3; seed++) {
+        synth_hand(N, (uint64_t)seed, pts);
+        for (d = 0; d < 6; d++) {
+            sqffd_superquadric sq;
+            double mean[3] = {0.0, 0.0, 0.0}, cov[9] = {0.0};
+            int a, b;
+            for (i = 0, k = 0; i < N; i++)
+                if (i != d * 250) memcpy(sub + 3 * k++, pts + 3 * i, 3 * sizeof(double));
+            CHECK_RESULT(sqffd_sq_fit(sub, k, &o, &sq, NULL, ws, size), SQFFD_OK);
+            for (i = 0; i < k; i++)
+                for (a = 0; a < 3; a++) mean[a] += sub[3 * i + (size_t)a] / (double)k;
+            for (i = 0; i < k; i++)
+                for (a = 0; a < 3; a++)
+                    for (b = 0; b < 3; b++)
+                        cov[3 * a + b] += (sub[3 * i + (size_t)a] - mean[a]) * (sub[3 * i + (size_t)b] - mean[b]) / (double)k;
+            for (a = 0; a < 3; a++) { /* the data's spread along local axis a (column a of the rotation) */
+                double var = 0.0;
+                for (b = 0; b < 9; b++) var += sq.rotation[3 * (b / 3) + a] * cov[b] * sq.rotation[3 * (b % 3) + a];
+                CHECK_MSG(sq.size[a] >= 0.5 * sqrt(var) * (1.0 - 1e-9), "seed %d drop %zu: size %d = %g, spread %g", seed,
+                          d, a, sq.size[a], sqrt(var));
+            }
+        }
+    }
+    free(ws); free(sub); free(pts);
+}
+
 /* ---- bad input ---------------------------------------------------------------- */
 
 static void test_sq_fit_bad_input(void)
@@ -683,6 +721,7 @@ void suite_superquadric(void)
     RUN_TEST(test_sq_fit_similarity);
     RUN_TEST(test_sq_fit_progress_cancel);
     RUN_TEST(test_sq_fit_no_runaway);
+    RUN_TEST(test_sq_fit_no_collapse);
     RUN_TEST(test_sq_fit_bad_input);
     RUN_TEST(test_sq_fit_workspace);
 }
