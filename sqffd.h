@@ -570,12 +570,12 @@ typedef struct sqffd_fit_options {
     double box_margin;           /* box = the tapered superquadric's local bounding box, axes along its axes, grown by this fraction per side (default 0.1) */
     int grid[2];                 /* model-point grid n_eta x n_omega (default 32 x 64: 2,050 model points) */
     double alpha;                /* spring weight >= 0 (default 1e-5): weighs the mean spring energy per control point against the mean squared error per data point (see THE ENERGY below) */
-    double tether;               /* weight >= 0 of the pull of every model point toward the superquadric (default 0.01): keeps the parts no data reach from drifting */
+    double tether;               /* weight >= 0 of the pull of every model point toward the superquadric (default 0) */
     sqffd_regularization regularization;
     sqffd_solver solver;
     int max_iterations;          /* two-step iterations (default 30; 0: the superquadric alone, identity lattice) */
     double tolerance;            /* stop when RMS ||X_{n+1} - X_n|| / diagonal <= this (default 1e-4; 0 = always max_iterations) */
-    int symmetric;               /* non-zero: the energy also holds the model -> data distances (each model point's to its nearest data point; builds a tree over the data) */
+    double symmetric;            /* weight >= 0 of the model -> data term of the energy (each model point's squared distance to its nearest data point; builds a tree over the data): holds the parts of the model no data reach near the data (default 0.02; 0: none; 1: as much as the data -> model term) */
     size_t sq_max_points;        /* stage 1 runs on an even subsample of at most this many points (default 20,000; 0 = all) */
     size_t ffd_max_points;       /* the FFD iterations run on an even subsample of at most this many points (default 200,000; 0 = all); report.error is always over all points */
     sqffd_progress_fn progress;  /* per FFD iteration k = 1, 2, ...: stage SQFFD_STAGE_FFD, error = relative RMS error after it */
@@ -613,7 +613,7 @@ SQFFD_DEF size_t sqffd_fit_workspace_size(size_t n, const sqffd_fit_options *opt
    two-step iteration that minimises THE ENERGY (see "the least-squares
    problem of step 2" in the implementation, and the README):
      E(P) = 1/n sum_i rho(d_i) + alpha / L ||D (P - P0)||^2 (or ||D P||^2)
-            + tether / M sum_v |x_v(P) - x_v(P0)|^2 [+ 1/M sum_v |x_v - nearest data point|^2 if symmetric],
+            + tether / M sum_v |x_v(P) - x_v(P0)|^2 + symmetric / M sum_v |x_v - nearest data point|^2,
    d_i the error of point i, rho(d) = d^2 or in robust mode (options->sq.robust)
    Welsch's nu^2 (1 - exp(-d^2 / nu^2)). Each iteration: (1) each data point's
    closest point on the model mesh (exact in the first and last pass, a
@@ -4158,27 +4158,88 @@ static void sqffd__fit_triangles(const int grid[2], uint32_t (*triangles)[3])
     }
 }
 
-/* A bounding-volume tree over the mesh triangles (see sqffd__fit_certify). */
+/* A bounding-volume tree over the mesh triangles (see sqffd__fit_certify),
+   made of the grid's own patches: cells are the triangle strips between
+   consecutive rows (the south cap, the quad rows, the north cap; a cell is
+   one cap triangle or one quad's two), and a node is a rectangle of cells,
+   split across its longer side down to leaves of at most 2 x 2 cells. The
+   patches of a smooth surface are compact, so their boxes stay tight even
+   where the triangles are long and thin (a boxy superquadric's faces). The
+   nodes are laid out depth first (an inner node's low child is the next
+   node); they are laid out with their boxes once a pass. */
+typedef struct sqffd__fit_bvh_node {
+    double box[6];     /* low corner, high corner */
+    uint32_t high;     /* inner: the high child; leaf: 0 */
+    uint32_t rows[2];  /* cells [rows[0], rows[1]) x [cols[0], cols[1]) */
+    uint32_t cols[2];
+} sqffd__fit_bvh_node;
+
 typedef struct sqffd__fit_bvh {
-    uint32_t (*triangles)[3];
-    double *centroids;   /* 3 per triangle */
-    double *radius;      /* per triangle: its corners' largest distance from its centroid */
-    sqffd_kdtree tree;   /* over the centroids */
-    void *tree_ws;
-    size_t tree_size;
-    double (*boxes)[6];  /* per tree node: its triangles' bounding box (low, high) */
+    sqffd__fit_bvh_node *nodes;
+    size_t count;
 } sqffd__fit_bvh;
+
+#define SQFFD__FIT_BVH_LEAF 2 /* cells per side of a leaf at most */
+
+/* The nodes over the grid's cells, depth first (nodes NULL: only counts them). */
+static size_t sqffd__fit_bvh_build(const int grid[2], sqffd__fit_bvh_node *nodes)
+{
+    struct { uint32_t rows[2], cols[2], parent; } stack[2 * 32 + 2], cur;
+    size_t count = 0;
+    int top = 0;
+    stack[top].rows[0] = 0; stack[top].rows[1] = (uint32_t)grid[0] + 1;
+    stack[top].cols[0] = 0; stack[top].cols[1] = (uint32_t)grid[1];
+    stack[top++].parent = UINT32_MAX;
+    while (top > 0) {
+        uint32_t nr, nc;
+        cur = stack[--top];
+        if (nodes) {
+            sqffd__fit_bvh_node *node = nodes + count;
+            if (cur.parent != UINT32_MAX) nodes[cur.parent].high = (uint32_t)count;
+            node->rows[0] = cur.rows[0]; node->rows[1] = cur.rows[1];
+            node->cols[0] = cur.cols[0]; node->cols[1] = cur.cols[1];
+            node->high = 0;
+        }
+        nr = cur.rows[1] - cur.rows[0];
+        nc = cur.cols[1] - cur.cols[0];
+        if (nr > SQFFD__FIT_BVH_LEAF || nc > SQFFD__FIT_BVH_LEAF) { /* the high half waits, the low half is next */
+            int by_rows = nr >= nc;
+            uint32_t mid = by_rows ? cur.rows[0] + nr / 2 : cur.cols[0] + nc / 2;
+            stack[top] = cur;
+            stack[top].parent = (uint32_t)count;
+            if (by_rows) stack[top].rows[0] = mid; else stack[top].cols[0] = mid;
+            ++top;
+            stack[top] = cur;
+            stack[top].parent = UINT32_MAX;
+            if (by_rows) stack[top].rows[1] = mid; else stack[top].cols[1] = mid;
+            ++top;
+        }
+        ++count;
+    }
+    return count;
+}
+
+/* The triangles of cell (r, c), as sqffd__fit_triangles lists them; returns 1 or 2. */
+static int sqffd__fit_cell(const int grid[2], uint32_t r, uint32_t c, uint32_t tri[2][3])
+{
+    uint32_t ne = (uint32_t)grid[1], rows = (uint32_t)grid[0] * ne, c1 = c + 1 < ne ? c + 1 : 0;
+    if (r == 0) { /* south cap */
+        tri[0][0] = rows; tri[0][1] = c1; tri[0][2] = c;
+        return 1;
+    }
+    if (r == (uint32_t)grid[0]) { /* north cap */
+        tri[0][0] = rows - ne + c; tri[0][1] = rows - ne + c1; tri[0][2] = rows + 1;
+        return 1;
+    }
+    tri[0][0] = (r - 1) * ne + c; tri[0][1] = (r - 1) * ne + c1; tri[0][2] = r * ne + c1;
+    tri[1][0] = tri[0][0]; tri[1][1] = tri[0][2]; tri[1][2] = r * ne + c;
+    return 2;
+}
 
 static void sqffd__fit_bvh_layout(sqffd__arena *a, const int grid[2], sqffd__fit_bvh *h)
 {
-    size_t count = 2 * (size_t)grid[0] * (size_t)grid[1];
-    h->triangles = (uint32_t (*)[3])sqffd__arena_take(a, count, 3 * sizeof(uint32_t));
-    h->centroids = (double *)sqffd__arena_take(a, count, 3 * sizeof(double));
-    h->radius = (double *)sqffd__arena_take(a, count, sizeof(double));
-    h->tree_size = sqffd_kdtree_workspace_size(count);
-    if (h->tree_size == 0) a->overflow = 1;
-    h->tree_ws = sqffd__arena_take(a, h->tree_size, 1);
-    h->boxes = (double (*)[6])sqffd__arena_take(a, sqffd__kd_max_nodes(count), 6 * sizeof(double));
+    h->count = sqffd__fit_bvh_build(grid, NULL);
+    h->nodes = (sqffd__fit_bvh_node *)sqffd__arena_take(a, h->count, sizeof(sqffd__fit_bvh_node));
 }
 
 /* ---- the closest-point search, with a warm start -------------------------
@@ -4405,98 +4466,82 @@ static sqffd_result sqffd__fit_nearest_vertex(sqffd__fit_search *s, size_t i, co
     return SQFFD_OK;
 }
 
-/* The exact closest point from a first answer (best2, tri, w) for q: a
-   bounding-volume tree over the mesh triangles (a kd-tree over their
-   centroids whose nodes get the bounding boxes of their triangles, made
-   once per pass when first needed) is walked nearest box first, skipping
-   every box farther than the best so far. The first answer is usually the
-   closest already, so few boxes stay open. */
-static void sqffd__fit_bvh_boxes(sqffd__fit_bvh *h, const double *x)
+/* The exact closest point from a first answer (best2, tri, w) for q: the
+   tree over the triangles (sqffd__fit_bvh) is walked nearest box first,
+   skipping every box farther than the best so far; the first answer is
+   usually the closest already, so few boxes stay open. The boxes are
+   measured once a pass, when first needed. */
+static void sqffd__fit_bvh_boxes(sqffd__fit_bvh *h, const int grid[2], const double *x)
 {
-    const sqffd_kdtree *t = &h->tree;
-    size_t i, k, c;
-    for (i = t->node_count; i-- > 0;) { /* children come after their parent */
-        const sqffd_kdtree_node *node = t->nodes + i;
-        double *box = h->boxes[i];
-        for (c = 0; c < 3; ++c) { box[c] = HUGE_VAL; box[3 + c] = -HUGE_VAL; }
-        if (node->axis == SQFFD_KDTREE_LEAF) {
-            for (k = node->u.leaf.begin; k < node->u.leaf.end; ++k) {
-                const uint32_t *tri = h->triangles[t->index[k]];
-                int corner;
-                for (corner = 0; corner < 3; ++corner)
-                    for (c = 0; c < 3; ++c) {
-                        double v = x[3 * (size_t)tri[corner] + c];
-                        box[c] = v < box[c] ? v : box[c];
-                        box[3 + c] = v > box[3 + c] ? v : box[3 + c];
-                    }
-            }
-        } else {
-            const double *lo = h->boxes[i + 1], *hi = h->boxes[node->high_child];
+    size_t i;
+    int c;
+    for (i = h->count; i-- > 0;) { /* children come after their parent */
+        sqffd__fit_bvh_node *node = h->nodes + i;
+        double *box = node->box;
+        if (node->high) {
+            const double *lo = h->nodes[i + 1].box, *hi = h->nodes[node->high].box;
             for (c = 0; c < 3; ++c) {
                 box[c] = lo[c] < hi[c] ? lo[c] : hi[c];
                 box[3 + c] = lo[3 + c] > hi[3 + c] ? lo[3 + c] : hi[3 + c];
             }
+        } else {
+            uint32_t r, col, tri[2][3];
+            for (c = 0; c < 3; ++c) { box[c] = HUGE_VAL; box[3 + c] = -HUGE_VAL; }
+            for (r = node->rows[0]; r < node->rows[1]; ++r)
+                for (col = node->cols[0]; col < node->cols[1]; ++col) {
+                    int t, k, count = sqffd__fit_cell(grid, r, col, tri);
+                    for (t = 0; t < count; ++t)
+                        for (k = 0; k < 3; ++k)
+                            for (c = 0; c < 3; ++c) {
+                                double v = x[3 * (size_t)tri[t][k] + (size_t)c];
+                                box[c] = v < box[c] ? v : box[c];
+                                box[3 + c] = v > box[3 + c] ? v : box[3 + c];
+                            }
+                }
         }
     }
 }
 
-static sqffd_result sqffd__fit_certify(sqffd__fit_search *s, const double q[3], double *best2, size_t tri[3],
-                                       double w[3])
+static void sqffd__fit_certify(sqffd__fit_search *s, const double q[3], double *best2, size_t tri[3], double w[3])
 {
-    sqffd__fit_bvh *h = s->bvh;
-    uint32_t stack[SQFFD_KDTREE_MAX_DEPTH + 1];
-    double gaps[SQFFD_KDTREE_MAX_DEPTH + 1]; /* of the boxes on the stack */
+    const sqffd__fit_bvh *h = s->bvh;
+    uint32_t stack[2 * 32 + 2];
+    double gaps[2 * 32 + 2]; /* of the boxes on the stack */
     int top = 0;
     if (!s->bvh_current) {
-        size_t k, count = 2 * ((size_t)s->grid[0] * (size_t)s->grid[1]);
-        sqffd_result res;
-        sqffd__fit_triangles(s->grid, h->triangles);
-        for (k = 0; k < count; ++k) {
-            const uint32_t *t = h->triangles[k];
-            double *centre = h->centroids + 3 * k, r2 = 0.0;
-            int c;
-            for (c = 0; c < 3; ++c)
-                centre[c] = (s->x[3 * (size_t)t[0] + (size_t)c] + s->x[3 * (size_t)t[1] + (size_t)c] + s->x[3 * (size_t)t[2] + (size_t)c]) / 3.0;
-            for (c = 0; c < 3; ++c) {
-                double d2 = sqffd__dist2_3(centre, s->x + 3 * (size_t)t[c]);
-                r2 = d2 > r2 ? d2 : r2;
-            }
-            h->radius[k] = sqrt(r2);
-        }
-        res = sqffd_kdtree_build(&h->tree, h->centroids, count, h->tree_ws, h->tree_size);
-        if (res != SQFFD_OK) return res;
-        sqffd__fit_bvh_boxes(h, s->x);
+        sqffd__fit_bvh_build(s->grid, s->bvh->nodes); /* (cheap: a node per few cells) */
+        sqffd__fit_bvh_boxes(s->bvh, s->grid, s->x);
         s->bvh_current = 1;
     }
     stack[top] = 0;
-    gaps[top++] = sqffd__fit_box_gap2(h->boxes[0], q, q);
+    gaps[top++] = sqffd__fit_box_gap2(h->nodes[0].box, q, q);
     while (top > 0) {
-        const sqffd_kdtree_node *node;
+        const sqffd__fit_bvh_node *node;
         uint32_t i;
         --top;
         if (gaps[top] >= *best2) continue; /* (the best may have improved since it was pushed) */
         i = stack[top];
-        node = h->tree.nodes + i;
-        if (node->axis == SQFFD_KDTREE_LEAF) {
-            size_t k;
-            double best = sqrt(*best2);
-            for (k = node->u.leaf.begin; k < node->u.leaf.end; ++k) {
-                size_t id = h->tree.index[k], corners[3];
-                const uint32_t *t = h->triangles[id];
-                double tw[3], d, reach = best + h->radius[id];
-                if (sqffd__dist2_3(q, h->centroids + 3 * id) >= reach * reach) continue; /* its bounding sphere is farther */
-                corners[0] = t[0]; corners[1] = t[1]; corners[2] = t[2];
-                d = sqffd__fit_corner_triangle(s->x, corners, q, tw);
-                if (d < *best2) {
-                    *best2 = d;
-                    best = sqrt(d);
-                    memcpy(tri, corners, sizeof corners);
-                    memcpy(w, tw, sizeof tw);
+        node = h->nodes + i;
+        if (!node->high) {
+            uint32_t r, col, cell[2][3];
+            for (r = node->rows[0]; r < node->rows[1]; ++r)
+                for (col = node->cols[0]; col < node->cols[1]; ++col) {
+                    int t, count = sqffd__fit_cell(s->grid, r, col, cell);
+                    for (t = 0; t < count; ++t) {
+                        size_t corners[3];
+                        double tw[3], d;
+                        corners[0] = cell[t][0]; corners[1] = cell[t][1]; corners[2] = cell[t][2];
+                        d = sqffd__fit_corner_triangle(s->x, corners, q, tw);
+                        if (d < *best2) {
+                            *best2 = d;
+                            memcpy(tri, corners, sizeof corners);
+                            memcpy(w, tw, sizeof tw);
+                        }
+                    }
                 }
-            }
         } else { /* the children within reach, the nearer on top */
-            uint32_t low = i + 1, high = node->high_child;
-            double g_low = sqffd__fit_box_gap2(h->boxes[low], q, q), g_high = sqffd__fit_box_gap2(h->boxes[high], q, q);
+            uint32_t low = i + 1, high = node->high;
+            double g_low = sqffd__fit_box_gap2(h->nodes[low].box, q, q), g_high = sqffd__fit_box_gap2(h->nodes[high].box, q, q);
             int low_first = g_low <= g_high;
             if ((low_first ? g_high : g_low) < *best2) {
                 stack[top] = low_first ? high : low;
@@ -4508,19 +4553,16 @@ static sqffd_result sqffd__fit_certify(sqffd__fit_search *s, const double q[3], 
             }
         }
     }
-    return SQFFD_OK;
 }
 
-/* The closest point on the mesh to data point i at q ("the error"): squared
-   distance, triangle and barycentric weights; exact in an exact pass (see
-   sqffd__fit_certify), else the local answer described above. */
-static sqffd_result sqffd__fit_closest(sqffd__fit_search *s, size_t i, const double q[3], double *dist2, size_t tri[3],
-                                       double w[3])
+/* The answer for data point i at q once its nearest vertex is known: its
+   kept triangle while that is proven (or, in a pass between, while the
+   closest point stays inside it), else the fan search and the walk. */
+static void sqffd__fit_answer(sqffd__fit_search *s, size_t i, size_t v, const double q[3], double *dist2, size_t tri[3],
+                              double w[3])
 {
-    size_t v, k;
+    size_t k;
     double second, d;
-    sqffd_result res = sqffd__fit_nearest_vertex(s, i, q, &v);
-    if (res != SQFFD_OK) return res;
     if (s->anchor && s->triangle[i][0] == v) {
         const uint32_t *t = s->triangle[i];
         double own = s->vertex_moved[t[1]] > s->vertex_moved[t[2]] ? s->vertex_moved[t[1]] : s->vertex_moved[t[2]];
@@ -4533,7 +4575,7 @@ static sqffd_result sqffd__fit_closest(sqffd__fit_search *s, size_t i, const dou
             d = sqffd__fit_corner_triangle(s->x, tri, q, w);
             if (w[0] != 0.0 && (held || (w[1] > 0.0 && w[2] > 0.0))) { /* (else the full search would walk on) */
                 *dist2 = d;
-                return s->exact ? sqffd__fit_certify(s, q, dist2, tri, w) : SQFFD_OK;
+                return;
             }
         }
     }
@@ -4543,7 +4585,38 @@ static sqffd_result sqffd__fit_closest(sqffd__fit_search *s, size_t i, const dou
         s->triangle_slack[i] = w[0] == 0.0 ? -1.0 : sqrt(second) - sqrt(d);
     }
     *dist2 = sqffd__fit_walk(s->x, s->rings, q, d, tri, w);
-    return s->exact ? sqffd__fit_certify(s, q, dist2, tri, w) : SQFFD_OK;
+}
+
+/* The closest point on the mesh to data point i at q ("the error"): squared
+   distance, triangle and barycentric weights; exact in an exact pass (see
+   sqffd__fit_certify), else the local answer described above. In a fit
+   (matched set) the triangle the point was matched to in the last pass
+   stands where it is closer: each step's bound then holds point by point,
+   so the energy cannot rise (the local answer may miss it), and it gives
+   the exact search a close first bound. */
+static sqffd_result sqffd__fit_closest(sqffd__fit_search *s, size_t i, const double q[3], double *dist2, size_t tri[3],
+                                       double w[3])
+{
+    size_t v;
+    sqffd_result res = sqffd__fit_nearest_vertex(s, i, q, &v);
+    if (res != SQFFD_OK) return res;
+    sqffd__fit_answer(s, i, v, q, dist2, tri, w);
+    if (s->matched && s->matched[i][0] != UINT32_MAX) {
+        size_t t[3];
+        double wm[3], dm;
+        t[0] = s->matched[i][0]; t[1] = s->matched[i][1]; t[2] = s->matched[i][2];
+        dm = sqffd__fit_corner_triangle(s->x, t, q, wm);
+        if (dm < *dist2) {
+            *dist2 = dm;
+            memcpy(tri, t, sizeof t);
+            memcpy(w, wm, sizeof wm);
+        }
+    }
+    if (s->exact) sqffd__fit_certify(s, q, dist2, tri, w);
+    if (s->matched) {
+        s->matched[i][0] = (uint32_t)tri[0]; s->matched[i][1] = (uint32_t)tri[1]; s->matched[i][2] = (uint32_t)tri[2];
+    }
+    return res;
 }
 
 /* Per block, the largest move in its hood (see sqffd__fit_in_hood). */
@@ -4669,12 +4742,7 @@ typedef struct sqffd__fit_step1 {
    With step1 (may be NULL) the pass also sums the data term of the energy
    and, with its sums, spreads each point's displacement from its closest
    mesh point over that triangle's vertices with the barycentric weights
-   (times the point's Welsch weight in robust mode). In a fit (matched set)
-   a point keeps the triangle it was matched to in the last pass where that
-   is closer than the search's answer: each step's bound then holds point by
-   point, so the energy cannot rise (the search looks at the fan of the
-   nearest vertex only, which a stretched mesh can miss); an exact pass
-   still reports the error as defined. Points go in batches:
+   (times the point's Welsch weight in robust mode). Points go in batches:
    the searches of a batch first, then their sums (measured: each loop short
    enough for the processor to overlap one point's search with the next:
    20.8 -> 19.9 ms on the 6,000-point fit). */
@@ -4697,26 +4765,9 @@ static sqffd_result sqffd__fit_pass(const double *points, size_t n, sqffd__fit_s
         }
         for (j = 0; j < count; ++j) {
             const double *q = points + 3 * (first + j), *wj = w[j];
-            double d = sqrt(dist2[j]), robust;
-            if (search->matched) { /* a fit keeps a point's last triangle where it stays closer */
-                uint32_t *mt = search->matched[first + j];
-                if (mt[0] != UINT32_MAX) {
-                    size_t t[3];
-                    double wm[3], dm;
-                    t[0] = mt[0]; t[1] = mt[1]; t[2] = mt[2];
-                    dm = sqffd__fit_corner_triangle(x, t, q, wm);
-                    if (dm < dist2[j]) {
-                        dist2[j] = dm;
-                        memcpy(tri[j], t, sizeof t);
-                        memcpy(w[j], wm, sizeof wm);
-                    }
-                }
-                for (k = 0; k < 3; ++k) mt[k] = (uint32_t)tri[j][k];
-            }
-            robust = nu2 > 0.0 ? exp(-dist2[j] / nu2) : 1.0;
+            double d = sqrt(dist2[j]), robust = nu2 > 0.0 ? exp(-dist2[j] / nu2) : 1.0;
             energy += nu2 > 0.0 ? nu2 * (1.0 - robust) : dist2[j];
-            if (!search->exact) d = sqrt(dist2[j]); /* (an exact pass reports the error as defined) */
-            sum += d; sum2 += d * d;
+            sum += d; sum2 += dist2[j];
             if (d > max) max = d;
             if (per_point) per_point[first + j] = d;
             if (sums) { /* (scalars, not a small array: a store-to-load stall per point otherwise) */
@@ -4936,12 +4987,12 @@ SQFFD_DEF sqffd_fit_options sqffd_fit_options_default(void)
     o.grid[0] = 32;
     o.grid[1] = 64;
     o.alpha = 1e-5;
-    o.tether = 1e-2;
+    o.tether = 0.0;
     o.regularization = SQFFD_REG_DISPLACEMENT;
     o.solver = SQFFD_SOLVER_CHOLESKY;
     o.max_iterations = 30;
     o.tolerance = 1e-4;
-    o.symmetric = 0;
+    o.symmetric = 0.02;
     o.sq_max_points = 20000;
     o.ffd_max_points = 200000;
     o.progress = NULL;
@@ -4956,6 +5007,7 @@ static sqffd_result sqffd__fit_check_options(const sqffd_fit_options *o)
 {
     if (!(o->alpha >= 0.0) || !isfinite(o->alpha)) return SQFFD_ERROR_INVALID_ARGUMENT;
     if (!(o->tether >= 0.0) || !isfinite(o->tether)) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if (!(o->symmetric >= 0.0) || !isfinite(o->symmetric)) return SQFFD_ERROR_INVALID_ARGUMENT;
     if (!(o->tolerance >= 0.0) || !isfinite(o->tolerance)) return SQFFD_ERROR_INVALID_ARGUMENT;
     if (o->max_iterations < 0) return SQFFD_ERROR_INVALID_ARGUMENT;
     if (o->regularization != SQFFD_REG_DISPLACEMENT && o->regularization != SQFFD_REG_POSITION)
@@ -5001,19 +5053,23 @@ SQFFD_DEF sqffd_result sqffd_model_init(sqffd_model *model, const sqffd_superqua
      E(P) = 1/n sum_i rho(d_i)                      data -> model
           + alpha / L ||D (P - P0)||^2              lattice springs (or ||D P||^2)
           + tether / M sum_v |x_v(P) - x_v(P0)|^2   model points held to the superquadric
-          [+ 1/M sum_v |x_v - nearest data point|^2 with `symmetric`]
+          + symmetric / M sum_v |x_v - nearest data point|^2   model -> data
    rho(d) = d^2, or with `robust` the Welsch nu^2 (1 - exp(-d^2 / nu^2)).
-   The tether keeps the parts of the model that no data reach where the
-   superquadric put them instead of letting them drift.
+   The model -> data term (default weight 0.02) keeps the parts of the model
+   that no data reach from drifting off (the data -> model term does not see
+   them); the tether (default 0) would hold them to the superquadric.
    Each iteration is a majorisation-minimisation step: with each data point's
    closest triangle and barycentric weights w held, Jensen's inequality
    bounds its squared distance by sum_k w_k |x_k - (x_k + displacement)|^2,
-   so E is majorised by a weighted least-squares problem in the model points,
+   and with each model point's nearest data point held, the model -> data
+   term by its squared distance to that point, so E is majorised by a
+   weighted least-squares problem in the model points,
      sum_v W_v |x_v(P) - y_v|^2 + springs + tether,
-   (W_v: the data points' summed weights at v, y_v: their weighted mean
-   target; robust mode multiplies each point's weights by exp(-d^2 / nu^2)),
-   whose minimiser cannot raise E. Anderson acceleration extrapolates these
-   steps; a step that raised E is replaced by the plain one.
+   (W_v: the data points' summed weights at v, plus `symmetric`; y_v: their
+   weighted mean target; robust mode multiplies each point's weights by
+   exp(-d^2 / nu^2)), whose minimiser cannot raise E. Anderson acceleration
+   extrapolates these steps; a step that raised E is replaced by the plain
+   one.
 
    B (model points x control points) never changes during a fit, nor between
    the frames of a sequence that keep the superquadric and the box. B's row
@@ -5083,6 +5139,9 @@ typedef struct sqffd__fit_work {
     double *block_moved, *hood_moved, *separation, (*box)[6]; /* per block */
     void *data_ws;       /* tree over the data (symmetric option) */
     size_t data_size;
+    uint32_t *data_near; /* M: each model point's nearest data point at its last query (UINT32_MAX: none) */
+    double *data_at;     /* M x 3: where the model point was then */
+    double *data_half_gap2; /* M: the square of half the gap to the second-nearest then */
     double *sample;      /* the FFD subsample (NULL: all points) */
     size_t sample_count;
 } sqffd__fit_work;
@@ -5174,6 +5233,9 @@ static void sqffd__fit_layout(sqffd__arena *a, size_t n, const int dims[3], cons
         w->data_size = sqffd_kdtree_workspace_size(w->sample_count);
         if (w->data_size == 0) a->overflow = 1;
         w->data_ws = sqffd__arena_take(a, w->data_size, 1);
+        w->data_near = (uint32_t *)sqffd__arena_take(a, m, sizeof(uint32_t));
+        w->data_at = (double *)sqffd__arena_take(a, m, 3 * sizeof(double));
+        w->data_half_gap2 = (double *)sqffd__arena_take(a, m, sizeof(double));
     }
 }
 
@@ -5418,6 +5480,26 @@ static double sqffd__fit_welsch_nu2(double *distance, size_t n)
     return nu * nu;
 }
 
+/* The data point nearest to model point v at y: the last answer while v
+   has moved less than half the gap between its nearest and second-nearest
+   data points since that query (no other point can have come nearer), else
+   a 2-NN query of the data tree. */
+static size_t sqffd__fit_nearest_data(const sqffd_kdtree *tree, sqffd__fit_work *w, const double y[3], size_t v)
+{
+    size_t near[2];
+    double d2[2];
+    if (w->data_near[v] != UINT32_MAX && sqffd__dist2_3(y, w->data_at + 3 * v) < w->data_half_gap2[v])
+        return w->data_near[v];
+    if (sqffd_kdtree_knn(tree, y, 2, near, d2) < 2) { /* (a single data point: nothing else can come nearer) */
+        d2[1] = HUGE_VAL;
+        if (sqffd_kdtree_knn(tree, y, 1, near, d2) == 0) near[0] = 0;
+    }
+    w->data_near[v] = (uint32_t)near[0];
+    memcpy(w->data_at + 3 * v, y, 3 * sizeof(double));
+    w->data_half_gap2[v] = 0.25 * (sqrt(d2[1]) - sqrt(d2[0])) * (sqrt(d2[1]) - sqrt(d2[0]));
+    return near[0];
+}
+
 /* The two-step loop from the model's current control points, with the
    system already prepared for its superquadric, box and grid (tracking
    reuses it frame after frame). Each round: one pass over the data (the
@@ -5462,6 +5544,8 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
         for (p = 0; p < 3; ++p) magnitude = fabs(points[3 * i + p]) > magnitude ? fabs(points[3 * i + p]) : magnitude;
     }
     search.margin = 1e-10 * (magnitude + diagonal); /* far above the rounding of distances between such points */
+    if (data_tree)
+        for (v = 0; v < m; ++v) w->data_near[v] = UINT32_MAX;
     step1.weights = w->weights;
     step1.nu2 = 0.0;
     rep->iterations = 0;
@@ -5487,10 +5571,10 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
             sqffd__fit_moves(&search, x, x);
             continue;
         }
-        if (data_tree) /* symmetric: each model point's nearest data point (into next, free until step 2) */
+        if (data_tree) /* model -> data: each model point's nearest data point (into next, free until step 2) */
             for (v = 0; v < m; ++v) {
-                const double *q = points + 3 * sqffd_kdtree_nearest(data_tree, x + 3 * v, NULL);
-                reverse += sqffd__dist2_3(q, x + 3 * v);
+                const double *q = points + 3 * sqffd__fit_nearest_data(data_tree, w, x + 3 * v, v);
+                reverse += o->symmetric * sqffd__dist2_3(q, x + 3 * v);
                 memcpy(next + 3 * v, q, 3 * sizeof(double));
             }
         energy = step1.energy / (double)n + (sqffd__fit_prior(s, o->regularization, control, x) + reverse) / (double)m;
@@ -5522,13 +5606,13 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
         if (last) break;
         /* step 1: per model point, W_v and W_v y_v (each data point pulls the three
            corners of its closest triangle by its barycentric weights), in units
-           where the W_v average 1; symmetric: plus its nearest data point, weight 1 */
+           where the W_v average 1; plus its nearest data point with weight `symmetric` */
         for (v = 0; v < m; ++v) {
             double wv = scale * w->weights[v];
             for (p = 0; p < 3; ++p) t[3 * v + p] = scale * t[3 * v + p] + wv * x[3 * v + p];
             if (data_tree) {
-                wv += 1.0;
-                for (p = 0; p < 3; ++p) t[3 * v + p] += next[3 * v + p];
+                wv += o->symmetric;
+                for (p = 0; p < 3; ++p) t[3 * v + p] += o->symmetric * next[3 * v + p];
             }
             w->weights[v] = wv;
         }
@@ -5672,7 +5756,7 @@ SQFFD_DEF sqffd_result sqffd_fit_ffd(const double *points, size_t n, const sqffd
    mesh, the identity lattice) on an even subsample of at most
    SQFFD__FIT_GUARD of the stage's points (in w->target): the RMS, in robust
    mode the third quartile (outliers do not count). */
-#define SQFFD__FIT_GUARD 1536
+#define SQFFD__FIT_GUARD 512
 
 static sqffd_result sqffd__fit_sq_error(const sqffd_superquadric *sq, const double *points, size_t n, double diagonal,
                                         int robust, sqffd__fit_system *s, sqffd__fit_work *w, double *error)

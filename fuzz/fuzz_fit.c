@@ -102,7 +102,7 @@ static void fuzz_model_fit(const double *points, size_t n, uint8_t flags, int la
     o.sq.taper = !(flags & 2);
     o.sq.max_iterations = 8;
     o.sq.robust_rounds = 2;
-    o.symmetric = (flags & 4) != 0;
+    o.symmetric = (flags & 4) ? 1.0 : 0.0;
     o.solver = (flags & 8) ? SQFFD_SOLVER_SVD : SQFFD_SOLVER_CHOLESKY;
     o.regularization = (flags & 16) ? SQFFD_REG_POSITION : SQFFD_REG_DISPLACEMENT;
     if (flags & 128) o.alpha = 0.0;

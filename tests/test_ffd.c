@@ -586,7 +586,9 @@ static void test_fit_regularisation_monotone(void)
 
 /* The paper's Fig. 3: on a left-ventricle-like shape of 6,000 points the
    error per iteration does not increase (to 1%) and after 30 iterations is
-   at least 3 times below the superquadric's. */
+   at least 3 times below the superquadric's. (Without the model -> data
+   term, which trades some of the error for pulling the closed model into
+   the open base.) */
 static void test_fit_convergence_lv(void)
 {
     enum { N = 6000 };
@@ -598,6 +600,7 @@ static void test_fit_convergence_lv(void)
     int k;
     phantom_lv_sample(&ph, 0.0, N, pts);
     o.tolerance = 0.0;
+    o.symmetric = 0.0;
     CHECK_RESULT(run_fit(pts, N, &o, &m, &rep), SQFFD_OK);
     CHECK(rep.iterations == 30 && rep.history_count == 30);
     CHECK(rep.history[0] <= 1.01 * rep.sq_error.rms_relative);
@@ -913,7 +916,7 @@ static int cmp_double(const void *a, const void *b)
 }
 
 /* Stage 1 never ends farther from the data than its best start: on
-   hand-like data (1,500 points: the guard's subsample is every point) with
+   hand-like data (500 points: the guard's subsample is every point) with
    one point left out at a time, the superquadric's error (RMS; robust mode:
    the third quartile) is at most the best start's; RMS at most 2.5% in
    plain mode (34.7% at worst before the guard), 12% in robust mode (whose
@@ -933,7 +936,7 @@ static double error_statistic(const sqffd_model *m, const double *pts, size_t n,
 
 static void test_fit_superquadric_guard(void)
 {
-    enum { N = 1500 };
+    enum { N = 500 };
     double *pts = (double *)malloc(3 * N * sizeof *pts), *sub = (double *)malloc(3 * N * sizeof *sub), worst[2] = {0.0, 0.0};
     sqffd_fit_options o = sqffd_fit_options_default();
     size_t i, d, k;
@@ -947,7 +950,7 @@ static void test_fit_superquadric_guard(void)
                 sqffd_fit_report rep;
                 double fitted, begun;
                 for (i = 0, k = 0; i < N; i++)
-                    if (i != d * 250) memcpy(sub + 3 * k++, pts + 3 * i, 3 * sizeof(double));
+                    if (i != d * 80) memcpy(sub + 3 * k++, pts + 3 * i, 3 * sizeof(double));
                 o.sq.robust = robust;
                 CHECK_RESULT(run_fit(sub, k, &o, &m, &rep), SQFFD_OK);
                 CHECK_RESULT(sqffd_model_init(&start, &rep.sq.best_start, &o), SQFFD_OK);
