@@ -585,10 +585,11 @@ static void test_fit_regularisation_monotone(void)
 }
 
 /* The paper's Fig. 3: on a left-ventricle-like shape of 6,000 points the
-   error per iteration does not increase (to 1%) and after 30 iterations is
-   at least 3 times below the superquadric's. (Without the model -> data
-   term, which trades some of the error for pulling the closed model into
-   the open base.) */
+   error falls over the iterations (the energy never rises: the over-relaxed
+   steps may let the error itself rise a little, up to 10% over its lowest
+   so far) and after 30 iterations is at least 3 times below the
+   superquadric's. (Without the model -> data term, which trades some of the
+   error for pulling the closed model into the open base.) */
 static void test_fit_convergence_lv(void)
 {
     enum { N = 6000 };
@@ -596,17 +597,19 @@ static void test_fit_convergence_lv(void)
     sqffd_fit_options o = sqffd_fit_options_default();
     sqffd_fit_report rep;
     sqffd_model m;
-    double *pts = (double *)malloc(3 * N * sizeof *pts);
+    double *pts = (double *)malloc(3 * N * sizeof *pts), lowest;
     int k;
     phantom_lv_sample(&ph, 0.0, N, pts);
     o.tolerance = 0.0;
     o.symmetric = 0.0;
     CHECK_RESULT(run_fit(pts, N, &o, &m, &rep), SQFFD_OK);
     CHECK(rep.iterations == 30 && rep.history_count == 30);
-    CHECK(rep.history[0] <= 1.01 * rep.sq_error.rms_relative);
-    for (k = 1; k < rep.history_count; k++)
-        CHECK_MSG(rep.history[k] <= 1.01 * rep.history[k - 1], "iteration %d: error %g after %g", k + 1,
-                  rep.history[k], rep.history[k - 1]);
+    CHECK(rep.history[0] <= rep.sq_error.rms_relative);
+    for (k = 1, lowest = rep.history[0]; k < rep.history_count; k++) {
+        CHECK_MSG(rep.history[k] <= 1.1 * lowest, "iteration %d: error %g, lowest before %g", k + 1, rep.history[k], lowest);
+        CHECK(rep.energy_history[k] <= rep.energy_history[k - 1]);
+        lowest = rep.history[k] < lowest ? rep.history[k] : lowest;
+    }
     CHECK_NEAR(rep.history[29], rep.error.rms_relative, 0.0);
     CHECK_MSG(3.0 * rep.error.rms_relative <= rep.sq_error.rms_relative, "error %g, superquadric alone %g",
               rep.error.rms_relative, rep.sq_error.rms_relative);
