@@ -5124,6 +5124,8 @@ typedef struct sqffd__fit_system {
 #define SQFFD__FIT_RELAX_GROW 1.3
 #define SQFFD__FIT_RELAX_MAX 6.0
 
+#define SQFFD__FIT_DATA_KNN 8 /* data points a model point's model -> data query keeps (sqffd__fit_nearest_data) */
+
 /* The iteration's scratch: model-sized, plus the optional subsample and data tree. */
 typedef struct sqffd__fit_work {
     double *x, *next;    /* M x 3: current and next model points */
@@ -5147,9 +5149,10 @@ typedef struct sqffd__fit_work {
     double *block_moved, *hood_moved, *separation, (*box)[6]; /* per block */
     void *data_ws;       /* tree over the data (symmetric option) */
     size_t data_size;
-    uint32_t *data_near; /* M: each model point's nearest data point at its last query (UINT32_MAX: none) */
+    uint32_t *data_near; /* M x SQFFD__FIT_DATA_KNN: each model point's nearest data points at its last query
+                            (UINT32_MAX: none) */
     double *data_at;     /* M x 3: where the model point was then */
-    double *data_half_gap2; /* M: the square of half the gap to the second-nearest then */
+    double *data_far;    /* M: the distance to the farthest of them then */
     double *sample;      /* the FFD subsample (NULL: all points) */
     size_t sample_count;
 } sqffd__fit_work;
@@ -5238,9 +5241,9 @@ static void sqffd__fit_layout(sqffd__arena *a, size_t n, const int dims[3], cons
         w->data_size = sqffd_kdtree_workspace_size(w->sample_count);
         if (w->data_size == 0) a->overflow = 1;
         w->data_ws = sqffd__arena_take(a, w->data_size, 1);
-        w->data_near = (uint32_t *)sqffd__arena_take(a, m, sizeof(uint32_t));
+        w->data_near = (uint32_t *)sqffd__arena_take(a, m, SQFFD__FIT_DATA_KNN * sizeof(uint32_t));
         w->data_at = (double *)sqffd__arena_take(a, m, 3 * sizeof(double));
-        w->data_half_gap2 = (double *)sqffd__arena_take(a, m, sizeof(double));
+        w->data_far = (double *)sqffd__arena_take(a, m, sizeof(double));
     }
 }
 
@@ -5455,24 +5458,32 @@ static double sqffd__fit_welsch_nu2(double *distance, size_t n)
     return nu * nu;
 }
 
-/* The data point nearest to model point v at y: the last answer while v
-   has moved less than half the gap between its nearest and second-nearest
-   data points since that query (no other point can have come nearer), else
-   a 2-NN query of the data tree. */
-static size_t sqffd__fit_nearest_data(const sqffd_kdtree *tree, sqffd__fit_work *w, const double y[3], size_t v)
+/* The data point nearest to model point v at y, from its last query's
+   SQFFD__FIT_DATA_KNN nearest: every other data point was at least `far`
+   (the farthest of them) from where v was then, so at least far - (its
+   move since) now; while the nearest of them is nearer than that, it is
+   the nearest of all. Else a fresh query. */
+static size_t sqffd__fit_nearest_data(const sqffd_kdtree *tree, sqffd__fit_work *w, const double *points,
+                                      const double y[3], size_t v)
 {
-    size_t near[2];
-    double d2[2];
-    if (w->data_near[v] != UINT32_MAX && sqffd__dist2_3(y, w->data_at + 3 * v) < w->data_half_gap2[v])
-        return w->data_near[v];
-    if (sqffd_kdtree_knn(tree, y, 2, near, d2) < 2) { /* (a single data point: nothing else can come nearer) */
-        d2[1] = HUGE_VAL;
-        if (sqffd_kdtree_knn(tree, y, 1, near, d2) == 0) near[0] = 0;
+    uint32_t *near = w->data_near + SQFFD__FIT_DATA_KNN * v;
+    size_t found[SQFFD__FIT_DATA_KNN], count, k, best;
+    double d2[SQFFD__FIT_DATA_KNN], best2;
+    if (near[0] != UINT32_MAX) {
+        double reach = w->data_far[v] - sqrt(sqffd__dist2_3(y, w->data_at + 3 * v));
+        best = near[0];
+        best2 = sqffd__dist2_3(y, points + 3 * (size_t)near[0]);
+        for (k = 1; k < SQFFD__FIT_DATA_KNN && near[k] != UINT32_MAX; ++k) {
+            double e = sqffd__dist2_3(y, points + 3 * (size_t)near[k]);
+            if (e < best2) { best2 = e; best = near[k]; }
+        }
+        if (reach > 0.0 && best2 < reach * reach) return best;
     }
-    w->data_near[v] = (uint32_t)near[0];
+    count = sqffd_kdtree_knn(tree, y, SQFFD__FIT_DATA_KNN, found, d2);
+    for (k = 0; k < SQFFD__FIT_DATA_KNN; ++k) near[k] = k < count ? (uint32_t)found[k] : UINT32_MAX;
     memcpy(w->data_at + 3 * v, y, 3 * sizeof(double));
-    w->data_half_gap2[v] = 0.25 * (sqrt(d2[1]) - sqrt(d2[0])) * (sqrt(d2[1]) - sqrt(d2[0]));
-    return near[0];
+    w->data_far[v] = count == SQFFD__FIT_DATA_KNN ? sqrt(d2[count - 1]) : HUGE_VAL; /* (fewer: all the data) */
+    return count ? found[0] : 0;
 }
 
 /* The two-step loop from the model's current control points, with the
@@ -5520,7 +5531,7 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
     }
     search.margin = 1e-10 * (magnitude + diagonal); /* far above the rounding of distances between such points */
     if (data_tree)
-        for (v = 0; v < m; ++v) w->data_near[v] = UINT32_MAX;
+        for (v = 0; v < m; ++v) w->data_near[SQFFD__FIT_DATA_KNN * v] = UINT32_MAX;
     step1.weights = w->weights;
     step1.nu2 = 0.0;
     rep->iterations = 0;
@@ -5548,7 +5559,7 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
         }
         if (data_tree) /* model -> data: each model point's nearest data point (into next, free until step 2) */
             for (v = 0; v < m; ++v) {
-                const double *q = points + 3 * sqffd__fit_nearest_data(data_tree, w, x + 3 * v, v);
+                const double *q = points + 3 * sqffd__fit_nearest_data(data_tree, w, points, x + 3 * v, v);
                 reverse += o->symmetric * sqffd__dist2_3(q, x + 3 * v);
                 memcpy(next + 3 * v, q, 3 * sizeof(double));
             }
