@@ -263,7 +263,7 @@ static void fit_report(const fit_args *a, size_t n, const sqffd_model *model, co
     const sqffd_ffd *ffd = &model->ffd;
     printf("sqffd fit %s\n", a->input);
     printf("  points read      %lu\n", (unsigned long)n);
-    printf("  superquadric\n");
+    printf("  superquadric%s\n", r->sq.fallback ? "     the best start (the optimised fit ended farther from the data)" : "");
     print_vec3("    size", sq->size);
     printf("  %-16s e1 %.4g  e2 %.4g\n", "    shape", sq->shape[0], sq->shape[1]);
     printf("  %-16s Kx %.4g  Ky %.4g\n", "    taper", sq->taper[0], sq->taper[1]);
