@@ -575,7 +575,7 @@ typedef struct sqffd_fit_options {
     sqffd_solver solver;
     int max_iterations;          /* two-step iterations (default 30; 0: the superquadric alone, identity lattice) */
     double tolerance;            /* stop when RMS ||X_{n+1} - X_n|| / diagonal <= this (default 1e-4; 0 = always max_iterations) */
-    double symmetric;            /* weight >= 0 of the model -> data term of the energy (each model point's squared distance to its nearest data point; builds a tree over the data): holds the parts of the model no data reach near the data (default 0.02; 0: none; 1: as much as the data -> model term) */
+    double symmetric;            /* weight >= 0 of the model -> data term of the energy (each model point's squared distance to its nearest data point, among at most 16,384 of them evenly spread; builds a tree over those): holds the parts of the model no data reach near the data (default 0.02; 0: none; 1: as much as the data -> model term) */
     size_t sq_max_points;        /* stage 1 runs on an even subsample of at most this many points (default 20,000; 0 = all) */
     size_t ffd_max_points;       /* the FFD iterations run on an even subsample of at most this many points (default 200,000; 0 = all); report.error is always over all points */
     sqffd_progress_fn progress;  /* per FFD iteration k = 1, 2, ...: stage SQFFD_STAGE_FFD, error = relative RMS error after it */
@@ -5054,6 +5054,8 @@ SQFFD_DEF sqffd_result sqffd_model_init(sqffd_model *model, const sqffd_superqua
           + alpha / L ||D (P - P0)||^2              lattice springs (or ||D P||^2)
           + tether / M sum_v |x_v(P) - x_v(P0)|^2   model points held to the superquadric
           + symmetric / M sum_v |x_v - nearest data point|^2   model -> data
+   (the data of the model -> data term: at most SQFFD__FIT_DATA_MAX of the
+   points, an even subsample.)
    rho(d) = d^2, or with `robust` the Welsch nu^2 (1 - exp(-d^2 / nu^2)).
    The model -> data term (default weight 0.02) keeps the parts of the model
    that no data reach from drifting off (the data -> model term does not see
@@ -5125,6 +5127,8 @@ typedef struct sqffd__fit_system {
 #define SQFFD__FIT_RELAX_MAX 6.0
 
 #define SQFFD__FIT_DATA_KNN 8 /* data points a model point's model -> data query keeps (sqffd__fit_nearest_data) */
+#define SQFFD__FIT_DATA_MAX 16384 /* the model -> data term measures to at most this many data points (an even
+                                     subsample: the queries of far model points get dear in a big tree) */
 
 /* The iteration's scratch: model-sized, plus the optional subsample and data tree. */
 typedef struct sqffd__fit_work {
@@ -5147,8 +5151,10 @@ typedef struct sqffd__fit_work {
     sqffd__fit_bvh bvh;  /* the exact passes' tree over the triangles */
     double *vertex_moved;/* M */
     double *block_moved, *hood_moved, *separation, (*box)[6]; /* per block */
-    void *data_ws;       /* tree over the data (symmetric option) */
+    void *data_ws;       /* tree over the data of the model -> data term (symmetric option) */
     size_t data_size;
+    double *data;        /* those data: an even subsample of the FFD's points (NULL: all of them) */
+    size_t data_count;
     uint32_t *data_near; /* M x SQFFD__FIT_DATA_KNN: each model point's nearest data points at its last query
                             (UINT32_MAX: none) */
     double *data_at;     /* M x 3: where the model point was then */
@@ -5238,7 +5244,9 @@ static void sqffd__fit_layout(sqffd__arena *a, size_t n, const int dims[3], cons
     w->separation = (double *)sqffd__arena_take(a, SQFFD__FIT_MAX_BLOCKS, sizeof(double));
     w->box = (double (*)[6])sqffd__arena_take(a, SQFFD__FIT_MAX_BLOCKS, 6 * sizeof(double));
     if (o->symmetric > 0.0) {
-        w->data_size = sqffd_kdtree_workspace_size(w->sample_count);
+        w->data_count = sqffd__fit_cap(w->sample_count, SQFFD__FIT_DATA_MAX);
+        if (w->data_count < w->sample_count) w->data = (double *)sqffd__arena_take(a, w->data_count, 3 * sizeof(double));
+        w->data_size = sqffd_kdtree_workspace_size(w->data_count);
         if (w->data_size == 0) a->overflow = 1;
         w->data_ws = sqffd__arena_take(a, w->data_size, 1);
         w->data_near = (uint32_t *)sqffd__arena_take(a, m, SQFFD__FIT_DATA_KNN * sizeof(uint32_t));
@@ -5463,23 +5471,27 @@ static double sqffd__fit_welsch_nu2(double *distance, size_t n)
    (the farthest of them) from where v was then, so at least far - (its
    move since) now; while the nearest of them is nearer than that, it is
    the nearest of all. Else a fresh query. */
-static size_t sqffd__fit_nearest_data(const sqffd_kdtree *tree, sqffd__fit_work *w, const double *points,
-                                      const double y[3], size_t v)
+static size_t sqffd__fit_nearest_data(const sqffd_kdtree *tree, sqffd__fit_work *w, const double y[3], size_t v)
 {
+    const double *points = tree->points;
     uint32_t *near = w->data_near + SQFFD__FIT_DATA_KNN * v;
     size_t found[SQFFD__FIT_DATA_KNN], count, k, best;
     double d2[SQFFD__FIT_DATA_KNN], best2;
+    double limit = HUGE_VAL;
     if (near[0] != UINT32_MAX) {
         double reach = w->data_far[v] - sqrt(sqffd__dist2_3(y, w->data_at + 3 * v));
         best = near[0];
-        best2 = sqffd__dist2_3(y, points + 3 * (size_t)near[0]);
+        best2 = limit = sqffd__dist2_3(y, points + 3 * (size_t)near[0]);
         for (k = 1; k < SQFFD__FIT_DATA_KNN && near[k] != UINT32_MAX; ++k) {
             double e = sqffd__dist2_3(y, points + 3 * (size_t)near[k]);
             if (e < best2) { best2 = e; best = near[k]; }
+            limit = e > limit ? e : limit;
         }
         if (reach > 0.0 && best2 < reach * reach) return best;
+        if (k < SQFFD__FIT_DATA_KNN) limit = HUGE_VAL; /* (fewer kept: no bound from them) */
     }
-    count = sqffd_kdtree_knn(tree, y, SQFFD__FIT_DATA_KNN, found, d2);
+    /* the kept ones bound the new query: they are SQFFD__FIT_DATA_KNN points within `limit` */
+    count = sqffd__kd_query(tree, y, limit * (1.0 + 1e-9), 0, found, d2, SQFFD__FIT_DATA_KNN);
     for (k = 0; k < SQFFD__FIT_DATA_KNN; ++k) near[k] = k < count ? (uint32_t)found[k] : UINT32_MAX;
     memcpy(w->data_at + 3 * v, y, 3 * sizeof(double));
     w->data_far[v] = count == SQFFD__FIT_DATA_KNN ? sqrt(d2[count - 1]) : HUGE_VAL; /* (fewer: all the data) */
@@ -5559,7 +5571,7 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
         }
         if (data_tree) /* model -> data: each model point's nearest data point (into next, free until step 2) */
             for (v = 0; v < m; ++v) {
-                const double *q = points + 3 * sqffd__fit_nearest_data(data_tree, w, points, x + 3 * v, v);
+                const double *q = data_tree->points + 3 * sqffd__fit_nearest_data(data_tree, w, x + 3 * v, v);
                 reverse += o->symmetric * sqffd__dist2_3(q, x + 3 * v);
                 memcpy(next + 3 * v, q, 3 * sizeof(double));
             }
@@ -5697,7 +5709,10 @@ static sqffd_result sqffd__fit_run(const double *points, size_t n, double diagon
         sqffd__subsample(points, n, w->sample_count, w->sample);
         res = sqffd__fit_error(points, n, diagonal, s, w, model, &start);
     }
-    if (res == SQFFD_OK && o->symmetric > 0.0) res = sqffd_kdtree_build(&data_tree, data, w->sample_count, w->data_ws, w->data_size);
+    if (res == SQFFD_OK && o->symmetric > 0.0) {
+        if (w->data) sqffd__subsample(data, w->sample_count, w->data_count, w->data);
+        res = sqffd_kdtree_build(&data_tree, w->data ? w->data : data, w->data_count, w->data_ws, w->data_size);
+    }
     if (res == SQFFD_OK)
         res = sqffd__fit_iterate(data, w->sample_count, diagonal, o, s, o->symmetric > 0.0 ? &data_tree : NULL, w, model, rep);
     if (res == SQFFD_OK && w->sample) {
