@@ -482,7 +482,11 @@ SQFFD_DEF size_t sqffd_sq_fit_workspace_size(size_t n, const sqffd_sq_fit_option
    the larger subsample, then on all points). A fit whose RMS radial
    distance exceeds 5% of its mean size (data that are no superquadric) is
    kept within the data's box enlarged by 25%; a close fit may reach past it
-   (a partial view). Deterministic.
+   (a partial view). Each size is at least half the data's standard
+   deviation along its axis (no collapse into a tiny, fully tapered shape on
+   thin, branched data). report->best_start is the start nearest the data
+   by first-order distances (sqffd_fit keeps it where the fit ends farther).
+   Deterministic.
    Results: INVALID_ARGUMENT (NULL points/sq, bad options), TOO_FEW_POINTS
    (n < SQFFD_SQ_FIT_MIN_POINTS), WORKSPACE_TOO_SMALL (also a NULL workspace),
    NON_FINITE, DEGENERATE (coincident, collinear or coplanar: smallest
@@ -574,7 +578,7 @@ typedef struct sqffd_fit_options {
     sqffd_regularization regularization;
     sqffd_solver solver;
     int max_iterations;          /* two-step iterations (default 30; 0: the superquadric alone, identity lattice) */
-    double tolerance;            /* stop when RMS ||X_{n+1} - X_n|| / diagonal <= this (default 1e-4; 0 = always max_iterations) */
+    double tolerance;            /* stop when the plain step moves the model points by at most this (RMS / diagonal; default 1e-4; 0 = always max_iterations) */
     double symmetric;            /* weight >= 0 of the model -> data term of the energy (each model point's squared distance to its nearest data point, among at most 16,384 of them evenly spread; builds a tree over those): holds the parts of the model no data reach near the data (default 0.02; 0: none; 1: as much as the data -> model term) */
     size_t sq_max_points;        /* stage 1 runs on an even subsample of at most this many points (default 20,000; 0 = all) */
     size_t ffd_max_points;       /* the FFD iterations run on an even subsample of at most this many points (default 200,000; 0 = all); report.error is always over all points */
@@ -597,11 +601,11 @@ typedef struct sqffd_fit_report {
     sqffd_distance_stats error;    /* data -> final model ("the error") */
     int iterations;                /* two-step iterations done */
     int converged;                 /* the tolerance was reached */
-    double step;                   /* RMS move of the model points in the last iteration / diagonal */
+    double step;                   /* RMS move of the model points by the last plain step (before over-relaxing) / diagonal */
     int history_count;
     double history[SQFFD_FIT_HISTORY]; /* relative RMS error after iteration 1, 2, ... (over the FFD subsample;
-                                          before the last, the passes' own errors, a hair above
-                                          the exact ones: 2e-6 relative on the phantom; see sqffd_fit) */
+                                          before the last, the passes' own local closest points:
+                                          never below the exact error, up to ~15% above it) */
     double energy;                 /* the energy of the final model (THE ENERGY, over the FFD subsample) */
     double energy_history[SQFFD_FIT_HISTORY]; /* after iteration 1, 2, ...: never rising */
 } sqffd_fit_report;
@@ -623,9 +627,13 @@ SQFFD_DEF size_t sqffd_fit_workspace_size(size_t n, const sqffd_fit_options *opt
    E); the steps are over-relaxed (adaptively), and one that raised E
    is replaced by the plain step: report->energy_history never rises.
    report may be NULL. Results: INVALID_ARGUMENT (NULL, lattice out of range,
-   grid too coarse to mesh, alpha or tether < 0 or NaN, bad options),
-   TOO_LARGE (grid), NON_FINITE, TOO_FEW_POINTS, DEGENERATE,
-   WORKSPACE_TOO_SMALL, CANCELLED, and whatever sqffd_sq_fit rejects. */
+   grid too coarse to mesh, alpha, tether or symmetric < 0 or NaN, bad
+   options), TOO_LARGE (grid), NON_FINITE, TOO_FEW_POINTS, DEGENERATE,
+   WORKSPACE_TOO_SMALL, CANCELLED, and whatever sqffd_sq_fit rejects.
+   Stage 1 is guarded: where the superquadric's error is above its best
+   start's (report->sq.best_start) on up to 512 of the stage's points (the
+   RMS; robust mode: the third quartile), the start is kept and
+   report->sq.fallback set. */
 SQFFD_DEF sqffd_result sqffd_fit(const double *points, size_t n, const sqffd_fit_options *options,
                                  sqffd_model *model, sqffd_fit_report *report,
                                  void *workspace, size_t workspace_size);
@@ -5636,7 +5644,7 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
             double step2 = sqffd__fit_moves(&search, x, next);
             swap = x; x = next; next = swap;
             rep->iterations = ++it;
-            rep->step = sqrt(step2 / (double)m) / diagonal;
+            rep->step = sqrt(step2 / (double)m) / diagonal / omega; /* the plain step's move (the map is linear) */
             rep->converged = rep->step <= o->tolerance;
         }
     }
