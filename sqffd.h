@@ -579,7 +579,7 @@ typedef struct sqffd_fit_options {
     sqffd_solver solver;
     int max_iterations;          /* two-step iterations (default 30; 0: the superquadric alone, identity lattice) */
     double tolerance;            /* stop when the plain step moves the model points by at most this (RMS / diagonal; default 1e-4; 0 = always max_iterations) */
-    double symmetric;            /* weight >= 0 of the model -> data term of the energy (each model point's squared distance to its nearest data point, among at most 16,384 of them evenly spread; builds a tree over those): holds the parts of the model no data reach near the data (default 0.02; 0: none; 1: as much as the data -> model term) */
+    double symmetric;            /* weight >= 0 of the model -> data term of the energy (the squared distance of every other model point in each grid direction to its nearest data point, among at most 16,384 of them evenly spread; builds a tree over those): holds the parts of the model no data reach near the data (default 0.02; 0: none; 1: as much as the data -> model term) */
     size_t sq_max_points;        /* stage 1 runs on an even subsample of at most this many points (default 20,000; 0 = all) */
     size_t ffd_max_points;       /* the FFD iterations run on an even subsample of at most this many points (default 200,000; 0 = all); report.error is always over all points */
     sqffd_progress_fn progress;  /* per FFD iteration k = 1, 2, ...: stage SQFFD_STAGE_FFD, error = relative RMS error after it */
@@ -617,7 +617,8 @@ SQFFD_DEF size_t sqffd_fit_workspace_size(size_t n, const sqffd_fit_options *opt
    two-step iteration that minimises THE ENERGY (see "the least-squares
    problem of step 2" in the implementation, and the README):
      E(P) = 1/n sum_i rho(d_i) + alpha / L ||D (P - P0)||^2 (or ||D P||^2)
-            + tether / M sum_v |x_v(P) - x_v(P0)|^2 + symmetric / M sum_v |x_v - nearest data point|^2,
+            + tether / M sum_v |x_v(P) - x_v(P0)|^2 + symmetric / H sum_h |x_h - nearest data point|^2
+   (h over every other model point in each grid direction and the poles),
    d_i the error of point i, rho(d) = d^2 or in robust mode (options->sq.robust)
    Welsch's nu^2 (1 - exp(-d^2 / nu^2)). Each iteration: (1) each data point's
    closest point on the model mesh (exact in the first and last pass, a
@@ -5061,9 +5062,9 @@ SQFFD_DEF sqffd_result sqffd_model_init(sqffd_model *model, const sqffd_superqua
      E(P) = 1/n sum_i rho(d_i)                      data -> model
           + alpha / L ||D (P - P0)||^2              lattice springs (or ||D P||^2)
           + tether / M sum_v |x_v(P) - x_v(P0)|^2   model points held to the superquadric
-          + symmetric / M sum_v |x_v - nearest data point|^2   model -> data
-   (the data of the model -> data term: at most SQFFD__FIT_DATA_MAX of the
-   points, an even subsample.)
+          + symmetric / H sum_h |x_h - nearest data point|^2   model -> data
+   (over the H holding model points, sqffd__fit_holds, and at most
+   SQFFD__FIT_DATA_MAX of the data points, an even subsample.)
    rho(d) = d^2, or with `robust` the Welsch nu^2 (1 - exp(-d^2 / nu^2)).
    The model -> data term (default weight 0.02) keeps the parts of the model
    that no data reach from drifting off (the data -> model term does not see
@@ -5474,6 +5475,20 @@ static double sqffd__fit_welsch_nu2(double *distance, size_t n)
     return nu * nu;
 }
 
+/* The model points the model -> data term holds: those of even row and
+   column (a quarter of the grid, enough to hold a smooth surface at a
+   quarter of the nearest-data queries) and the poles. */
+static int sqffd__fit_holds(const int grid[2], size_t v)
+{
+    size_t cols = (size_t)grid[1];
+    return v >= (size_t)grid[0] * cols || ((v / cols) % 2 == 0 && (v % cols) % 2 == 0);
+}
+
+static size_t sqffd__fit_holding(const int grid[2])
+{
+    return (((size_t)grid[0] + 1) / 2) * (((size_t)grid[1] + 1) / 2) + 2;
+}
+
 /* The data point nearest to model point v at y, from its last query's
    SQFFD__FIT_DATA_KNN nearest: every other data point was at least `far`
    (the farthest of them) from where v was then, so at least far - (its
@@ -5522,7 +5537,9 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
 {
     size_t m = s->count, l = s->lattice, size = 3 * l, v, p, i;
     double *x = w->x, *next = w->next, *t = w->target, *control = &model->ffd.control[0][0], *swap;
+    size_t holding = sqffd__fit_holding(s->grid);
     double magnitude = 0.0, scale = (double)m / (double)n, accepted = HUGE_VAL, omega = SQFFD__FIT_RELAX;
+    double hold = o->symmetric * (double)m / (double)holding;
     sqffd__fit_search search;
     sqffd__fit_step1 step1;
     int it = 0, extrapolated = 0, stop = 0, scaled = !w->distance;
@@ -5577,13 +5594,15 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
             sqffd__fit_moves(&search, x, x);
             continue;
         }
-        if (data_tree) /* model -> data: each model point's nearest data point (into next, free until step 2) */
-            for (v = 0; v < m; ++v) {
-                const double *q = data_tree->points + 3 * sqffd__fit_nearest_data(data_tree, w, x + 3 * v, v);
-                reverse += o->symmetric * sqffd__dist2_3(q, x + 3 * v);
-                memcpy(next + 3 * v, q, 3 * sizeof(double));
-            }
-        energy = step1.energy / (double)n + (sqffd__fit_prior(s, o->regularization, control, x) + reverse) / (double)m;
+        if (data_tree) /* model -> data: each holding model point's nearest data point (into next, free until step 2) */
+            for (v = 0; v < m; ++v)
+                if (sqffd__fit_holds(s->grid, v)) {
+                    const double *q = data_tree->points + 3 * sqffd__fit_nearest_data(data_tree, w, x + 3 * v, v);
+                    reverse += sqffd__dist2_3(q, x + 3 * v);
+                    memcpy(next + 3 * v, q, 3 * sizeof(double));
+                }
+        energy = step1.energy / (double)n + sqffd__fit_prior(s, o->regularization, control, x) / (double)m +
+                 o->symmetric * reverse / (double)holding;
         if (it > 0 && energy > accepted && !stop) {
             /* an extrapolation that raised the energy gives way to the plain step;
                a plain step that did (rounding) to the accepted point, measured once more */
@@ -5613,13 +5632,14 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
         if (last) break;
         /* step 1: per model point, W_v and W_v y_v (each data point pulls the three
            corners of its closest triangle by its barycentric weights), in units
-           where the W_v average 1; plus its nearest data point with weight `symmetric` */
+           where the W_v average 1; plus, at a holding model point, its nearest data
+           point with weight symmetric M / (the holding points) */
         for (v = 0; v < m; ++v) {
             double wv = scale * w->weights[v];
             for (p = 0; p < 3; ++p) t[3 * v + p] = scale * t[3 * v + p] + wv * x[3 * v + p];
-            if (data_tree) {
-                wv += o->symmetric;
-                for (p = 0; p < 3; ++p) t[3 * v + p] += o->symmetric * next[3 * v + p];
+            if (data_tree && sqffd__fit_holds(s->grid, v)) {
+                wv += hold;
+                for (p = 0; p < 3; ++p) t[3 * v + p] += hold * next[3 * v + p];
             }
             w->weights[v] = wv;
         }
