@@ -96,8 +96,11 @@
        0.2.0 (2026-11)  the FFD stage minimises a stated energy (MM steps,
                         over-relaxed); the error is the exact
                         distance to the model mesh; robust FFD; options
-                        tether; report energy, energy_history; alpha = 0
-                        solves by SVD; max_iterations 0 allowed
+                        model_to_data (a weight, replacing the int
+                        symmetric; default 0.02) and tether; report energy,
+                        energy_history, sq.best_start, sq.fallback (the
+                        superquadric guard); alpha = 0 solves by SVD;
+                        max_iterations 0 allowed
        0.1.0 (2026-11)  first release: layers 1-5
 */
 #ifndef SQFFD_H
@@ -579,7 +582,7 @@ typedef struct sqffd_fit_options {
     sqffd_solver solver;
     int max_iterations;          /* two-step iterations (default 30; 0: the superquadric alone, identity lattice) */
     double tolerance;            /* stop when the plain step moves the model points by at most this (RMS / diagonal; default 1e-4; 0 = always max_iterations) */
-    double symmetric;            /* weight >= 0 of the model -> data term of the energy (the squared distance of every other model point in each grid direction to its nearest data point, among at most 16,384 of them evenly spread; builds a tree over those): holds the parts of the model no data reach near the data (default 0.02; 0: none; 1: as much as the data -> model term) */
+    double model_to_data;        /* weight >= 0 of the model -> data term of the energy (the squared distance of every other model point in each grid direction to its nearest data point, among at most 16,384 of them evenly spread; builds a tree over those): holds the parts of the model no data reach near the data (default 0.02; 0: none; 1: as much as the data -> model term) */
     size_t sq_max_points;        /* stage 1 runs on an even subsample of at most this many points (default 20,000; 0 = all) */
     size_t ffd_max_points;       /* the FFD iterations run on an even subsample of at most this many points (default 200,000; 0 = all); report.error is always over all points */
     sqffd_progress_fn progress;  /* per FFD iteration k = 1, 2, ...: stage SQFFD_STAGE_FFD, error = relative RMS error after it */
@@ -617,7 +620,7 @@ SQFFD_DEF size_t sqffd_fit_workspace_size(size_t n, const sqffd_fit_options *opt
    two-step iteration that minimises THE ENERGY (see "the least-squares
    problem of step 2" in the implementation, and the README):
      E(P) = 1/n sum_i rho(d_i) + alpha / L ||D (P - P0)||^2 (or ||D P||^2)
-            + tether / M sum_v |x_v(P) - x_v(P0)|^2 + symmetric / H sum_h |x_h - nearest data point|^2
+            + tether / M sum_v |x_v(P) - x_v(P0)|^2 + model_to_data / H sum_h |x_h - nearest data point|^2
    (h over every other model point in each grid direction and the poles),
    d_i the error of point i, rho(d) = d^2 or in robust mode (options->sq.robust)
    Welsch's nu^2 (1 - exp(-d^2 / nu^2)). Each iteration: (1) each data point's
@@ -628,7 +631,7 @@ SQFFD_DEF size_t sqffd_fit_workspace_size(size_t n, const sqffd_fit_options *opt
    E); the steps are over-relaxed (adaptively), and one that raised E
    is replaced by the plain step: report->energy_history never rises.
    report may be NULL. Results: INVALID_ARGUMENT (NULL, lattice out of range,
-   grid too coarse to mesh, alpha, tether or symmetric < 0 or NaN, bad
+   grid too coarse to mesh, alpha, tether or model_to_data < 0 or NaN, bad
    options), TOO_LARGE (grid), NON_FINITE, TOO_FEW_POINTS, DEGENERATE,
    WORKSPACE_TOO_SMALL, CANCELLED, and whatever sqffd_sq_fit rejects.
    Stage 1 is guarded: where the superquadric's error is above its best
@@ -5001,7 +5004,7 @@ SQFFD_DEF sqffd_fit_options sqffd_fit_options_default(void)
     o.solver = SQFFD_SOLVER_CHOLESKY;
     o.max_iterations = 30;
     o.tolerance = 1e-4;
-    o.symmetric = 0.02;
+    o.model_to_data = 0.02;
     o.sq_max_points = 20000;
     o.ffd_max_points = 200000;
     o.progress = NULL;
@@ -5016,7 +5019,7 @@ static sqffd_result sqffd__fit_check_options(const sqffd_fit_options *o)
 {
     if (!(o->alpha >= 0.0) || !isfinite(o->alpha)) return SQFFD_ERROR_INVALID_ARGUMENT;
     if (!(o->tether >= 0.0) || !isfinite(o->tether)) return SQFFD_ERROR_INVALID_ARGUMENT;
-    if (!(o->symmetric >= 0.0) || !isfinite(o->symmetric)) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if (!(o->model_to_data >= 0.0) || !isfinite(o->model_to_data)) return SQFFD_ERROR_INVALID_ARGUMENT;
     if (!(o->tolerance >= 0.0) || !isfinite(o->tolerance)) return SQFFD_ERROR_INVALID_ARGUMENT;
     if (o->max_iterations < 0) return SQFFD_ERROR_INVALID_ARGUMENT;
     if (o->regularization != SQFFD_REG_DISPLACEMENT && o->regularization != SQFFD_REG_POSITION)
@@ -5062,7 +5065,7 @@ SQFFD_DEF sqffd_result sqffd_model_init(sqffd_model *model, const sqffd_superqua
      E(P) = 1/n sum_i rho(d_i)                      data -> model
           + alpha / L ||D (P - P0)||^2              lattice springs (or ||D P||^2)
           + tether / M sum_v |x_v(P) - x_v(P0)|^2   model points held to the superquadric
-          + symmetric / H sum_h |x_h - nearest data point|^2   model -> data
+          + model_to_data / H sum_h |x_h - nearest data point|^2   model -> data
    (over the H holding model points, sqffd__fit_holds, and at most
    SQFFD__FIT_DATA_MAX of the data points, an even subsample.)
    rho(d) = d^2, or with `robust` the Welsch nu^2 (1 - exp(-d^2 / nu^2)).
@@ -5076,7 +5079,7 @@ SQFFD_DEF sqffd_result sqffd_model_init(sqffd_model *model, const sqffd_superqua
    term by its squared distance to that point, so E is majorised by a
    weighted least-squares problem in the model points,
      sum_v W_v |x_v(P) - y_v|^2 + springs + tether,
-   (W_v: the data points' summed weights at v, plus `symmetric`; y_v: their
+   (W_v: the data points' summed weights at v, plus the model -> data weight; y_v: their
    weighted mean target; robust mode multiplies each point's weights by
    exp(-d^2 / nu^2)), whose minimiser cannot raise E. The steps are
    over-relaxed (SQFFD__FIT_RELAX); one that raised E is replaced by the
@@ -5160,7 +5163,7 @@ typedef struct sqffd__fit_work {
     sqffd__fit_bvh bvh;  /* the exact passes' tree over the triangles */
     double *vertex_moved;/* M */
     double *block_moved, *hood_moved, *separation, (*box)[6]; /* per block */
-    void *data_ws;       /* tree over the data of the model -> data term (symmetric option) */
+    void *data_ws;       /* tree over the data of the model -> data term */
     size_t data_size;
     double *data;        /* those data: an even subsample of the FFD's points (NULL: all of them) */
     size_t data_count;
@@ -5252,7 +5255,7 @@ static void sqffd__fit_layout(sqffd__arena *a, size_t n, const int dims[3], cons
     w->hood_moved = (double *)sqffd__arena_take(a, SQFFD__FIT_MAX_BLOCKS, sizeof(double));
     w->separation = (double *)sqffd__arena_take(a, SQFFD__FIT_MAX_BLOCKS, sizeof(double));
     w->box = (double (*)[6])sqffd__arena_take(a, SQFFD__FIT_MAX_BLOCKS, 6 * sizeof(double));
-    if (o->symmetric > 0.0) {
+    if (o->model_to_data > 0.0) {
         w->data_count = sqffd__fit_cap(w->sample_count, SQFFD__FIT_DATA_MAX);
         if (w->data_count < w->sample_count) w->data = (double *)sqffd__arena_take(a, w->data_count, 3 * sizeof(double));
         w->data_size = sqffd_kdtree_workspace_size(w->data_count);
@@ -5539,7 +5542,7 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
     double *x = w->x, *next = w->next, *t = w->target, *control = &model->ffd.control[0][0], *swap;
     size_t holding = sqffd__fit_holding(s->grid);
     double magnitude = 0.0, scale = (double)m / (double)n, accepted = HUGE_VAL, omega = SQFFD__FIT_RELAX;
-    double hold = o->symmetric * (double)m / (double)holding;
+    double hold = o->model_to_data * (double)m / (double)holding;
     sqffd__fit_search search;
     sqffd__fit_step1 step1;
     int it = 0, extrapolated = 0, stop = 0, scaled = !w->distance;
@@ -5602,7 +5605,7 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
                     memcpy(next + 3 * v, q, 3 * sizeof(double));
                 }
         energy = step1.energy / (double)n + sqffd__fit_prior(s, o->regularization, control, x) / (double)m +
-                 o->symmetric * reverse / (double)holding;
+                 o->model_to_data * reverse / (double)holding;
         if (it > 0 && energy > accepted && !stop) {
             /* an extrapolation that raised the energy gives way to the plain step;
                a plain step that did (rounding) to the accepted point, measured once more */
@@ -5633,7 +5636,7 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
         /* step 1: per model point, W_v and W_v y_v (each data point pulls the three
            corners of its closest triangle by its barycentric weights), in units
            where the W_v average 1; plus, at a holding model point, its nearest data
-           point with weight symmetric M / (the holding points) */
+           point with weight model_to_data M / (the holding points) */
         for (v = 0; v < m; ++v) {
             double wv = scale * w->weights[v];
             for (p = 0; p < 3; ++p) t[3 * v + p] = scale * t[3 * v + p] + wv * x[3 * v + p];
@@ -5724,7 +5727,7 @@ static sqffd_result sqffd__fit_error(const double *points, size_t n, double diag
 /* Stage 2 with the system prepared (tracking prepares once for frame 0's
    superquadric, box and grid, then runs this per frame from the previous
    frame's control points): take the subsample, build the data tree when
-   symmetric, iterate; the start and final errors over all points. */
+   there is a model -> data term, iterate; the start and final errors over all points. */
 static sqffd_result sqffd__fit_run(const double *points, size_t n, double diagonal, const sqffd_fit_options *o,
                                    const sqffd__fit_system *s, sqffd__fit_work *w, sqffd_model *model,
                                    sqffd_fit_report *rep)
@@ -5737,12 +5740,12 @@ static sqffd_result sqffd__fit_run(const double *points, size_t n, double diagon
         sqffd__subsample(points, n, w->sample_count, w->sample);
         res = sqffd__fit_error(points, n, diagonal, s, w, model, &start);
     }
-    if (res == SQFFD_OK && o->symmetric > 0.0) {
+    if (res == SQFFD_OK && o->model_to_data > 0.0) {
         if (w->data) sqffd__subsample(data, w->sample_count, w->data_count, w->data);
         res = sqffd_kdtree_build(&data_tree, w->data ? w->data : data, w->data_count, w->data_ws, w->data_size);
     }
     if (res == SQFFD_OK)
-        res = sqffd__fit_iterate(data, w->sample_count, diagonal, o, s, o->symmetric > 0.0 ? &data_tree : NULL, w, model, rep);
+        res = sqffd__fit_iterate(data, w->sample_count, diagonal, o, s, o->model_to_data > 0.0 ? &data_tree : NULL, w, model, rep);
     if (res == SQFFD_OK && w->sample) {
         rep->sq_error = start;
         res = sqffd__fit_error(points, n, diagonal, s, w, model, &rep->error);

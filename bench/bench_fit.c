@@ -145,7 +145,7 @@ int main(void)
         print_row(sizes[s] > o.ffd_max_points ? "default (subsample)" : "default", sizes[s], &r);
         if (s == 0) { /* without the model -> data term: what it changes; the default stop */
             sqffd_fit_options sym = o, stop = o;
-            sym.symmetric = 0.0;
+            sym.model_to_data = 0.0;
             if (!measure(pts, sizes[s], &sym, runs[s], &r)) { printf("fit failed\n"); return 1; }
             print_row("no model->data term", sizes[s], &r);
             stop.tolerance = sqffd_fit_options_default().tolerance;

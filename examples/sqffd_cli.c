@@ -37,7 +37,7 @@ static int cmd_help(int argc, char **argv);
 
 static const cli_command commands[] = {
     {"fit", "fit a superquadric + free-form deformation model to a point file",
-     "sqffd fit INPUT -o OUT.ply [--lattice N|LxMxN] [--alpha A] [--iterations K] [--robust] [--no-taper] [--quiet]",
+     "sqffd fit INPUT -o OUT.ply [--lattice N|LxMxN] [--alpha A] [--model-to-data W] [--iterations K] [--robust] [--no-taper] [--quiet]",
      fit_details,
      cmd_fit},
     {"help", "show the usage of sqffd or of one command", "sqffd help [COMMAND]", NULL, cmd_help},
@@ -192,7 +192,7 @@ static int fit_parse(int argc, char **argv, fit_args *a, int *help)
             continue;
         }
         if (!(IS("-o") || IS("--output") || IS("--points") || IS("--lattice") || IS("--mesh") || IS("--alpha") ||
-              IS("--iterations")))
+              IS("--model-to-data") || IS("--iterations")))
             return usage_error(c, "fit: unknown option '%s'", arg);
         if (!value) {
             if (i + 1 == argc) return usage_error(c, "fit: option '%s' needs a value", name);
@@ -211,6 +211,9 @@ static int fit_parse(int argc, char **argv, fit_args *a, int *help)
         } else if (IS("--alpha")) {
             if (parse_nonnegative(value, &a->options.alpha))
                 return usage_error(c, "fit: --alpha takes a finite number >= 0, not '%s'", value);
+        } else if (IS("--model-to-data")) {
+            if (parse_nonnegative(value, &a->options.model_to_data))
+                return usage_error(c, "fit: --model-to-data takes a finite number >= 0, not '%s'", value);
         } else { /* --iterations */
             if (parse_int(value, 0, 10000, &v))
                 return usage_error(c, "fit: --iterations takes a whole number 0..10000, not '%s'", value);
@@ -235,9 +238,11 @@ static void fit_details(FILE *f)
             "                         per-vertex float 'error': the distance from that model\n"
             "                         vertex to the nearest data point\n"
             "  --lattice N|LxMxN      FFD control points per axis, 2..%d (default %dx%dx%d)\n"
-            "  --alpha A              regularisation weight, >= 0 (default %g)\n"
+            "  --alpha A              spring weight of the energy, >= 0 (default %g)\n"
+            "  --model-to-data W      weight of the model -> data term, >= 0 (default %g;\n"
+            "                         0: the data -> model distances alone)\n"
             "  --iterations K         FFD iterations at most, 0..10000 (default %d; 0: the superquadric alone)\n"
-            "  --robust               outlier-robust superquadric fit\n"
+            "  --robust               outlier-robust fit in both stages\n"
             "  --no-taper             superquadric without tapering (11 parameters, not 13)\n"
             "  --mesh N|ExO           output mesh grid, eta x omega, 4..1024 (default 64x128)\n"
             "  --points FILE.ply      also write the data points, each with a float 'error':\n"
@@ -247,7 +252,7 @@ static void fit_details(FILE *f)
             "\n"
             "The error in the report is the RMS distance from the data points to the model\n"
             "surface, relative to the diagonal of the data's bounding box.\n",
-            SQFFD_MAX_LATTICE, d.lattice[0], d.lattice[1], d.lattice[2], d.alpha, d.max_iterations);
+            SQFFD_MAX_LATTICE, d.lattice[0], d.lattice[1], d.lattice[2], d.alpha, d.model_to_data, d.max_iterations);
 }
 
 static void print_vec3(const char *label, const double *v)

@@ -2,7 +2,7 @@
    (checked against brute force), superquadric fit and the whole model fit
    with small limits, so each input takes milliseconds.
 
-   Layout: byte 0 options (bit 0 robust, 1 no taper, 2 symmetric, 3 SVD
+   Layout: byte 0 options (bit 0 robust, 1 no taper, 2 model -> data weight 1, 3 SVD
    solver, 4 paper's regularisation, 5 radial cost, 6 CG optimiser, 7 alpha 0),
    byte 1 encoding (bit 0: raw little-endian doubles, may be NaN or huge;
    else int16 triples scaled by 2^-(byte 1 >> 1 & 15)), byte 2 lattice size
@@ -102,7 +102,7 @@ static void fuzz_model_fit(const double *points, size_t n, uint8_t flags, int la
     o.sq.taper = !(flags & 2);
     o.sq.max_iterations = 8;
     o.sq.robust_rounds = 2;
-    o.symmetric = (flags & 4) ? 1.0 : 0.0;
+    o.model_to_data = (flags & 4) ? 1.0 : 0.0;
     o.solver = (flags & 8) ? SQFFD_SOLVER_SVD : SQFFD_SOLVER_CHOLESKY;
     o.regularization = (flags & 16) ? SQFFD_REG_POSITION : SQFFD_REG_DISPLACEMENT;
     if (flags & 128) o.alpha = 0.0;

@@ -67,6 +67,9 @@ done
 for v in -1 nan inf 1e400 "" 0.1x; do
     expect 2 "--alpha takes" fit "$DATA" -o "$TMP/x.ply" --alpha "$v"
 done
+for v in -1 nan inf ""; do
+    expect 2 "--model-to-data takes" fit "$DATA" -o "$TMP/x.ply" --model-to-data "$v"
+done
 for v in 10001 2.5 30x -3 ""; do
     expect 2 "--iterations takes" fit "$DATA" -o "$TMP/x.ply" --iterations "$v"
 done
@@ -83,6 +86,7 @@ expect 1 "$TMP/empty.xyz: file is empty" fit "$TMP/empty.xyz" -o "$TMP/x.ply"
 printf '1 2 3\n4 5 6\n' >"$TMP/two.xyz"
 expect 1 "$TMP/two.xyz: fit failed: " fit "$TMP/two.xyz" -o "$TMP/x.ply"
 expect 0 "(the superquadric alone)" fit "$DATA" -o "$TMP/sq.ply" --iterations 0 --mesh 8
+expect 0 "after FFD" fit "$DATA" -o "$TMP/m2d.ply" --model-to-data 0 --iterations 2 --mesh 8
 expect 1 "$TMP/no/dir/out.ply: cannot create" fit "$DATA" -o "$TMP/no/dir/out.ply" --iterations 2 --mesh 8
 [ ! -e "$TMP/x.ply" ] && ok || bad "a failed run left an output file"
 

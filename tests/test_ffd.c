@@ -601,7 +601,7 @@ static void test_fit_convergence_lv(void)
     int k;
     phantom_lv_sample(&ph, 0.0, N, pts);
     o.tolerance = 0.0;
-    o.symmetric = 0.0;
+    o.model_to_data = 0.0;
     CHECK_RESULT(run_fit(pts, N, &o, &m, &rep), SQFFD_OK);
     CHECK(rep.iterations == 30 && rep.history_count == 30);
     CHECK(rep.history[0] <= rep.sq_error.rms_relative);
@@ -644,10 +644,10 @@ static void test_fit_bunny(void)
               r5.error.rms_relative);
     CHECK(reverse_rms(&m, pts, n) < 0.06);
     o = sqffd_fit_options_default(); /* the model -> data term holds the parts no data reach (5.3% -> 1.3%) */
-    o.symmetric = 1;
+    o.model_to_data = 1.0;
     CHECK_RESULT(run_fit(pts, n, &o, &m, &r5), SQFFD_OK);
     rev = reverse_rms(&m, pts, n);
-    CHECK_MSG(rev < 0.02 && r5.error.rms_relative < 0.015, "symmetric: model -> data %g, error %g", rev,
+    CHECK_MSG(rev < 0.02 && r5.error.rms_relative < 0.015, "model -> data weight 1: model -> data %g, error %g", rev,
               r5.error.rms_relative);
     free(pts);
 }
@@ -682,25 +682,59 @@ static void test_fit_solvers_agree(void)
     free(pts);
 }
 
-/* The symmetric option pulls the model toward the data where the data has
-   no opposite (the ventricle's open base): model -> data distance falls. */
-static void test_fit_symmetric(void)
+/* The model -> data term pulls the model toward the data where the data has
+   no opposite (the ventricle's open base): without it model -> data is ~11%
+   of the diagonal there, with the default weight under 2% (measured 0.7%),
+   and the error stays well below the superquadric's. */
+static void test_fit_model_to_data(void)
 {
     enum { N = 3000 };
     phantom_lv ph = phantom_lv_default();
     sqffd_fit_options o = sqffd_fit_options_default();
-    sqffd_fit_report plain, sym;
+    sqffd_fit_report plain, held;
     sqffd_model m;
-    double *pts = (double *)malloc(3 * N * sizeof *pts), rev_plain, rev_sym;
+    double *pts = (double *)malloc(3 * N * sizeof *pts), rev_plain, rev_held;
     phantom_lv_sample(&ph, 0.0, N, pts);
+    o.model_to_data = 0.0;
     CHECK_RESULT(run_fit(pts, N, &o, &m, &plain), SQFFD_OK);
     rev_plain = reverse_rms(&m, pts, N);
-    o.symmetric = 1; /* from the same superquadric */
+    o.model_to_data = sqffd_fit_options_default().model_to_data; /* from the same superquadric */
     CHECK_RESULT(sqffd_model_init(&m, &m.sq, &o), SQFFD_OK);
-    CHECK_RESULT(run_fit_ffd(pts, N, &o, &m, &sym), SQFFD_OK);
-    rev_sym = reverse_rms(&m, pts, N);
-    CHECK_MSG(rev_sym < rev_plain, "model -> data RMS %g symmetric, %g plain", rev_sym, rev_plain);
-    CHECK(sym.error.rms_relative < sym.sq_error.rms_relative);
+    CHECK_RESULT(run_fit_ffd(pts, N, &o, &m, &held), SQFFD_OK);
+    rev_held = reverse_rms(&m, pts, N);
+    CHECK_MSG(rev_plain > 0.05 && rev_held < 0.02, "model -> data RMS %g with the term, %g without", rev_held, rev_plain);
+    CHECK(held.error.rms_relative < 0.5 * held.sq_error.rms_relative);
+    free(pts);
+}
+
+/* The parts of the model no data reach do not drift as the iteration goes
+   on (0.1.0's bunny: model -> data 3.48% at 30 iterations, 4.23% at 1,000):
+   on the bunny, model -> data after 90 iterations is no higher than after
+   30 (5% slack), which is no higher than after 10. Without the model ->
+   data term it drifts: 2.80%, 2.68%, 2.98% (measured). */
+static void test_fit_no_drift(void)
+{
+    const int counts[3] = {10, 30, 90};
+    double *pts = NULL, rev[3];
+    size_t n = 0;
+    char err[256];
+    int c;
+    if (sqffd_io_read_file("tests/data/bunny.ply", &pts, &n, err, sizeof err) != 0) {
+        CHECK_MSG(0, "%s (run the tests from the repository root)", err);
+        return;
+    }
+    for (c = 0; c < 3; c++) {
+        sqffd_fit_options o = sqffd_fit_options_default();
+        sqffd_fit_report rep;
+        sqffd_model m;
+        o.tolerance = 0.0;
+        o.max_iterations = counts[c];
+        CHECK_RESULT(run_fit(pts, n, &o, &m, &rep), SQFFD_OK);
+        rev[c] = reverse_rms(&m, pts, n);
+    }
+    printf("    bunny model -> data after 10, 30, 90 iterations: %.3f%% %.3f%% %.3f%%\n", 100.0 * rev[0], 100.0 * rev[1],
+           100.0 * rev[2]);
+    CHECK_MSG(rev[1] <= 1.05 * rev[0] && rev[2] <= 1.05 * rev[1], "model -> data %g, %g, %g", rev[0], rev[1], rev[2]);
     free(pts);
 }
 
@@ -823,8 +857,8 @@ static void test_fit_energy_monotone(void)
         CHECK_MSG(0, "%s (run the tests from the repository root)", err);
     } else {
         check_energy_monotone(bunny, n, &o, "bunny");
-        o.symmetric = 1;
-        check_energy_monotone(bunny, n, &o, "bunny, symmetric");
+        o.model_to_data = 1.0;
+        check_energy_monotone(bunny, n, &o, "bunny, model -> data weight 1");
     }
     free(bunny); free(hand); free(pts);
 }
@@ -1145,7 +1179,7 @@ static void test_fit_workspace_canary(void)
     phantom_lv_sample(&ph, 0.0, N, pts);
     o.max_iterations = 3;
     for (k = 0; k < 2; k++) {
-        o.symmetric = (int)k; /* second round: every optional block of the layout */
+        o.model_to_data = (double)k; /* second round: every optional block of the layout */
         o.solver = k ? SQFFD_SOLVER_SVD : SQFFD_SOLVER_CHOLESKY;
         o.sq_max_points = k ? 300 : 0;
         o.ffd_max_points = k ? 400 : 0;
@@ -1220,7 +1254,8 @@ void suite_ffd(void)
     RUN_TEST(test_fit_convergence_lv);
     RUN_TEST(test_fit_bunny);
     RUN_TEST(test_fit_solvers_agree);
-    RUN_TEST(test_fit_symmetric);
+    RUN_TEST(test_fit_model_to_data);
+    RUN_TEST(test_fit_no_drift);
     RUN_TEST(test_fit_error_exact);
     RUN_TEST(test_fit_energy_monotone);
     RUN_TEST(test_fit_iterations_zero);
