@@ -4181,6 +4181,7 @@ static void sqffd__fit_triangles(const int grid[2], uint32_t (*triangles)[3])
    node); they are laid out with their boxes once a pass. */
 typedef struct sqffd__fit_bvh_node {
     double box[6];     /* low corner, high corner */
+    double reach;      /* at least the largest distance of a point of its triangles to that triangle's nearest corner */
     uint32_t high;     /* inner: the high child; leaf: 0 */
     uint32_t rows[2];  /* cells [rows[0], rows[1]) x [cols[0], cols[1]) */
     uint32_t cols[2];
@@ -4478,11 +4479,14 @@ static sqffd_result sqffd__fit_nearest_vertex(sqffd__fit_search *s, size_t i, co
     return SQFFD_OK;
 }
 
-/* The exact closest point from a first answer (best2, tri, w) for q: the
-   tree over the triangles (sqffd__fit_bvh) is walked nearest box first,
-   skipping every box farther than the best so far; the first answer is
-   usually the closest already, so few boxes stay open. The boxes are
-   measured once a pass, when first needed. */
+/* The exact closest point from a first answer (best2, tri, w) for q, whose
+   nearest mesh vertex is `vertex` away: the tree over the triangles
+   (sqffd__fit_bvh) is walked nearest box first, skipping every box farther
+   than the best so far, and every node whose triangles are too small to
+   come nearer (a point of a triangle is within its `reach` of a corner, and
+   every corner is at least `vertex` away); the first answer is usually the
+   closest already, so few boxes stay open. The boxes are measured once a
+   pass, when first needed. */
 static void sqffd__fit_bvh_boxes(sqffd__fit_bvh *h, const int grid[2], const double *x)
 {
     size_t i;
@@ -4496,25 +4500,34 @@ static void sqffd__fit_bvh_boxes(sqffd__fit_bvh *h, const int grid[2], const dou
                 box[c] = lo[c] < hi[c] ? lo[c] : hi[c];
                 box[3 + c] = lo[3 + c] > hi[3 + c] ? lo[3 + c] : hi[3 + c];
             }
+            node->reach = h->nodes[i + 1].reach > h->nodes[node->high].reach ? h->nodes[i + 1].reach
+                                                                             : h->nodes[node->high].reach;
         } else {
             uint32_t r, col, tri[2][3];
+            double longest2 = 0.0;
             for (c = 0; c < 3; ++c) { box[c] = HUGE_VAL; box[3 + c] = -HUGE_VAL; }
             for (r = node->rows[0]; r < node->rows[1]; ++r)
                 for (col = node->cols[0]; col < node->cols[1]; ++col) {
                     int t, k, count = sqffd__fit_cell(grid, r, col, tri);
                     for (t = 0; t < count; ++t)
-                        for (k = 0; k < 3; ++k)
+                        for (k = 0; k < 3; ++k) {
+                            double e2 = sqffd__dist2_3(x + 3 * (size_t)tri[t][k], x + 3 * (size_t)tri[t][(k + 1) % 3]);
+                            longest2 = e2 > longest2 ? e2 : longest2;
                             for (c = 0; c < 3; ++c) {
                                 double v = x[3 * (size_t)tri[t][k] + (size_t)c];
                                 box[c] = v < box[c] ? v : box[c];
                                 box[3 + c] = v > box[3 + c] ? v : box[3 + c];
                             }
+                        }
                 }
+            /* no point of a triangle is farther than its longest edge / sqrt(3) from all its corners */
+            node->reach = 0.6 * sqrt(longest2);
         }
     }
 }
 
-static void sqffd__fit_certify(sqffd__fit_search *s, const double q[3], double *best2, size_t tri[3], double w[3])
+static void sqffd__fit_certify(sqffd__fit_search *s, const double q[3], double vertex, double *best2, size_t tri[3],
+                               double w[3])
 {
     const sqffd__fit_bvh *h = s->bvh;
     uint32_t stack[2 * 32 + 2];
@@ -4534,6 +4547,7 @@ static void sqffd__fit_certify(sqffd__fit_search *s, const double q[3], double *
         if (gaps[top] >= *best2) continue; /* (the best may have improved since it was pushed) */
         i = stack[top];
         node = h->nodes + i;
+        if (node->reach < vertex - sqrt(*best2) - s->margin) continue; /* its triangles are too small to come nearer */
         if (!node->high) {
             uint32_t r, col, cell[2][3];
             for (r = node->rows[0]; r < node->rows[1]; ++r)
@@ -4624,7 +4638,7 @@ static sqffd_result sqffd__fit_closest(sqffd__fit_search *s, size_t i, const dou
             memcpy(w, wm, sizeof wm);
         }
     }
-    if (s->exact) sqffd__fit_certify(s, q, dist2, tri, w);
+    if (s->exact) sqffd__fit_certify(s, q, sqrt(sqffd__dist2_3(q, s->x + 3 * v)), dist2, tri, w);
     if (s->matched) {
         s->matched[i][0] = (uint32_t)tri[0]; s->matched[i][1] = (uint32_t)tri[1]; s->matched[i][2] = (uint32_t)tri[2];
     }
