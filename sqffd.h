@@ -4627,7 +4627,8 @@ static sqffd_result sqffd__fit_closest(sqffd__fit_search *s, size_t i, const dou
     sqffd_result res = sqffd__fit_nearest_vertex(s, i, q, &v);
     if (res != SQFFD_OK) return res;
     sqffd__fit_answer(s, i, v, q, dist2, tri, w);
-    if (s->matched && s->matched[i][0] != UINT32_MAX) {
+    if (s->matched && s->matched[i][0] != UINT32_MAX &&
+        !(s->matched[i][0] == tri[0] && s->matched[i][1] == tri[1] && s->matched[i][2] == tri[2])) {
         size_t t[3];
         double wm[3], dm;
         t[0] = s->matched[i][0]; t[1] = s->matched[i][1]; t[2] = s->matched[i][2];
