@@ -190,9 +190,10 @@ int main(void)
            o.tolerance);
     printf("(errors in %% of the bounding-box diagonal, over all points: sq = superquadric alone, err = the model\n"
            " (data -> model RMS), m->d = model -> data RMS; its = FFD iterations used; ms = whole fit, median of %d;\n"
-           " stored, from the code of 2026-11-25 (commit 12b1035), not recomputed: ref = its error after up to 1,000\n"
-           " iterations, ref its = the iterations it used (tolerance 1e-4), today err and today m->d = at default\n"
-           " settings; flags: the targets below, ok or MISS, - where a target does not apply)\n\n", RUNS);
+           " stored, not recomputed, from 0.1.0 (commit 12b1035), measured with the exact error: ref = its error\n"
+           " after up to 1,000 iterations, ref its = the iterations it used (tolerance 1e-4), today err and today\n"
+           " m->d = 0.1.0 at default settings; flags: the targets below, ok or MISS, - where a target does not apply)\n\n",
+           RUNS);
     printf("%-19s %6s %7s %7s %7s %4s %6s %7s %4s %7s %7s %7s  %-4s %-4s %s\n", "shape", "points", "sq err", "err",
            "m->d", "its", "ms", "ref", "ref", "err/ref", "today", "today", "err", "m->d", "ms");
     printf("%-19s %6s %7s %7s %7s %4s %6s %7s %4s %7s %7s %7s\n", "", "", "", "", "", "", "", "err", "its", "", "err",
