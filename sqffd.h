@@ -4278,13 +4278,15 @@ static void sqffd__fit_bvh_layout(sqffd__arena *a, const int grid[2], sqffd__fit
    Only when the first three fail is the tree asked; it is built once and
    refitted to the moved vertices when next asked (O(M) instead of a
    rebuild's O(M log M): the mesh deforms smoothly, so its partition stays
-   good). Every way the answer is the one a fresh
-   search gives (ties aside, which any search breaks arbitrarily) - but in a
-   fit's passes between its first and last (exact = 0), where a point whose
-   nearest vertex is proven but whose triangle bound has run out keeps that
-   triangle while its closest point stays inside it: a local closest point,
-   the same in practice (the fan search it saves is most of a pass's cost on
-   smooth surfaces, where neighbouring triangles are all about as close). */
+   good). An exact pass (a fit's first and last, and sqffd_model_distances)
+   then proves the fan's answer the closest of the whole mesh or finds the
+   one that is (sqffd__fit_certify). A fit's passes between (exact = 0) are
+   local: a point whose nearest vertex cannot be proven descends the mesh
+   from its last one instead of asking the tree, and a point whose triangle
+   bound has run out keeps that triangle while its closest point stays
+   inside it (the fan search it saves is most of a pass's cost on smooth
+   surfaces); the point's matched triangle from the last pass stands where
+   it is closer, so each step's bound still holds (sqffd__fit_closest). */
 #define SQFFD__FIT_KNN 3 /* neighbours a tree query fetches (measured: fewer repeat queries vs dearer ones) */
 #define SQFFD__FIT_DESCENT 16 /* vertex-to-vertex moves of a pass between's descent at most */
 
