@@ -4275,10 +4275,8 @@ static void sqffd__fit_bvh_layout(sqffd__arena *a, const int grid[2], sqffd__fit
    - the gap between the fan's closest and runner-up triangles: while the
      moves (the triangle's own corners' plus the fan's largest) stay below
      it, only that triangle is measured again.
-   Only when the first three fail is the tree asked; it is built once and
-   refitted to the moved vertices when next asked (O(M) instead of a
-   rebuild's O(M log M): the mesh deforms smoothly, so its partition stays
-   good). An exact pass (a fit's first and last, and sqffd_model_distances)
+   Only when the first three fail is the tree asked (sqffd__fit_tree). An
+   exact pass (a fit's first and last, and sqffd_model_distances)
    then proves the fan's answer the closest of the whole mesh or finds the
    one that is (sqffd__fit_certify). A fit's passes between (exact = 0) are
    local: a point whose nearest vertex cannot be proven descends the mesh
@@ -4297,7 +4295,7 @@ typedef struct sqffd__fit_search {
     sqffd_kdtree tree;       /* over x, once built */
     void *tree_ws;
     size_t tree_size;
-    int tree_state;          /* SQFFD__FIT_TREE_... */
+    int tree_current;        /* the tree is over x as it is */
     /* the warm start (anchor NULL: none), per data point */
     uint32_t *anchor;        /* the nearest vertex at the last tree query */
     double *outside;         /* lower bound on the distance to the hood's vertices outside the anchor's closed ring */
@@ -4322,9 +4320,6 @@ typedef struct sqffd__fit_search {
     int exact;               /* 0: a pass between a fit's first and last (see above) */
 } sqffd__fit_search;
 
-#define SQFFD__FIT_TREE_NONE 0    /* not built yet */
-#define SQFFD__FIT_TREE_CURRENT 1 /* over x as it is */
-#define SQFFD__FIT_TREE_MOVED 2   /* x has moved since: refit before asking */
 
 /* Whether vertex u is in the closed ring (v and its ring r). */
 static int sqffd__fit_in_ring(const sqffd__fit_ring *r, size_t v, size_t u)
@@ -4386,16 +4381,17 @@ static double sqffd__fit_far(sqffd__fit_search *s, const double q[3], int a)
     return s->separation[a] - sqrt(sqffd__fit_box_gap2(s->box[a], q, q));
 }
 
-/* The tree over the mesh vertices as they are: built on first need, refitted
-   after moves. */
+/* The tree over the mesh vertices as they are: built when first asked after
+   the vertices moved. (Refitting the last one instead is 8x cheaper, but
+   as the model leaves the superquadric's shape its boxes overlap and the
+   queries slow down: rebuilding made the whole fit 20-25% faster on the
+   phantom and a 6,000-point scan. Only the exact passes ask.) */
 static sqffd_result sqffd__fit_tree(sqffd__fit_search *s)
 {
     sqffd_result res;
-    if (s->tree_state == SQFFD__FIT_TREE_CURRENT) return SQFFD_OK;
-    res = s->tree_state == SQFFD__FIT_TREE_MOVED ? sqffd_kdtree_refit(&s->tree, s->x) : SQFFD_ERROR_DEGENERATE;
-    if (res == SQFFD_ERROR_DEGENERATE) /* not built, or a refit cannot follow (a pile of identical points split up) */
-        res = sqffd_kdtree_build(&s->tree, s->x, s->count, s->tree_ws, s->tree_size);
-    if (res == SQFFD_OK) s->tree_state = SQFFD__FIT_TREE_CURRENT;
+    if (s->tree_current) return SQFFD_OK;
+    res = sqffd_kdtree_build(&s->tree, s->x, s->count, s->tree_ws, s->tree_size);
+    if (res == SQFFD_OK) s->tree_current = 1;
     return res;
 }
 
@@ -4703,7 +4699,7 @@ static double sqffd__fit_moves(sqffd__fit_search *s, const double *x, const doub
     s->moved = max;
     s->boxes_current = 0;
     s->bvh_current = 0;
-    if (s->tree_state == SQFFD__FIT_TREE_CURRENT) s->tree_state = SQFFD__FIT_TREE_MOVED;
+    s->tree_current = 0;
     return sum2;
 }
 
@@ -4752,7 +4748,7 @@ static void sqffd__fit_search_init(sqffd__fit_search *s, const double *x, const 
     s->exact = 1;
     s->tree_ws = tree_ws;
     s->tree_size = tree_size;
-    s->tree_state = SQFFD__FIT_TREE_NONE;
+    s->tree_current = 0;
     s->bvh = bvh;
     s->grid[0] = grid[0];
     s->grid[1] = grid[1];
