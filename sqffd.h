@@ -5558,7 +5558,7 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
     double hold = o->model_to_data * (double)m / (double)holding;
     sqffd__fit_search search;
     sqffd__fit_step1 step1;
-    int it = 0, extrapolated = 0, stop = 0, scaled = !w->distance;
+    int it = 0, extrapolated = 0, stop = 0, scaled = !w->distance, scaled_now = 0;
     sqffd__fit_evaluate(s, (const double (*)[3])model->ffd.control, x);
     sqffd__fit_search_init(&search, x, s->grid, s->rings, w->tree_ws, w->tree_size, &w->bvh);
     search.triangle = w->triangle;
@@ -5601,12 +5601,12 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
             memset(w->weights, 0, m * sizeof(double));
         }
         search.x = x;
-        search.exact = it == 0 || last;
+        search.exact = (it == 0 && !scaled_now) || last; /* (the redo after scaling: nothing moved, the matched answers are exact) */
         res = sqffd__fit_pass(points, n, &search, diagonal, scaled ? NULL : w->distance, &step1, &stats);
         if (res != SQFFD_OK) return res;
         if (!scaled) { /* robust mode: the Welsch scale from the starting model, then that pass again */
             step1.nu2 = sqffd__fit_welsch_nu2(w->distance, n); /* (0 for an exact start: plain squares) */
-            scaled = 1;
+            scaled = scaled_now = 1;
             sqffd__fit_moves(&search, x, x);
             continue;
         }
