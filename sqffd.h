@@ -3923,7 +3923,6 @@ SQFFD_DEF void sqffd_ffd_weights(const int dims[3], const double stu[3], double 
 #define SQFFD__FIT_PI 3.14159265358979323846
 #define SQFFD__FIT_MAX_GRID 65536     /* per grid axis */
 #define SQFFD__FIT_MIN_POINTS 4       /* sqffd_fit_ffd; sqffd_fit defers to the superquadric fit */
-#define SQFFD__FIT_FILL_SWEEPS 8      /* smoothing sweeps over the unreached model points */
 #define SQFFD__FIT_MAX_WALK 8         /* fan-to-fan moves of the closest-point search */
 #define SQFFD__FIT_SVD_RCOND 1e-10    /* singular values below this fraction of the largest are dropped */
 #define SQFFD__FIT_SNAP 1e-14         /* u this close to its run's first is that u (rounding: the runs' B rows factor) */
@@ -4147,29 +4146,6 @@ static double sqffd__fit_walk(const double *x, const sqffd__fit_ring *rings, con
     return best;
 }
 
-/* The grid mesh's triangles (as sqffd_model_mesh lists them). */
-static void sqffd__fit_triangles(const int grid[2], uint32_t (*triangles)[3])
-{
-    size_t ne = (size_t)grid[1], rows = (size_t)grid[0] * ne, i, j, t = 0;
-    for (j = 0; j < ne; ++j) { /* south cap: (S, (0, j+1), (0, j)) */
-        triangles[t][0] = (uint32_t)rows;
-        triangles[t][1] = (uint32_t)((j + 1) % ne);
-        triangles[t++][2] = (uint32_t)j;
-    }
-    for (i = 0; i + 1 < (size_t)grid[0]; ++i)
-        for (j = 0; j < ne; ++j) {
-            uint32_t a = (uint32_t)(i * ne + j), b = (uint32_t)(i * ne + (j + 1) % ne);
-            uint32_t c = (uint32_t)((i + 1) * ne + (j + 1) % ne), d = (uint32_t)((i + 1) * ne + j);
-            triangles[t][0] = a; triangles[t][1] = b; triangles[t++][2] = c;
-            triangles[t][0] = a; triangles[t][1] = c; triangles[t++][2] = d;
-        }
-    for (j = 0; j < ne; ++j) { /* north cap: ((n-1, j), (n-1, j+1), N) */
-        triangles[t][0] = (uint32_t)(rows - ne + j);
-        triangles[t][1] = (uint32_t)(rows - ne + (j + 1) % ne);
-        triangles[t++][2] = (uint32_t)(rows + 1);
-    }
-}
-
 /* A bounding-volume tree over the mesh triangles (see sqffd__fit_certify),
    made of the grid's own patches: cells are the triangle strips between
    consecutive rows (the south cap, the quad rows, the north cap; a cell is
@@ -4178,7 +4154,7 @@ static void sqffd__fit_triangles(const int grid[2], uint32_t (*triangles)[3])
    patches of a smooth surface are compact, so their boxes stay tight even
    where the triangles are long and thin (a boxy superquadric's faces). The
    nodes are laid out depth first (an inner node's low child is the next
-   node); they are laid out with their boxes once a pass. */
+   node) once a search, their boxes measured once a pass. */
 typedef struct sqffd__fit_bvh_node {
     double box[6];     /* low corner, high corner */
     double reach;      /* at least the largest distance of a point of its triangles to that triangle's nearest corner */
@@ -4193,11 +4169,12 @@ typedef struct sqffd__fit_bvh {
 } sqffd__fit_bvh;
 
 #define SQFFD__FIT_BVH_LEAF 2 /* cells per side of a leaf at most */
+#define SQFFD__FIT_BVH_STACK 66 /* a walk's or the build's pending nodes: the depth (<= 34 for 65,537 x 65,536 cells) + 1 */
 
 /* The nodes over the grid's cells, depth first (nodes NULL: only counts them). */
 static size_t sqffd__fit_bvh_build(const int grid[2], sqffd__fit_bvh_node *nodes)
 {
-    struct { uint32_t rows[2], cols[2], parent; } stack[2 * 32 + 2], cur;
+    struct { uint32_t rows[2], cols[2], parent; } stack[SQFFD__FIT_BVH_STACK], cur;
     size_t count = 0;
     int top = 0;
     stack[top].rows[0] = 0; stack[top].rows[1] = (uint32_t)grid[0] + 1;
@@ -4232,7 +4209,7 @@ static size_t sqffd__fit_bvh_build(const int grid[2], sqffd__fit_bvh_node *nodes
     return count;
 }
 
-/* The triangles of cell (r, c), as sqffd__fit_triangles lists them; returns 1 or 2. */
+/* The triangles of cell (r, c) of the grid mesh; returns 1 or 2. */
 static int sqffd__fit_cell(const int grid[2], uint32_t r, uint32_t c, uint32_t tri[2][3])
 {
     uint32_t ne = (uint32_t)grid[1], rows = (uint32_t)grid[0] * ne, c1 = c + 1 < ne ? c + 1 : 0;
@@ -4247,6 +4224,19 @@ static int sqffd__fit_cell(const int grid[2], uint32_t r, uint32_t c, uint32_t t
     tri[0][0] = (r - 1) * ne + c; tri[0][1] = (r - 1) * ne + c1; tri[0][2] = r * ne + c1;
     tri[1][0] = tri[0][0]; tri[1][1] = tri[0][2]; tri[1][2] = r * ne + c;
     return 2;
+}
+
+/* The grid mesh's triangles, cell by cell (the order sqffd_model_mesh lists). */
+static void sqffd__fit_triangles(const int grid[2], uint32_t (*triangles)[3])
+{
+    uint32_t r, c, cell[2][3];
+    size_t t = 0;
+    int k, count;
+    for (r = 0; r <= (uint32_t)grid[0]; ++r)
+        for (c = 0; c < (uint32_t)grid[1]; ++c)
+            for (count = sqffd__fit_cell(grid, r, c, cell), k = 0; k < count; ++k, ++t) {
+                triangles[t][0] = cell[k][0]; triangles[t][1] = cell[k][1]; triangles[t][2] = cell[k][2];
+            }
 }
 
 static void sqffd__fit_bvh_layout(sqffd__arena *a, const int grid[2], sqffd__fit_bvh *h)
@@ -4528,11 +4518,10 @@ static void sqffd__fit_certify(sqffd__fit_search *s, const double q[3], double v
                                double w[3])
 {
     const sqffd__fit_bvh *h = s->bvh;
-    uint32_t stack[2 * 32 + 2];
-    double gaps[2 * 32 + 2]; /* of the boxes on the stack */
+    uint32_t stack[SQFFD__FIT_BVH_STACK];
+    double gaps[SQFFD__FIT_BVH_STACK]; /* of the boxes on the stack */
     int top = 0;
     if (!s->bvh_current) {
-        sqffd__fit_bvh_build(s->grid, s->bvh->nodes); /* (cheap: a node per few cells) */
         sqffd__fit_bvh_boxes(s->bvh, s->grid, s->x);
         s->bvh_current = 1;
     }
@@ -4748,10 +4737,10 @@ static void sqffd__fit_search_init(sqffd__fit_search *s, const double *x, const 
     s->exact = 1;
     s->tree_ws = tree_ws;
     s->tree_size = tree_size;
-    s->tree_current = 0;
     s->bvh = bvh;
     s->grid[0] = grid[0];
     s->grid[1] = grid[1];
+    sqffd__fit_bvh_build(grid, bvh->nodes); /* (its boxes are measured when an exact pass needs them) */
 }
 
 /* Step 1's accumulators of a pass. */
