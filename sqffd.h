@@ -156,7 +156,9 @@ SQFFD_DEF const char *sqffd_result_string(sqffd_result result);
 /* Stages reported to a progress callback. */
 typedef enum sqffd_stage {
     SQFFD_STAGE_SUPERQUADRIC = 1, /* superquadric fit: error = current cost */
-    SQFFD_STAGE_FFD = 2           /* FFD two-step iteration: error = relative RMS error */
+    SQFFD_STAGE_FFD = 2,          /* FFD two-step iteration: error = relative RMS error */
+    SQFFD_STAGE_FRAME = 3         /* sqffd_track, before each frame: iteration = the frame's index,
+                                     error = the previous frame's relative RMS error (0 before frame 0) */
 } sqffd_stage;
 
 /* Called by long operations once per iteration; return non-zero to cancel
@@ -679,6 +681,179 @@ SQFFD_DEF size_t sqffd_model_reverse_distances_workspace_size(size_t n, const sq
 SQFFD_DEF sqffd_result sqffd_model_reverse_distances(const sqffd_model *model, const double *points, size_t n,
                                                      double *per_vertex, sqffd_distance_stats *stats,
                                                      void *workspace, size_t workspace_size);
+
+/* ======================================================================
+   Layer 6: tracking and motion
+   ====================================================================== */
+
+/* A prepared FFD system: what the FFD stage computes once for a model's
+   superquadric, box, lattice and grid (the matrix B of Bernstein weights at
+   the model points, the fixed part of the normal matrix: springs and tether),
+   kept in caller memory, so that the stage can then run on any point set
+   from any control points at no preparation cost (tracking runs it once per
+   frame). The fields below record what it was prepared for and are
+   read-only; `state` points into the caller's memory block, which must stay
+   alive, in place and untouched while the system is used. A prepared system
+   is read-only: any number of threads may run against it at once, each with
+   its own workspace and model. */
+typedef struct sqffd_ffd_system {
+    sqffd_superquadric sq;   /* the model's superquadric ... */
+    int dims[3];             /* ... its lattice ... */
+    double origin[3], edges[9]; /* ... its box ... */
+    int grid[2];             /* ... and its grid */
+    double alpha, tether;    /* the options it fixed */
+    sqffd_regularization regularization;
+    void *state;             /* private */
+} sqffd_ffd_system;
+
+/* Memory bytes for a system prepared for this model (its lattice and grid);
+   0 for a NULL or invalid model. */
+SQFFD_DEF size_t sqffd_ffd_system_size(const sqffd_model *model);
+/* Prepares the system for the model's superquadric, box (ffd.dims, origin,
+   edges) and grid, and the options' alpha, tether and regularization
+   (options NULL: the defaults); the control points are not read. Results:
+   INVALID_ARGUMENT (NULL system or model, an invalid model or option),
+   NON_FINITE (the superquadric's points), DEGENERATE (a flat box),
+   WORKSPACE_TOO_SMALL (memory smaller than sqffd_ffd_system_size). */
+SQFFD_DEF sqffd_result sqffd_ffd_system_init(sqffd_ffd_system *system, const sqffd_model *model,
+                                             const sqffd_fit_options *options, void *memory, size_t memory_size);
+/* Stage 2 against a prepared system: exactly sqffd_fit_ffd (the same
+   results to the bit) without the preparation. The model's sq, ffd.dims,
+   ffd.origin, ffd.edges and grid must equal the system's (else
+   INVALID_ARGUMENT); ffd.control is the start, and receives the result. The
+   options' alpha, tether and regularization are the system's (those fields
+   are not read); options NULL: the defaults. Other results as sqffd_fit_ffd. */
+SQFFD_DEF size_t sqffd_fit_prepared_workspace_size(size_t n, const sqffd_ffd_system *system,
+                                                   const sqffd_fit_options *options);
+SQFFD_DEF sqffd_result sqffd_fit_prepared(const sqffd_ffd_system *system, const double *points, size_t n,
+                                          const sqffd_fit_options *options, sqffd_model *model,
+                                          sqffd_fit_report *report, void *workspace, size_t workspace_size);
+
+/* Tracking a sequence (the paper's section 4.2). Frame 0 gets the whole fit
+   (sqffd_fit). Every later frame keeps frame 0's superquadric, box, lattice
+   and grid (one prepared system for the sequence) and runs the FFD stage
+   from the previous frame's control points, so grid point (eta, omega), i.e.
+   mesh vertex v of every frame's model, is the same material point in every
+   frame: its trajectory is vertex v through the frames, and
+   sqffd_motion measures it. */
+typedef struct sqffd_track_options {
+    sqffd_fit_options fit;       /* frame 0's fit and every frame's FFD stage (fit.progress is not used);
+                                    fit.max_iterations is frame 0's (default 100, so that it converges and
+                                    the later frames measure motion, not the rest of its convergence) */
+    int frame_iterations;        /* FFD iterations of frames 1, 2, ... at most (default 30; the tolerance
+                                    usually stops them sooner: they start near their answer) */
+    sqffd_progress_fn progress;  /* frames (SQFFD_STAGE_FRAME) and, within each, the stages' iterations */
+    void *progress_user;
+} sqffd_track_options;
+
+SQFFD_DEF sqffd_track_options sqffd_track_options_default(void);
+/* Workspace for the whole sequence (one block, reused by every frame):
+   counts[0 .. frame_count) are the frames' point counts. 0 for bad
+   arguments or a size that cannot be represented. */
+SQFFD_DEF size_t sqffd_track_workspace_size(const size_t *counts, size_t frame_count, const sqffd_track_options *options);
+/* Tracks frames[t] (counts[t] points each, x y z) into models[t]; reports
+   (may be NULL) gets frame_count reports (frames after the first: sq is
+   zero, sq_error is the previous model's error on this frame's points).
+   frames_done (may be NULL) receives the number of frames fitted: on an
+   error it is the index of the failing frame; models and reports before it
+   are complete, those from it on undefined. options NULL: defaults.
+   Results: INVALID_ARGUMENT (NULL frames, counts or models, frame_count 0,
+   a NULL frame, bad options), TOO_FEW_POINTS, NON_FINITE, DEGENERATE (a
+   frame's points), WORKSPACE_TOO_SMALL, CANCELLED, and whatever sqffd_fit
+   rejects in frame 0. */
+SQFFD_DEF sqffd_result sqffd_track(const double *const *frames, const size_t *counts, size_t frame_count,
+                                   const sqffd_track_options *options, sqffd_model *models,
+                                   sqffd_fit_report *reports, size_t *frames_done,
+                                   void *workspace, size_t workspace_size);
+
+/* Motion and function of a tracked left ventricle, from the frames' models
+   (sqffd_track's; all with the same superquadric, lattice and grid). Per
+   grid point v (sqffd_model_mesh's vertex order on the models' grid, M =
+   n_eta n_omega + 2 of them), everything measured on the models' grid mesh:
+   - volumes: each frame's closed model volume, exact for the triangle mesh
+     (divergence theorem: the sum over its triangles of det(a, b, c) / 6);
+   - ED: options->ed_frame (default 0); ES: the frame of least volume;
+     EDV, ESV, ejection fraction (EDV - ESV) / EDV;
+   - displacement[v]: |x_v(ES) - x_v(ED)|; trajectories: x_v in every frame;
+     excursion[v]: the inward part of that motion, -(x_v(ES) - x_v(ED)) . n_v
+     with n_v the ED mesh's outward normal: the wall motion a reader of
+     gated images judges. The data only see motion across the surface: the
+     model's points may slide along it differently from the tissue, which
+     changes the displacement but not the excursion;
+   - the long axis: the ED superquadric's longest axis, pointing from base to
+     apex; the apex is the end where the ED model is narrower (the mean
+     distance from the axis of its points in the outer fifth of the length),
+     unless options->apex_direction is given. f_v in [0, 1]: the position
+     along the axis from the apex (0) to the base (1);
+   - valve plane: points at the base end (f > 1/2) whose outward normal is
+     within 45 degrees of the axis (the lid closing the cavity) are not wall:
+     segment 0, never low-motion;
+   - segment[v], the AHA 17-segment model (Cerqueira et al., Circulation
+     2002): f < apex_fraction is the apex (17); the rest of the axis is cut
+     in thirds: apical (13-16, four 90-degree sectors), mid (7-12) and basal
+     (1-6, six 60-degree sectors each). The angle turns about the axis from
+     the anterior direction (segments 1, 7, 13 are centred on it) toward the
+     septum: anterior = septum x axis (with axis base -> apex), so that seen
+     from the apex the septum is on the left of anterior, as in the standard
+     bull's-eye. options->septum_direction sets it (the default: the ED
+     superquadric's first local axis other than the long one, which the
+     points alone cannot tie to anatomy: give it for a real heart);
+   - low_motion[v] = 1 when excursion[v] < low_motion_fraction x the median
+     excursion of the wall points at its level (ten equal bands of f): a
+     comparison with the wall at the same height, as the apex moves less than
+     the base in every heart (outward motion, dyskinesia, is low-motion too);
+   - per segment: area (at ED), area-weighted mean displacement and
+     excursion, the share of its area flagged low-motion, and hypokinetic
+     when that share is at least hypokinetic_share.
+   outputs (may be NULL, and so may each of its arrays) receives the arrays.
+   Results: INVALID_ARGUMENT (NULL models, frame_count 0, ed_frame out of
+   range, models that differ in superquadric, lattice or grid, bad options,
+   an apex or septum direction of zero length or along the axis),
+   NON_FINITE, DEGENERATE (EDV <= 0, a flat model), WORKSPACE_TOO_SMALL. */
+#define SQFFD_SEGMENTS 17
+
+typedef struct sqffd_motion_options {
+    size_t ed_frame;             /* end-diastole (default 0) */
+    double low_motion_fraction;  /* default 0.5 */
+    double hypokinetic_share;    /* default 0.5 */
+    double apex_fraction;        /* the apex segment's share of the long axis (default 0.1) */
+    double apex_direction[3];    /* base -> apex, world; all 0 (default): automatic */
+    double septum_direction[3];  /* world (only its part across the axis counts); all 0 (default): see above */
+} sqffd_motion_options;
+
+typedef struct sqffd_motion_outputs {
+    double *volumes;             /* frame_count */
+    double *trajectories;        /* frame_count x M x 3: vertex v of frame t at [3 (t M + v)] */
+    double *displacement;        /* M */
+    double *excursion;           /* M */
+    unsigned char *low_motion;   /* M: 0 or 1 */
+    unsigned char *segment;      /* M: 1-17, 0 for the valve plane */
+} sqffd_motion_outputs;
+
+typedef struct sqffd_segment_motion {
+    double area;                 /* at ED, in the data's units squared */
+    double mean_displacement;    /* area-weighted */
+    double mean_excursion;       /* area-weighted */
+    double low_motion_share;     /* of its area */
+    int hypokinetic;
+} sqffd_segment_motion;
+
+typedef struct sqffd_motion_report {
+    size_t ed_frame, es_frame;
+    double edv, esv, ejection_fraction;
+    double axis[3];              /* unit, base -> apex */
+    double apex[3];              /* the ED model's point farthest along the axis */
+    double length;               /* of the ED model along the axis */
+    double anterior[3], septum[3]; /* unit, across the axis */
+    double median_excursion;     /* over the wall points */
+    sqffd_segment_motion segments[SQFFD_SEGMENTS]; /* [k]: AHA segment k + 1 */
+} sqffd_motion_report;
+
+SQFFD_DEF sqffd_motion_options sqffd_motion_options_default(void);
+SQFFD_DEF size_t sqffd_motion_workspace_size(const sqffd_model *models, size_t frame_count);
+SQFFD_DEF sqffd_result sqffd_motion(const sqffd_model *models, size_t frame_count, const sqffd_motion_options *options,
+                                    const sqffd_motion_outputs *outputs, sqffd_motion_report *report,
+                                    void *workspace, size_t workspace_size);
 
 #ifdef __cplusplus
 }
@@ -5108,7 +5283,6 @@ typedef struct sqffd__fit_system {
     size_t lattice;      /* L = l m n control points */
     size_t count;        /* M model points */
     size_t stride;       /* l + m + n */
-    sqffd_solver solver;
     double *weights;     /* M x stride */
     sqffd__fit_ring *rings; /* M: the mesh's ring table */
     sqffd__fit_blocks blocks; /* and its blocks */
@@ -5118,13 +5292,10 @@ typedef struct sqffd__fit_system {
     double *rest_control;/* L x 3: P0 */
     double spring;       /* alpha M / L: the springs' weight in the step's units */
     double tether;
+    sqffd_regularization regularization;
     double *fixed;       /* L x L, lower triangle: spring D^T D + tether B^T B */
     double *rhs0;        /* 3 x L: the fixed part's pull toward P0 */
-    double *matrix;      /* L x L: the step's normal matrix, then its factor */
-    double *singular;    /* L: SVD solves: singular values, then their kept inverses */
-    double *v;           /* L x L: SVD solves: V (NULL: Cholesky only) */
-    void *svd_ws;
-    size_t svd_size;
+    double *pairs;       /* (l m)^2: the tether's B^T B while preparing */
 } sqffd__fit_system;
 
 /* Over-relaxation of the steps (Salakhutdinov & Roweis, "Adaptive
@@ -5175,6 +5346,12 @@ typedef struct sqffd__fit_work {
     double *data_far;    /* M: the distance to the farthest of them then */
     double *sample;      /* the FFD subsample (NULL: all points) */
     size_t sample_count;
+    sqffd_solver solver;
+    double *matrix;      /* L x L: the step's normal matrix, then its factor */
+    double *singular;    /* L: SVD solves: singular values, then their kept inverses */
+    double *v;           /* L x L: SVD solves: V (NULL: Cholesky only) */
+    void *svd_ws;
+    size_t svd_size;
 } sqffd__fit_work;
 
 /* At most cap of n points (cap 0: all of them). */
@@ -5200,18 +5377,16 @@ static int sqffd__fit_needs_svd(const sqffd_fit_options *o)
     return o->solver == SQFFD_SOLVER_SVD || o->alpha == 0.0;
 }
 
-static void sqffd__fit_layout(sqffd__arena *a, size_t n, const int dims[3], const int grid[2], const sqffd_fit_options *o,
-                              sqffd__fit_system *s, sqffd__fit_work *w)
+/* The system's arrays (what stays the same through a sequence). */
+static void sqffd__fit_system_layout(sqffd__arena *a, const int dims[3], const int grid[2], sqffd__fit_system *s)
 {
     size_t m = sqffd__fit_grid_count(grid), l = (size_t)dims[0] * (size_t)dims[1] * (size_t)dims[2];
     memset(s, 0, sizeof *s);
-    memset(w, 0, sizeof *w);
     s->dims[0] = dims[0]; s->dims[1] = dims[1]; s->dims[2] = dims[2];
     s->grid[0] = grid[0]; s->grid[1] = grid[1];
     s->lattice = l;
     s->count = m;
     s->stride = (size_t)(dims[0] + dims[1] + dims[2]);
-    s->solver = o->solver;
     s->weights = (double *)sqffd__arena_take(a, m, s->stride * sizeof(double));
     s->run = (uint32_t *)sqffd__arena_take(a, m + 1, sizeof(uint32_t));
     s->rings = (sqffd__fit_ring *)sqffd__arena_take(a, m, sizeof(sqffd__fit_ring));
@@ -5220,13 +5395,23 @@ static void sqffd__fit_layout(sqffd__arena *a, size_t n, const int dims[3], cons
     s->rest_control = (double *)sqffd__arena_take(a, 3 * l, sizeof(double));
     s->fixed = (double *)sqffd__arena_take(a, l * l, sizeof(double));
     s->rhs0 = (double *)sqffd__arena_take(a, 3 * l, sizeof(double));
-    s->matrix = (double *)sqffd__arena_take(a, l * l, sizeof(double));
+    s->pairs = (double *)sqffd__arena_take(a, (size_t)(dims[0] * dims[1] * dims[0] * dims[1]), sizeof(double));
+}
+
+/* The iteration's scratch for n data points against a system of that lattice and grid. */
+static void sqffd__fit_work_layout(sqffd__arena *a, size_t n, const int dims[3], const int grid[2],
+                                   const sqffd_fit_options *o, sqffd__fit_work *w)
+{
+    size_t m = sqffd__fit_grid_count(grid), l = (size_t)dims[0] * (size_t)dims[1] * (size_t)dims[2];
+    memset(w, 0, sizeof *w);
+    w->solver = o->solver;
+    w->matrix = (double *)sqffd__arena_take(a, l * l, sizeof(double));
     if (sqffd__fit_needs_svd(o)) {
-        s->singular = (double *)sqffd__arena_take(a, l, sizeof(double));
-        s->v = (double *)sqffd__arena_take(a, l * l, sizeof(double));
-        s->svd_size = sqffd_svd_workspace_size((int)l, (int)l);
-        if (s->svd_size == 0) a->overflow = 1;
-        s->svd_ws = sqffd__arena_take(a, s->svd_size, 1);
+        w->singular = (double *)sqffd__arena_take(a, l, sizeof(double));
+        w->v = (double *)sqffd__arena_take(a, l * l, sizeof(double));
+        w->svd_size = sqffd_svd_workspace_size((int)l, (int)l);
+        if (w->svd_size == 0) a->overflow = 1;
+        w->svd_ws = sqffd__arena_take(a, w->svd_size, 1);
     }
     w->x = (double *)sqffd__arena_take(a, m, 3 * sizeof(double));
     w->next = (double *)sqffd__arena_take(a, m, 3 * sizeof(double));
@@ -5347,8 +5532,7 @@ static void sqffd__fit_evaluate(const sqffd__fit_system *s, const double (*contr
 
 /* The springs' and the tether's energy at control points P with model points x
    (in the step's units: alpha M / L ||D (P - P0)||^2 + tether ||x - x0||^2). */
-static double sqffd__fit_prior(const sqffd__fit_system *s, sqffd_regularization reg, const double *control,
-                               const double *x)
+static double sqffd__fit_prior(const sqffd__fit_system *s, const double *control, const double *x)
 {
     size_t l = s->lattice, p, q, c, v;
     double springs = 0.0, tether = 0.0;
@@ -5358,7 +5542,7 @@ static double sqffd__fit_prior(const sqffd__fit_system *s, sqffd_regularization 
             if (sqffd__fit_spring(s->dims, p, axis, &q))
                 for (c = 0; c < 3; ++c) {
                     double d = control[3 * p + c] - control[3 * q + c];
-                    if (reg == SQFFD_REG_DISPLACEMENT) d -= s->rest_control[3 * p + c] - s->rest_control[3 * q + c];
+                    if (s->regularization == SQFFD_REG_DISPLACEMENT) d -= s->rest_control[3 * p + c] - s->rest_control[3 * q + c];
                     springs += d * d;
                 }
     if (s->tether > 0.0)
@@ -5368,8 +5552,8 @@ static double sqffd__fit_prior(const sqffd__fit_system *s, sqffd_regularization 
 
 /* B's rows, the fixed part of the normal matrix and of the right-hand side,
    from the model's superquadric, box and grid. */
-static sqffd_result sqffd__fit_prepare(const sqffd_model *model, const sqffd_fit_options *o, sqffd__fit_system *s,
-                                       double *pairs)
+static sqffd_result sqffd__fit_prepare(const sqffd_model *model, double alpha, double tether,
+                                       sqffd_regularization regularization, sqffd__fit_system *s)
 {
     sqffd_ffd regular; /* P0 */
     double run_u = 0.0;
@@ -5379,8 +5563,9 @@ static sqffd_result sqffd__fit_prepare(const sqffd_model *model, const sqffd_fit
     if (res != SQFFD_OK) return res;
     /* alpha weighs the mean spring energy per control point against the mean
        squared residual per data point, whatever the grid and the lattice */
-    s->spring = o->alpha * (double)m / (double)l;
-    s->tether = o->tether;
+    s->spring = alpha * (double)m / (double)l;
+    s->tether = tether;
+    s->regularization = regularization;
     sqffd__fit_rings(s->grid, s->rings);
     sqffd__fit_block_table(s->grid, &s->blocks);
     s->runs = 0;
@@ -5399,7 +5584,7 @@ static sqffd_result sqffd__fit_prepare(const sqffd_model *model, const sqffd_fit
     /* fixed = spring D^T D (the springs' graph Laplacian) + tether B^T B;
        rhs0 = fixed P0, less the springs' part for the paper's ||D P||^2 */
     memset(s->fixed, 0, l * l * sizeof(double));
-    if (s->tether > 0.0) sqffd__fit_gram(s, NULL, s->tether, pairs, s->fixed);
+    if (s->tether > 0.0) sqffd__fit_gram(s, NULL, s->tether, s->pairs, s->fixed);
     memset(s->rhs0, 0, 3 * l * sizeof(double));
     for (p = 0; p < l; ++p)
         for (q = 0; q <= p; ++q) {
@@ -5415,7 +5600,7 @@ static sqffd_result sqffd__fit_prepare(const sqffd_model *model, const sqffd_fit
                 s->fixed[p * l + p] += s->spring;
                 s->fixed[q * l + q] += s->spring;
                 s->fixed[q * l + p] -= s->spring; /* q > p: lower triangle */
-                if (o->regularization == SQFFD_REG_DISPLACEMENT)
+                if (regularization == SQFFD_REG_DISPLACEMENT)
                     for (c = 0; c < 3; ++c) {
                         double d = s->spring * (s->rest_control[3 * p + c] - s->rest_control[3 * q + c]);
                         s->rhs0[c * l + p] += d;
@@ -5431,36 +5616,36 @@ static sqffd_result sqffd__fit_prepare(const sqffd_model *model, const sqffd_fit
    reach) or the SVD solver is chosen, the pseudo-inverse's minimum-norm
    solution over the singular values above SQFFD__FIT_SVD_RCOND of the
    largest. */
-static sqffd_result sqffd__fit_solve(const sqffd__fit_system *s, const double *weights, double *pairs, double *rhs,
-                                     double *scratch)
+static sqffd_result sqffd__fit_solve(const sqffd__fit_system *s, sqffd__fit_work *w)
 {
     size_t l = s->lattice, c, r, k;
+    double *rhs = w->rhs, *scratch = w->scratch;
     sqffd_result res = SQFFD_ERROR_NOT_POSITIVE_DEFINITE;
-    memcpy(s->matrix, s->fixed, l * l * sizeof(double));
-    sqffd__fit_gram(s, weights, 1.0, pairs, s->matrix);
-    if (s->solver == SQFFD_SOLVER_CHOLESKY) res = sqffd_cholesky_factor(s->matrix, (int)l);
+    memcpy(w->matrix, s->fixed, l * l * sizeof(double));
+    sqffd__fit_gram(s, w->weights, 1.0, w->pairs, w->matrix);
+    if (w->solver == SQFFD_SOLVER_CHOLESKY) res = sqffd_cholesky_factor(w->matrix, (int)l);
     if (res == SQFFD_OK) {
-        for (c = 0; c < 3; ++c) sqffd_cholesky_solve(s->matrix, (int)l, rhs + c * l);
+        for (c = 0; c < 3; ++c) sqffd_cholesky_solve(w->matrix, (int)l, rhs + c * l);
         return SQFFD_OK;
     }
-    if (res != SQFFD_ERROR_NOT_POSITIVE_DEFINITE || !s->v) return res;
-    memcpy(s->matrix, s->fixed, l * l * sizeof(double)); /* the factor overwrote it */
-    sqffd__fit_gram(s, weights, 1.0, pairs, s->matrix);
+    if (res != SQFFD_ERROR_NOT_POSITIVE_DEFINITE || !w->v) return res;
+    memcpy(w->matrix, s->fixed, l * l * sizeof(double)); /* the factor overwrote it */
+    sqffd__fit_gram(s, w->weights, 1.0, w->pairs, w->matrix);
     for (r = 0; r < l; ++r) /* the whole symmetric matrix */
-        for (k = r + 1; k < l; ++k) s->matrix[r * l + k] = s->matrix[k * l + r];
-    res = sqffd_svd(s->matrix, (int)l, (int)l, NULL, s->singular, s->v, s->svd_ws, s->svd_size);
+        for (k = r + 1; k < l; ++k) w->matrix[r * l + k] = w->matrix[k * l + r];
+    res = sqffd_svd(w->matrix, (int)l, (int)l, NULL, w->singular, w->v, w->svd_ws, w->svd_size);
     if (res != SQFFD_OK) return res;
     for (k = l; k-- > 0;) /* symmetric positive semi-definite: A = V S V^T, A^+ = V S^+ V^T */
-        s->singular[k] = s->singular[k] > SQFFD__FIT_SVD_RCOND * s->singular[0] ? 1.0 / s->singular[k] : 0.0;
+        w->singular[k] = w->singular[k] > SQFFD__FIT_SVD_RCOND * w->singular[0] ? 1.0 / w->singular[k] : 0.0;
     for (c = 0; c < 3; ++c) {
         double *b = rhs + c * l;
         for (k = 0; k < l; ++k) scratch[k] = 0.0; /* y = S^+ V^T b */
         for (r = 0; r < l; ++r)
-            for (k = 0; k < l; ++k) scratch[k] += s->v[r * l + k] * b[r];
-        for (k = 0; k < l; ++k) scratch[k] *= s->singular[k];
+            for (k = 0; k < l; ++k) scratch[k] += w->v[r * l + k] * b[r];
+        for (k = 0; k < l; ++k) scratch[k] *= w->singular[k];
         for (r = 0; r < l; ++r) { /* b = V y */
             double sum = 0.0;
-            for (k = 0; k < l; ++k) sum += s->v[r * l + k] * scratch[k];
+            for (k = 0; k < l; ++k) sum += w->v[r * l + k] * scratch[k];
             b[r] = sum;
         }
     }
@@ -5538,7 +5723,7 @@ static size_t sqffd__fit_nearest_data(const sqffd_kdtree *tree, sqffd__fit_work 
    receives the error of the starting model. */
 static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double diagonal, const sqffd_fit_options *o,
                                        const sqffd__fit_system *s, const sqffd_kdtree *data_tree, sqffd__fit_work *w,
-                                       sqffd_model *model, sqffd_fit_report *rep)
+                                       int exact_start, sqffd_model *model, sqffd_fit_report *rep)
 {
     size_t m = s->count, l = s->lattice, size = 3 * l, v, p, i;
     double *x = w->x, *next = w->next, *t = w->target, *control = &model->ffd.control[0][0], *swap;
@@ -5590,7 +5775,7 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
             memset(w->weights, 0, m * sizeof(double));
         }
         search.x = x;
-        search.exact = (it == 0 && !scaled_now) || last; /* (the redo after scaling: nothing moved, the matched answers are exact) */
+        search.exact = (it == 0 && !scaled_now && exact_start) || last; /* (the redo after scaling: nothing moved) */
         res = sqffd__fit_pass(points, n, &search, diagonal, scaled ? NULL : w->distance, &step1, &stats);
         if (res != SQFFD_OK) return res;
         if (!scaled) { /* robust mode: the Welsch scale from the starting model, then that pass again */
@@ -5606,7 +5791,7 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
                     reverse += sqffd__dist2_3(q, x + 3 * v);
                     memcpy(next + 3 * v, q, 3 * sizeof(double));
                 }
-        energy = step1.energy / (double)n + sqffd__fit_prior(s, o->regularization, control, x) / (double)m +
+        energy = step1.energy / (double)n + sqffd__fit_prior(s, control, x) / (double)m +
                  o->model_to_data * reverse / (double)holding;
         if (it > 0 && energy > accepted && !stop) {
             /* an extrapolation that raised the energy gives way to the plain step;
@@ -5650,7 +5835,7 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
         }
         /* step 2: the weighted problem's minimiser, the plain step G(P) */
         sqffd__fit_project(s, t, w->rhs);
-        res = sqffd__fit_solve(s, w->weights, w->pairs, w->rhs, w->scratch);
+        res = sqffd__fit_solve(s, w);
         if (res != SQFFD_OK) return res;
         for (p = 0; p < l; ++p)
             for (i = 0; i < 3; ++i) {
@@ -5658,49 +5843,95 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
                 if (!isfinite(g)) return SQFFD_ERROR_NON_FINITE;
                 w->plain[3 * p + i] = g;
             }
-        /* over-relaxed (see SQFFD__FIT_RELAX): after an accepted extrapolation omega grows */
+        /* the plain step's move B (G(P) - P) decides convergence; once it is within the
+           tolerance the plain step itself is taken (an extrapolation would only overshoot) */
+        for (i = 0; i < size; ++i) w->rhs[i] = w->plain[i] - control[i];
+        sqffd__fit_evaluate(s, (const double (*)[3])w->rhs, next);
+        rep->step = sqrt(sqffd__la_dot(next, next, 3 * m) / (double)m) / diagonal;
+        rep->iterations = ++it;
+        rep->converged = rep->step <= o->tolerance;
+        /* else over-relaxed (see SQFFD__FIT_RELAX): after an accepted extrapolation omega grows */
         omega = extrapolated ? (omega * SQFFD__FIT_RELAX_GROW < SQFFD__FIT_RELAX_MAX ? omega * SQFFD__FIT_RELAX_GROW
                                                                                      : SQFFD__FIT_RELAX_MAX)
                              : SQFFD__FIT_RELAX;
-        for (i = 0; i < size; ++i) control[i] += omega * (w->plain[i] - control[i]);
-        extrapolated = 1;
+        extrapolated = !rep->converged;
+        for (i = 0; i < size; ++i) control[i] += (extrapolated ? omega : 1.0) * w->rhs[i];
         sqffd__fit_evaluate(s, (const double (*)[3])model->ffd.control, next);
-        {
-            double step2 = sqffd__fit_moves(&search, x, next);
-            swap = x; x = next; next = swap;
-            rep->iterations = ++it;
-            rep->step = sqrt(step2 / (double)m) / diagonal / omega; /* the plain step's move (the map is linear) */
-            rep->converged = rep->step <= o->tolerance;
-        }
+        sqffd__fit_moves(&search, x, next);
+        swap = x; x = next; next = swap;
     }
     return SQFFD_OK;
 }
 
 /* ---- public entry points ------------------------------------------------- */
 
-static void sqffd__fit_whole_layout(sqffd__arena *a, size_t n, const sqffd_fit_options *o, double **sample, void **sq_ws,
-                                    size_t *sq_size, sqffd__fit_system *s, sqffd__fit_work *w)
+/* A frame's scratch after the system: stage 1's subsample and workspace when
+   the frame gets the whole fit, then the iteration's. */
+typedef struct sqffd__fit_frame {
+    double *sample;      /* stage 1's subsample (NULL: all points) */
+    void *sq_ws;
+    size_t sq_size;
+    sqffd__fit_work w;
+} sqffd__fit_frame;
+
+static void sqffd__fit_frame_layout(sqffd__arena *a, size_t n, const int dims[3], const int grid[2],
+                                    const sqffd_fit_options *o, int whole, sqffd__fit_frame *f)
 {
-    size_t k = sqffd__fit_cap(n, o->sq_max_points);
-    *sample = k < n ? (double *)sqffd__arena_take(a, k, 3 * sizeof(double)) : NULL;
-    *sq_size = sqffd_sq_fit_workspace_size(k, &o->sq);
-    if (*sq_size == 0) a->overflow = 1;
-    *sq_ws = sqffd__arena_take(a, *sq_size, 1);
-    sqffd__fit_layout(a, n, o->lattice, o->grid, o, s, w);
+    f->sample = NULL;
+    f->sq_ws = NULL;
+    f->sq_size = 0;
+    if (whole) {
+        size_t k = sqffd__fit_cap(n, o->sq_max_points);
+        f->sample = k < n ? (double *)sqffd__arena_take(a, k, 3 * sizeof(double)) : NULL;
+        f->sq_size = sqffd_sq_fit_workspace_size(k, &o->sq);
+        if (f->sq_size == 0) a->overflow = 1;
+        f->sq_ws = sqffd__arena_take(a, f->sq_size, 1);
+    }
+    sqffd__fit_work_layout(a, n, dims, grid, o, &f->w);
+}
+
+/* A prepared system kept in the caller's memory: its bookkeeping struct
+   first, then its arrays (*state is NULL while measuring or out of room). */
+static void sqffd__fit_state_layout(sqffd__arena *a, const int dims[3], const int grid[2], sqffd__fit_system **state)
+{
+    sqffd__fit_system scratch;
+    sqffd__fit_system *s = (sqffd__fit_system *)sqffd__arena_take(a, 1, sizeof(sqffd__fit_system));
+    sqffd__fit_system_layout(a, dims, grid, s ? s : &scratch);
+    *state = a->overflow ? NULL : s;
+}
+
+/* The checks every fit makes of its data: enough points, finite, not all in one place. */
+static sqffd_result sqffd__fit_check_data(const double *points, size_t n, double *diagonal)
+{
+    sqffd_result res;
+    if (!points) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if (n < SQFFD__FIT_MIN_POINTS) return SQFFD_ERROR_TOO_FEW_POINTS;
+    res = sqffd__fit_diagonal(points, n, diagonal);
+    if (res != SQFFD_OK) return res;
+    return *diagonal > 0.0 ? SQFFD_OK : SQFFD_ERROR_DEGENERATE;
+}
+
+/* The options sqffd_fit reads beyond the FFD stage's. */
+static sqffd_result sqffd__fit_check_whole_options(const sqffd_fit_options *o)
+{
+    sqffd_result res;
+    if (!sqffd__ffd_dims_valid(o->lattice)) return SQFFD_ERROR_INVALID_ARGUMENT;
+    res = sqffd__fit_grid_check(o->grid);
+    if (res == SQFFD_OK) res = sqffd__fit_check_options(o);
+    if (res == SQFFD_OK && (!(o->box_margin >= 0.0) || !isfinite(o->box_margin))) res = SQFFD_ERROR_INVALID_ARGUMENT;
+    return res;
 }
 
 SQFFD_DEF size_t sqffd_fit_workspace_size(size_t n, const sqffd_fit_options *options)
 {
     sqffd__arena a;
     sqffd__fit_system s;
-    sqffd__fit_work w;
-    double *sample;
-    void *sq_ws;
-    size_t sq_size;
+    sqffd__fit_frame f;
     if (!options || n == 0 || !sqffd__ffd_dims_valid(options->lattice) || sqffd__fit_grid_check(options->grid) != SQFFD_OK)
         return 0;
     sqffd__arena_measure(&a);
-    sqffd__fit_whole_layout(&a, n, options, &sample, &sq_ws, &sq_size, &s, &w);
+    sqffd__fit_system_layout(&a, options->lattice, options->grid, &s);
+    sqffd__fit_frame_layout(&a, n, options->lattice, options->grid, options, 1, &f);
     return sqffd__arena_required(&a);
 }
 
@@ -5708,10 +5939,11 @@ SQFFD_DEF size_t sqffd_fit_ffd_workspace_size(size_t n, const sqffd_model *model
 {
     sqffd__arena a;
     sqffd__fit_system s;
-    sqffd__fit_work w;
+    sqffd__fit_frame f;
     if (!model || !options || n == 0 || !sqffd__fit_model_valid(model)) return 0;
     sqffd__arena_measure(&a);
-    sqffd__fit_layout(&a, n, model->ffd.dims, model->grid, options, &s, &w);
+    sqffd__fit_system_layout(&a, model->ffd.dims, model->grid, &s);
+    sqffd__fit_frame_layout(&a, n, model->ffd.dims, model->grid, options, 0, &f);
     return sqffd__arena_required(&a);
 }
 
@@ -5731,7 +5963,7 @@ static sqffd_result sqffd__fit_error(const double *points, size_t n, double diag
    frame's control points): take the subsample, build the data tree when
    there is a model -> data term, iterate; the start and final errors over all points. */
 static sqffd_result sqffd__fit_run(const double *points, size_t n, double diagonal, const sqffd_fit_options *o,
-                                   const sqffd__fit_system *s, sqffd__fit_work *w, sqffd_model *model,
+                                   const sqffd__fit_system *s, sqffd__fit_work *w, int exact_start, sqffd_model *model,
                                    sqffd_fit_report *rep)
 {
     sqffd_kdtree data_tree;
@@ -5747,7 +5979,8 @@ static sqffd_result sqffd__fit_run(const double *points, size_t n, double diagon
         res = sqffd_kdtree_build(&data_tree, w->data ? w->data : data, w->data_count, w->data_ws, w->data_size);
     }
     if (res == SQFFD_OK)
-        res = sqffd__fit_iterate(data, w->sample_count, diagonal, o, s, o->model_to_data > 0.0 ? &data_tree : NULL, w, model, rep);
+        res = sqffd__fit_iterate(data, w->sample_count, diagonal, o, s, o->model_to_data > 0.0 ? &data_tree : NULL, w,
+                                 exact_start, model, rep);
     if (res == SQFFD_OK && w->sample) {
         rep->sq_error = start;
         res = sqffd__fit_error(points, n, diagonal, s, w, model, &rep->error);
@@ -5760,23 +5993,21 @@ SQFFD_DEF sqffd_result sqffd_fit_ffd(const double *points, size_t n, const sqffd
 {
     sqffd__arena a;
     sqffd__fit_system s;
-    sqffd__fit_work w;
+    sqffd__fit_frame f;
     sqffd_fit_report local;
-    double diagonal;
+    double diagonal = 0.0;
     sqffd_result res;
     if (!points || !options || !model || !sqffd__fit_model_valid(model)) return SQFFD_ERROR_INVALID_ARGUMENT;
     res = sqffd__fit_check_options(options);
+    if (res == SQFFD_OK) res = sqffd__fit_check_data(points, n, &diagonal);
     if (res != SQFFD_OK) return res;
-    if (n < SQFFD__FIT_MIN_POINTS) return SQFFD_ERROR_TOO_FEW_POINTS;
-    res = sqffd__fit_diagonal(points, n, &diagonal);
-    if (res != SQFFD_OK) return res;
-    if (!(diagonal > 0.0)) return SQFFD_ERROR_DEGENERATE;
     sqffd__arena_init(&a, workspace, workspace_size);
-    sqffd__fit_layout(&a, n, model->ffd.dims, model->grid, options, &s, &w);
+    sqffd__fit_system_layout(&a, model->ffd.dims, model->grid, &s);
+    sqffd__fit_frame_layout(&a, n, model->ffd.dims, model->grid, options, 0, &f);
     if (a.overflow) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
     memset(&local, 0, sizeof local);
-    res = sqffd__fit_prepare(model, options, &s, w.pairs);
-    if (res == SQFFD_OK) res = sqffd__fit_run(points, n, diagonal, options, &s, &w, model, &local);
+    res = sqffd__fit_prepare(model, options->alpha, options->tether, options->regularization, &s);
+    if (res == SQFFD_OK) res = sqffd__fit_run(points, n, diagonal, options, &s, &f.w, 1, model, &local);
     if (report) *report = local;
     return res;
 }
@@ -5824,50 +6055,554 @@ static sqffd_result sqffd__fit_guard(const double *points, size_t n, double diag
     return res;
 }
 
+/* The whole fit into a laid-out system and frame: stage 1 (guarded), the
+   model around it, the system prepared for it, stage 2. */
+static sqffd_result sqffd__fit_whole(const double *points, size_t n, double diagonal, const sqffd_fit_options *o,
+                                     sqffd__fit_system *s, sqffd__fit_frame *f, sqffd_model *model, sqffd_fit_report *rep)
+{
+    sqffd_sq_fit_options sq_options = o->sq;
+    sqffd_superquadric sq;
+    size_t k = sqffd__fit_cap(n, o->sq_max_points);
+    const double *stage1 = f->sample ? f->sample : points;
+    sqffd_result res;
+    if (f->sample) sqffd__subsample(points, n, k, f->sample);
+    if (!sq_options.progress) {
+        sq_options.progress = o->progress;
+        sq_options.progress_user = o->progress_user;
+    }
+    res = sqffd_sq_fit(stage1, k, &sq_options, &sq, &rep->sq, f->sq_ws, f->sq_size);
+    if (res == SQFFD_OK) res = sqffd__fit_guard(stage1, k, diagonal, sq_options.robust, s, &f->w, &sq, &rep->sq);
+    if (res == SQFFD_OK) res = sqffd_model_init(model, &sq, o);
+    if (res == SQFFD_OK) res = sqffd__fit_prepare(model, o->alpha, o->tether, o->regularization, s);
+    if (res == SQFFD_OK) res = sqffd__fit_run(points, n, diagonal, o, s, &f->w, 1, model, rep);
+    return res;
+}
+
 SQFFD_DEF sqffd_result sqffd_fit(const double *points, size_t n, const sqffd_fit_options *options,
                                  sqffd_model *model, sqffd_fit_report *report,
                                  void *workspace, size_t workspace_size)
 {
     sqffd__arena a;
     sqffd__fit_system s;
-    sqffd__fit_work w;
+    sqffd__fit_frame f;
     sqffd_fit_report local;
-    sqffd_sq_fit_options sq_options;
-    sqffd_superquadric sq;
-    double *sample, diagonal;
-    void *sq_ws;
-    size_t sq_size, k;
+    double diagonal = 0.0;
     sqffd_result res;
-    if (!points || !options || !model || !sqffd__ffd_dims_valid(options->lattice))
-        return SQFFD_ERROR_INVALID_ARGUMENT;
-    res = sqffd__fit_grid_check(options->grid);
-    if (res == SQFFD_OK) res = sqffd__fit_check_options(options);
+    if (!points || !options || !model) return SQFFD_ERROR_INVALID_ARGUMENT;
+    res = sqffd__fit_check_whole_options(options);
+    if (res == SQFFD_OK) res = sqffd__fit_check_data(points, n, &diagonal);
     if (res != SQFFD_OK) return res;
-    if (!(options->box_margin >= 0.0) || !isfinite(options->box_margin)) return SQFFD_ERROR_INVALID_ARGUMENT;
-    if (n < SQFFD__FIT_MIN_POINTS) return SQFFD_ERROR_TOO_FEW_POINTS;
-    res = sqffd__fit_diagonal(points, n, &diagonal);
-    if (res != SQFFD_OK) return res;
-    if (!(diagonal > 0.0)) return SQFFD_ERROR_DEGENERATE;
     sqffd__arena_init(&a, workspace, workspace_size);
-    sqffd__fit_whole_layout(&a, n, options, &sample, &sq_ws, &sq_size, &s, &w);
+    sqffd__fit_system_layout(&a, options->lattice, options->grid, &s);
+    sqffd__fit_frame_layout(&a, n, options->lattice, options->grid, options, 1, &f);
     if (a.overflow) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
     memset(&local, 0, sizeof local);
-    /* stage 1: the superquadric */
-    k = sqffd__fit_cap(n, options->sq_max_points);
-    if (sample) sqffd__subsample(points, n, k, sample);
-    sq_options = options->sq;
-    if (!sq_options.progress) {
-        sq_options.progress = options->progress;
-        sq_options.progress_user = options->progress_user;
-    }
-    res = sqffd_sq_fit(sample ? sample : points, k, &sq_options, &sq, &local.sq, sq_ws, sq_size);
-    if (res == SQFFD_OK) res = sqffd__fit_guard(sample ? sample : points, k, diagonal, sq_options.robust, &s, &w, &sq, &local.sq);
-    if (res == SQFFD_OK) res = sqffd_model_init(model, &sq, options);
-    /* stage 2: the FFD */
-    if (res == SQFFD_OK) res = sqffd__fit_prepare(model, options, &s, w.pairs);
-    if (res == SQFFD_OK) res = sqffd__fit_run(points, n, diagonal, options, &s, &w, model, &local);
+    res = sqffd__fit_whole(points, n, diagonal, options, &s, &f, model, &local);
     if (report) *report = local;
     return res;
+}
+
+/* ======================================================================
+   Layer 6: tracking and motion
+   ====================================================================== */
+
+/* ---- the prepared system ------------------------------------------------- */
+
+SQFFD_DEF size_t sqffd_ffd_system_size(const sqffd_model *model)
+{
+    sqffd__arena a;
+    sqffd__fit_system *state;
+    if (!model || !sqffd__fit_model_valid(model)) return 0;
+    sqffd__arena_measure(&a);
+    sqffd__fit_state_layout(&a, model->ffd.dims, model->grid, &state);
+    return sqffd__arena_required(&a);
+}
+
+SQFFD_DEF sqffd_result sqffd_ffd_system_init(sqffd_ffd_system *system, const sqffd_model *model,
+                                             const sqffd_fit_options *options, void *memory, size_t memory_size)
+{
+    sqffd_fit_options defaults = sqffd_fit_options_default();
+    const sqffd_fit_options *o = options ? options : &defaults;
+    sqffd__arena a;
+    sqffd__fit_system *state;
+    sqffd_result res;
+    if (!system || !model || !sqffd__fit_model_valid(model)) return SQFFD_ERROR_INVALID_ARGUMENT;
+    memset(system, 0, sizeof *system);
+    res = sqffd__fit_check_options(o);
+    if (res != SQFFD_OK) return res;
+    sqffd__arena_init(&a, memory, memory_size);
+    sqffd__fit_state_layout(&a, model->ffd.dims, model->grid, &state);
+    if (!state) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
+    res = sqffd__fit_prepare(model, o->alpha, o->tether, o->regularization, state);
+    if (res != SQFFD_OK) return res;
+    system->sq = model->sq;
+    memcpy(system->dims, model->ffd.dims, sizeof system->dims);
+    memcpy(system->origin, model->ffd.origin, sizeof system->origin);
+    memcpy(system->edges, model->ffd.edges, sizeof system->edges);
+    system->grid[0] = model->grid[0];
+    system->grid[1] = model->grid[1];
+    system->alpha = o->alpha;
+    system->tether = o->tether;
+    system->regularization = o->regularization;
+    system->state = state;
+    return SQFFD_OK;
+}
+
+static int sqffd__same(const double *a, const double *b, size_t count)
+{
+    size_t i;
+    for (i = 0; i < count; ++i)
+        if (!(a[i] == b[i])) return 0;
+    return 1;
+}
+
+/* Whether the model has this superquadric, lattice, box and grid (a
+   prepared system's, or another frame's of a sequence). */
+static int sqffd__fit_same_frame(const sqffd_superquadric *a, const int dims[3], const double origin[3],
+                                 const double edges[9], const int grid[2], const sqffd_model *model)
+{
+    const sqffd_superquadric *b = &model->sq;
+    return sqffd__same(a->size, b->size, 3) && sqffd__same(a->shape, b->shape, 2) &&
+           sqffd__same(a->taper, b->taper, 2) && sqffd__same(a->rotation, b->rotation, 9) &&
+           sqffd__same(a->center, b->center, 3) && sqffd__same(origin, model->ffd.origin, 3) &&
+           sqffd__same(edges, model->ffd.edges, 9) && dims[0] == model->ffd.dims[0] &&
+           dims[1] == model->ffd.dims[1] && dims[2] == model->ffd.dims[2] && grid[0] == model->grid[0] &&
+           grid[1] == model->grid[1];
+}
+
+/* The options of a run against a system: the caller's (or the defaults)
+   with the system's alpha, tether and regularization. */
+static sqffd_fit_options sqffd__fit_system_options(const sqffd_ffd_system *system, const sqffd_fit_options *options)
+{
+    sqffd_fit_options o = options ? *options : sqffd_fit_options_default();
+    o.alpha = system->alpha;
+    o.tether = system->tether;
+    o.regularization = system->regularization;
+    return o;
+}
+
+SQFFD_DEF size_t sqffd_fit_prepared_workspace_size(size_t n, const sqffd_ffd_system *system,
+                                                   const sqffd_fit_options *options)
+{
+    sqffd__arena a;
+    sqffd__fit_frame f;
+    sqffd_fit_options o;
+    if (!system || !system->state || n == 0) return 0;
+    o = sqffd__fit_system_options(system, options);
+    sqffd__arena_measure(&a);
+    sqffd__fit_frame_layout(&a, n, system->dims, system->grid, &o, 0, &f);
+    return sqffd__arena_required(&a);
+}
+
+SQFFD_DEF sqffd_result sqffd_fit_prepared(const sqffd_ffd_system *system, const double *points, size_t n,
+                                          const sqffd_fit_options *options, sqffd_model *model,
+                                          sqffd_fit_report *report, void *workspace, size_t workspace_size)
+{
+    sqffd__arena a;
+    sqffd__fit_frame f;
+    sqffd_fit_options o;
+    sqffd_fit_report local;
+    double diagonal = 0.0;
+    sqffd_result res;
+    if (!system || !system->state || !model ||
+        !sqffd__fit_same_frame(&system->sq, system->dims, system->origin, system->edges, system->grid, model))
+        return SQFFD_ERROR_INVALID_ARGUMENT;
+    o = sqffd__fit_system_options(system, options);
+    res = sqffd__fit_check_options(&o);
+    if (res == SQFFD_OK) res = sqffd__fit_check_data(points, n, &diagonal);
+    if (res != SQFFD_OK) return res;
+    sqffd__arena_init(&a, workspace, workspace_size);
+    sqffd__fit_frame_layout(&a, n, system->dims, system->grid, &o, 0, &f);
+    if (a.overflow) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
+    memset(&local, 0, sizeof local);
+    res = sqffd__fit_run(points, n, diagonal, &o, (const sqffd__fit_system *)system->state, &f.w, 1, model, &local);
+    if (report) *report = local;
+    return res;
+}
+
+/* ---- tracking ------------------------------------------------------------ */
+
+SQFFD_DEF sqffd_track_options sqffd_track_options_default(void)
+{
+    sqffd_track_options o;
+    memset(&o, 0, sizeof o);
+    o.fit = sqffd_fit_options_default();
+    o.fit.max_iterations = 100;
+    o.frame_iterations = 30;
+    return o;
+}
+
+/* One arena for the sequence: the system first (it stays), then the
+   largest frame's scratch (frame 0's with stage 1's). */
+SQFFD_DEF size_t sqffd_track_workspace_size(const size_t *counts, size_t frame_count, const sqffd_track_options *options)
+{
+    sqffd_track_options defaults = sqffd_track_options_default();
+    const sqffd_fit_options *o = options ? &options->fit : &defaults.fit;
+    sqffd__arena a, frame;
+    sqffd__fit_system *state;
+    sqffd__fit_frame f;
+    size_t t, need = 0;
+    if (!counts || frame_count == 0 || !sqffd__ffd_dims_valid(o->lattice) || sqffd__fit_grid_check(o->grid) != SQFFD_OK)
+        return 0;
+    sqffd__arena_measure(&a);
+    sqffd__fit_state_layout(&a, o->lattice, o->grid, &state);
+    for (t = 0; t < frame_count; ++t) {
+        size_t size;
+        if (counts[t] == 0) return 0;
+        frame = a;
+        sqffd__fit_frame_layout(&frame, counts[t], o->lattice, o->grid, o, t == 0, &f);
+        size = sqffd__arena_required(&frame);
+        if (size == 0) return 0;
+        need = size > need ? size : need;
+    }
+    return need;
+}
+
+SQFFD_DEF sqffd_result sqffd_track(const double *const *frames, const size_t *counts, size_t frame_count,
+                                   const sqffd_track_options *options, sqffd_model *models,
+                                   sqffd_fit_report *reports, size_t *frames_done,
+                                   void *workspace, size_t workspace_size)
+{
+    sqffd_track_options defaults = sqffd_track_options_default();
+    const sqffd_track_options *opt = options ? options : &defaults;
+    sqffd_fit_options o = opt->fit;
+    sqffd__arena a, frame;
+    sqffd__fit_system *state;
+    sqffd__fit_frame f;
+    double previous = 0.0;
+    size_t t = 0;
+    sqffd_result res = SQFFD_ERROR_INVALID_ARGUMENT;
+    if (frames_done) *frames_done = 0;
+    if (!frames || !counts || !models || frame_count == 0 || opt->frame_iterations < 0) return res;
+    o.progress = opt->progress;
+    o.progress_user = opt->progress_user;
+    res = sqffd__fit_check_whole_options(&o);
+    if (res != SQFFD_OK) return res;
+    sqffd__arena_init(&a, workspace, workspace_size);
+    sqffd__fit_state_layout(&a, o.lattice, o.grid, &state);
+    if (!state) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
+    for (t = 0; t < frame_count; ++t) {
+        sqffd_fit_report local;
+        double diagonal = 0.0;
+        if (opt->progress && opt->progress(opt->progress_user, SQFFD_STAGE_FRAME, (int)(t < INT32_MAX ? t : INT32_MAX), previous)) {
+            res = SQFFD_ERROR_CANCELLED;
+            break;
+        }
+        res = sqffd__fit_check_data(frames[t], counts[t], &diagonal);
+        if (res != SQFFD_OK) break;
+        frame = a; /* every frame's scratch starts after the system */
+        o.max_iterations = t == 0 ? opt->fit.max_iterations : opt->frame_iterations;
+        sqffd__fit_frame_layout(&frame, counts[t], o.lattice, o.grid, &o, t == 0, &f);
+        if (frame.overflow) { res = SQFFD_ERROR_WORKSPACE_TOO_SMALL; break; }
+        memset(&local, 0, sizeof local);
+        if (t == 0) res = sqffd__fit_whole(frames[t], counts[t], diagonal, &o, state, &f, models, &local);
+        else {
+            models[t] = models[t - 1];
+            res = sqffd__fit_run(frames[t], counts[t], diagonal, &o, state, &f.w, 0, models + t, &local);
+        }
+        if (res != SQFFD_OK) break;
+        if (reports) reports[t] = local;
+        previous = local.error.rms_relative;
+    }
+    if (frames_done) *frames_done = t;
+    return res;
+}
+
+/* ---- motion -------------------------------------------------------------- */
+
+#define SQFFD__MOTION_BANDS 10      /* levels along the axis the low-motion rule compares within */
+#define SQFFD__MOTION_END 0.2       /* the outer share of the length whose width tells the apex */
+#define SQFFD__MOTION_VALVE 0.70710678118654752 /* cos 45 degrees: a base-facing normal within it is the valve plane */
+
+SQFFD_DEF sqffd_motion_options sqffd_motion_options_default(void)
+{
+    sqffd_motion_options o;
+    memset(&o, 0, sizeof o);
+    o.ed_frame = 0;
+    o.low_motion_fraction = 0.5;
+    o.hypokinetic_share = 0.5;
+    o.apex_fraction = 0.1;
+    return o;
+}
+
+/* The closed volume of the grid mesh over points x (divergence theorem). */
+static double sqffd__fit_volume(const int grid[2], const double *x)
+{
+    uint32_t r, c, cell[2][3];
+    double volume = 0.0, e[3];
+    int k, count;
+    for (r = 0; r <= (uint32_t)grid[0]; ++r)
+        for (c = 0; c < (uint32_t)grid[1]; ++c)
+            for (count = sqffd__fit_cell(grid, r, c, cell), k = 0; k < count; ++k) {
+                sqffd__cross3(x + 3 * (size_t)cell[k][1], x + 3 * (size_t)cell[k][2], e);
+                volume += sqffd__dot3(x + 3 * (size_t)cell[k][0], e);
+            }
+    return volume / 6.0;
+}
+
+typedef struct sqffd__motion_work {
+    double *ed, *es, *x;     /* M x 3: the ED, ES and current frame's mesh vertices */
+    double *area;            /* M: a third of the ED area of the triangles around each vertex */
+    double *normal;          /* M x 3: their area-weighted normal */
+    double *level;           /* M: f, from the apex (0) to the base (1) */
+    double *moved;           /* M: the displacement */
+    double *inward;          /* M: the excursion */
+    double *scratch;         /* M: medians */
+    unsigned char *segment;  /* M */
+} sqffd__motion_work;
+
+static void sqffd__motion_layout(sqffd__arena *a, size_t m, sqffd__motion_work *w)
+{
+    w->ed = (double *)sqffd__arena_take(a, m, 3 * sizeof(double));
+    w->es = (double *)sqffd__arena_take(a, m, 3 * sizeof(double));
+    w->x = (double *)sqffd__arena_take(a, m, 3 * sizeof(double));
+    w->area = (double *)sqffd__arena_take(a, m, sizeof(double));
+    w->normal = (double *)sqffd__arena_take(a, m, 3 * sizeof(double));
+    w->level = (double *)sqffd__arena_take(a, m, sizeof(double));
+    w->moved = (double *)sqffd__arena_take(a, m, sizeof(double));
+    w->inward = (double *)sqffd__arena_take(a, m, sizeof(double));
+    w->scratch = (double *)sqffd__arena_take(a, m, sizeof(double));
+    w->segment = (unsigned char *)sqffd__arena_take(a, m, 1);
+}
+
+SQFFD_DEF size_t sqffd_motion_workspace_size(const sqffd_model *models, size_t frame_count)
+{
+    sqffd__arena a;
+    sqffd__motion_work w;
+    if (!models || frame_count == 0 || !sqffd__fit_model_valid(models)) return 0;
+    sqffd__arena_measure(&a);
+    sqffd__motion_layout(&a, sqffd__fit_grid_count(models->grid), &w);
+    return sqffd__arena_required(&a);
+}
+
+/* A unit vector along v (0 if v is zero, not finite, or tiny against `scale`). */
+static int sqffd__unit3(const double v[3], double scale, double out[3])
+{
+    double len = sqrt(sqffd__dot3(v, v));
+    if (!isfinite(len) || !(len > 1e-9 * scale)) return 0;
+    out[0] = v[0] / len; out[1] = v[1] / len; out[2] = v[2] / len;
+    return 1;
+}
+
+/* The ED mesh's vertex areas and normals. */
+static void sqffd__motion_areas(const int grid[2], const double *x, double *area, double *normal)
+{
+    uint32_t r, c, cell[2][3];
+    size_t m = sqffd__fit_grid_count(grid), v;
+    int k, count, i;
+    memset(area, 0, m * sizeof(double));
+    memset(normal, 0, 3 * m * sizeof(double));
+    for (r = 0; r <= (uint32_t)grid[0]; ++r)
+        for (c = 0; c < (uint32_t)grid[1]; ++c)
+            for (count = sqffd__fit_cell(grid, r, c, cell), k = 0; k < count; ++k) {
+                double e1[3], e2[3], n[3], third;
+                sqffd__sub3(x + 3 * (size_t)cell[k][1], x + 3 * (size_t)cell[k][0], e1);
+                sqffd__sub3(x + 3 * (size_t)cell[k][2], x + 3 * (size_t)cell[k][0], e2);
+                sqffd__cross3(e1, e2, n);
+                third = sqrt(sqffd__dot3(n, n)) / 6.0;
+                for (i = 0; i < 3; ++i) {
+                    v = cell[k][i];
+                    area[v] += third;
+                    normal[3 * v] += n[0]; normal[3 * v + 1] += n[1]; normal[3 * v + 2] += n[2];
+                }
+            }
+}
+
+/* The long axis, base -> apex: the given direction, or the superquadric's
+   longest axis turned toward the end where the model is narrower. */
+static int sqffd__motion_axis(const sqffd_model *model, const sqffd_motion_options *o, const sqffd__motion_work *w,
+                              size_t m, const double centre[3], double scale, double axis[3])
+{
+    double low = HUGE_VAL, high = -HUGE_VAL, width[2] = {0.0, 0.0}, weight[2] = {0.0, 0.0};
+    size_t v;
+    int k, longest = 0;
+    if (o->apex_direction[0] != 0.0 || o->apex_direction[1] != 0.0 || o->apex_direction[2] != 0.0)
+        return sqffd__unit3(o->apex_direction, sqrt(sqffd__dot3(o->apex_direction, o->apex_direction)), axis);
+    for (k = 1; k < 3; ++k)
+        if (model->sq.size[k] > model->sq.size[longest]) longest = k;
+    for (k = 0; k < 3; ++k) axis[k] = model->sq.rotation[3 * k + longest];
+    for (v = 0; v < m; ++v) {
+        double d[3], t;
+        sqffd__sub3(w->ed + 3 * v, centre, d);
+        t = sqffd__dot3(d, axis);
+        low = t < low ? t : low;
+        high = t > high ? t : high;
+    }
+    for (v = 0; v < m; ++v) { /* the mean distance from the axis at each end */
+        double d[3], t, r2;
+        sqffd__sub3(w->ed + 3 * v, centre, d);
+        t = sqffd__dot3(d, axis);
+        r2 = sqffd__dot3(d, d) - t * t;
+        k = t > high - SQFFD__MOTION_END * (high - low) ? 1 : t < low + SQFFD__MOTION_END * (high - low) ? 0 : -1;
+        if (k < 0) continue;
+        width[k] += w->area[v] * sqrt(r2 > 0.0 ? r2 : 0.0);
+        weight[k] += w->area[v];
+    }
+    if (!(high - low > 1e-9 * scale)) return 0;
+    if (width[1] * weight[0] > width[0] * weight[1]) /* the high end is the wider: the apex is the low one */
+        for (k = 0; k < 3; ++k) axis[k] = -axis[k];
+    return 1;
+}
+
+/* The AHA segment (1-17) of a wall point at level f and angle phi (radians,
+   from anterior toward the septum, in [0, 2 pi)). */
+static unsigned char sqffd__motion_segment(double f, double phi, double apex_fraction)
+{
+    const double turn = 2.0 * SQFFD__FIT_PI;
+    double g = (f - apex_fraction) / (1.0 - apex_fraction);
+    int sectors = g < 1.0 / 3.0 ? 4 : 6, first = g < 1.0 / 3.0 ? 13 : g < 2.0 / 3.0 ? 7 : 1, k;
+    if (f < apex_fraction) return 17;
+    k = (int)floor((phi + 0.5 * turn / sectors) / (turn / sectors)) % sectors;
+    return (unsigned char)(first + k);
+}
+
+SQFFD_DEF sqffd_result sqffd_motion(const sqffd_model *models, size_t frame_count, const sqffd_motion_options *options,
+                                    const sqffd_motion_outputs *outputs, sqffd_motion_report *report,
+                                    void *workspace, size_t workspace_size)
+{
+    sqffd_motion_outputs none;
+    const sqffd_motion_outputs *out = outputs ? outputs : &none;
+    sqffd_motion_options defaults = sqffd_motion_options_default();
+    const sqffd_motion_options *o = options ? options : &defaults;
+    sqffd_motion_report rep;
+    sqffd__motion_work w;
+    sqffd__arena a;
+    const sqffd_model *ed;
+    double centre[3] = {0.0, 0.0, 0.0}, total = 0.0, scale = 0.0, top = -HUGE_VAL, bottom = HUGE_VAL, septum[3];
+    double least = HUGE_VAL, band_median[SQFFD__MOTION_BANDS], wall_area[SQFFD_SEGMENTS], sum[SQFFD_SEGMENTS], low[SQFFD_SEGMENTS];
+    double inward[SQFFD_SEGMENTS];
+    size_t m, t, v, wall = 0;
+    int k, b;
+    if (!models || frame_count == 0 || !sqffd__fit_model_valid(models) || o->ed_frame >= frame_count)
+        return SQFFD_ERROR_INVALID_ARGUMENT;
+    if (!(o->low_motion_fraction >= 0.0) || !isfinite(o->low_motion_fraction) || !(o->hypokinetic_share >= 0.0) ||
+        !(o->hypokinetic_share <= 1.0) || !(o->apex_fraction >= 0.0) || !(o->apex_fraction < 1.0))
+        return SQFFD_ERROR_INVALID_ARGUMENT;
+    for (t = 1; t < frame_count; ++t)
+        if (!sqffd__fit_same_frame(&models->sq, models->ffd.dims, models->ffd.origin, models->ffd.edges, models->grid,
+                                   models + t))
+            return SQFFD_ERROR_INVALID_ARGUMENT;
+    memset(&none, 0, sizeof none);
+    m = sqffd__fit_grid_count(models->grid);
+    sqffd__arena_init(&a, workspace, workspace_size);
+    sqffd__motion_layout(&a, m, &w);
+    if (a.overflow) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
+    memset(&rep, 0, sizeof rep);
+    /* every frame's mesh and volume; ES is the least */
+    for (t = 0; t < frame_count; ++t) {
+        double volume;
+        sqffd__fit_surface(models + t, models->grid, w.x);
+        for (v = 0; v < m; ++v)
+            if (!sqffd__finite3(w.x + 3 * v)) return SQFFD_ERROR_NON_FINITE;
+        volume = sqffd__fit_volume(models->grid, w.x);
+        if (out->volumes) out->volumes[t] = volume;
+        if (out->trajectories) memcpy(out->trajectories + 3 * m * t, w.x, 3 * m * sizeof(double));
+        if (t == o->ed_frame) memcpy(w.ed, w.x, 3 * m * sizeof(double));
+        if (volume < least) {
+            least = volume;
+            rep.es_frame = t;
+            memcpy(w.es, w.x, 3 * m * sizeof(double));
+        }
+    }
+    ed = models + o->ed_frame;
+    rep.ed_frame = o->ed_frame;
+    rep.edv = sqffd__fit_volume(models->grid, w.ed);
+    rep.esv = least;
+    if (!(rep.edv > 0.0)) return SQFFD_ERROR_DEGENERATE;
+    rep.ejection_fraction = (rep.edv - rep.esv) / rep.edv;
+    /* the ED geometry: areas, normals, the centre, the axis and the levels */
+    sqffd__motion_areas(models->grid, w.ed, w.area, w.normal);
+    for (v = 0; v < m; ++v) {
+        for (k = 0; k < 3; ++k) centre[k] += w.area[v] * w.ed[3 * v + (size_t)k];
+        total += w.area[v];
+    }
+    if (!(total > 0.0)) return SQFFD_ERROR_DEGENERATE;
+    for (k = 0; k < 3; ++k) centre[k] /= total;
+    scale = sqrt(total);
+    if (!sqffd__motion_axis(ed, o, &w, m, centre, scale, rep.axis))
+        return o->apex_direction[0] != 0.0 || o->apex_direction[1] != 0.0 || o->apex_direction[2] != 0.0
+                   ? SQFFD_ERROR_INVALID_ARGUMENT : SQFFD_ERROR_DEGENERATE;
+    for (v = 0; v < m; ++v) {
+        double t2 = sqffd__dot3(w.ed + 3 * v, rep.axis);
+        if (t2 > top) { top = t2; memcpy(rep.apex, w.ed + 3 * v, sizeof rep.apex); }
+        bottom = t2 < bottom ? t2 : bottom;
+    }
+    rep.length = top - bottom;
+    if (!(rep.length > 1e-9 * scale)) return SQFFD_ERROR_DEGENERATE;
+    /* the septum, across the axis, and anterior = septum x axis */
+    if (o->septum_direction[0] != 0.0 || o->septum_direction[1] != 0.0 || o->septum_direction[2] != 0.0)
+        memcpy(septum, o->septum_direction, sizeof septum);
+    else { /* the superquadric's first local axis other than the one nearest the long axis */
+        int along = 0, first;
+        for (k = 1; k < 3; ++k)
+            if (fabs(ed->sq.rotation[3 * 0 + k] * rep.axis[0] + ed->sq.rotation[3 * 1 + k] * rep.axis[1] +
+                     ed->sq.rotation[3 * 2 + k] * rep.axis[2]) >
+                fabs(ed->sq.rotation[3 * 0 + along] * rep.axis[0] + ed->sq.rotation[3 * 1 + along] * rep.axis[1] +
+                     ed->sq.rotation[3 * 2 + along] * rep.axis[2]))
+                along = k;
+        first = along == 0 ? 1 : 0;
+        for (k = 0; k < 3; ++k) septum[k] = ed->sq.rotation[3 * k + first];
+    }
+    {
+        double along = sqffd__dot3(septum, rep.axis), across[3], length = sqrt(sqffd__dot3(septum, septum));
+        for (k = 0; k < 3; ++k) across[k] = septum[k] - along * rep.axis[k];
+        if (!isfinite(length) || !sqffd__unit3(across, length * 1e3, rep.septum)) return SQFFD_ERROR_INVALID_ARGUMENT;
+    }
+    sqffd__cross3(rep.septum, rep.axis, rep.anterior);
+    /* per vertex: level, segment (0: valve plane), displacement */
+    for (v = 0; v < m; ++v) {
+        double d[3], n[3], phi, f = (top - sqffd__dot3(w.ed + 3 * v, rep.axis)) / rep.length;
+        int facing;
+        w.level[v] = f < 0.0 ? 0.0 : f > 1.0 ? 1.0 : f;
+        sqffd__sub3(w.es + 3 * v, w.ed + 3 * v, d);
+        w.moved[v] = sqrt(sqffd__dot3(d, d));
+        if (!sqffd__unit3(w.normal + 3 * v, 0.0, n)) n[0] = n[1] = n[2] = 0.0;
+        w.inward[v] = -sqffd__dot3(d, n);
+        facing = -sqffd__dot3(n, rep.axis) > SQFFD__MOTION_VALVE;
+        if (w.level[v] > 0.5 && facing) { w.segment[v] = 0; continue; }
+        sqffd__sub3(w.ed + 3 * v, centre, d);
+        phi = atan2(sqffd__dot3(d, rep.septum), sqffd__dot3(d, rep.anterior));
+        if (phi < 0.0) phi += 2.0 * SQFFD__FIT_PI;
+        w.segment[v] = sqffd__motion_segment(w.level[v], phi, o->apex_fraction);
+        w.scratch[wall++] = w.inward[v];
+    }
+    if (wall == 0) return SQFFD_ERROR_DEGENERATE;
+    rep.median_excursion = sqffd__sq_select(w.scratch, wall, wall / 2);
+    for (b = 0; b < SQFFD__MOTION_BANDS; ++b) { /* the wall's median excursion at each level */
+        size_t count = 0;
+        for (v = 0; v < m; ++v)
+            if (w.segment[v] && (int)(w.level[v] * SQFFD__MOTION_BANDS) - (w.level[v] >= 1.0) == b)
+                w.scratch[count++] = w.inward[v];
+        band_median[b] = count ? sqffd__sq_select(w.scratch, count, count / 2) : 0.0;
+    }
+    memset(wall_area, 0, sizeof wall_area);
+    memset(sum, 0, sizeof sum);
+    memset(low, 0, sizeof low);
+    memset(inward, 0, sizeof inward);
+    for (v = 0; v < m; ++v) {
+        int band = (int)(w.level[v] * SQFFD__MOTION_BANDS) - (w.level[v] >= 1.0), slow;
+        slow = w.segment[v] && w.inward[v] < o->low_motion_fraction * band_median[band];
+        if (out->low_motion) out->low_motion[v] = (unsigned char)slow;
+        if (!w.segment[v]) continue;
+        k = w.segment[v] - 1;
+        wall_area[k] += w.area[v];
+        sum[k] += w.area[v] * w.moved[v];
+        inward[k] += w.area[v] * w.inward[v];
+        if (slow) low[k] += w.area[v];
+    }
+    for (k = 0; k < SQFFD_SEGMENTS; ++k) {
+        sqffd_segment_motion *sg = rep.segments + k;
+        sg->area = wall_area[k];
+        sg->mean_displacement = wall_area[k] > 0.0 ? sum[k] / wall_area[k] : 0.0;
+        sg->mean_excursion = wall_area[k] > 0.0 ? inward[k] / wall_area[k] : 0.0;
+        sg->low_motion_share = wall_area[k] > 0.0 ? low[k] / wall_area[k] : 0.0;
+        sg->hypokinetic = wall_area[k] > 0.0 && sg->low_motion_share >= o->hypokinetic_share;
+    }
+    if (out->displacement) memcpy(out->displacement, w.moved, m * sizeof(double));
+    if (out->excursion) memcpy(out->excursion, w.inward, m * sizeof(double));
+    if (out->segment) memcpy(out->segment, w.segment, m);
+    if (report) *report = rep;
+    return SQFFD_OK;
 }
 
 #ifdef __cplusplus

@@ -105,5 +105,52 @@ grep -q '^property float error$' "$TMP/bunny_ascii.ply" && ok || bad "no per-ver
 # the written mesh reads back through sqffd's own reader as a point file
 expect 0 "points read      " fit "$TMP/bunny.ply" -o "$TMP/again.ply" --iterations 2 --mesh 8
 
+# phantom -> track -> motion.ply read back
+expect 0 "usage: sqffd track" track --help
+expect 0 "usage: sqffd phantom" phantom --help
+expect 2 "at least two FRAME" track "$DATA" -o "$TMP/t"
+expect 2 "no output folder" track "$DATA" "$DATA"
+expect 2 "--septum takes" track "$DATA" "$DATA" -o "$TMP/t" --septum 1,2
+expect 2 "--ed 5: there are 2 frames" track "$DATA" "$DATA" -o "$TMP/t" --ed 5
+expect 2 "--low-motion takes" track "$DATA" "$DATA" -o "$TMP/t" --low-motion 2
+expect 2 "--frames takes" phantom -o "$TMP/ph" --frames 1
+expect 2 "--low-motion takes" phantom -o "$TMP/ph" --low-motion 0.5,1,2
+expect 2 "no output folder" phantom --frames 4
+expect 1 "$TMP/missing.ply: cannot open" track "$DATA" "$TMP/missing.ply" -o "$TMP/t"
+expect 1 "tracking failed at frame 1" track "$DATA" "$TMP/two.xyz" -o "$TMP/t"
+expect 1 "cannot make the output folder" track "$DATA" "$DATA" -o "$DATA"
+expect 0 "true ejection fraction" phantom -o "$TMP/ph" --frames 8 --points 3000 --noise 0.01
+true_ef=$(awk '/true ejection fraction/ { print $4 }' "$TMP/out")
+[ "$(ls "$TMP"/ph/points_*.ply | wc -l)" -eq 8 ] && ok || bad "phantom did not write 8 point files"
+[ "$(wc -l <"$TMP/ph/truth.csv")" -eq 9 ] && ok || bad "truth.csv does not hold 8 frames"
+expect 0 "ejection fraction" track "$TMP"/ph/points_*.ply -o "$TMP/tr" --septum -1,0,0 --ascii
+ef=$(awk '/^  ejection fraction/ { print $3 }' "$TMP/out")
+awk -v a="$ef" -v b="$true_ef" 'BEGIN { d = a - b; exit !(d <= 2 && d >= -2) }' && ok ||
+    bad "track's EF $ef is not within 2 points of the phantom's $true_ef"
+for word in "end-diastolic volume" "end-systolic volume" "apical lateral" "apex"; do
+    grep -q "$word" "$TMP/out" && ok || bad "track report lacks '$word'"
+done
+for k in 00 07; do check_ply "$TMP/tr/frame_$k.ply"; done
+check_ply "$TMP/tr/motion.ply"
+[ "$(wc -l <"$TMP/tr/volumes.csv")" -eq 9 ] && ok || bad "volumes.csv does not hold 8 frames"
+[ "$(wc -l <"$TMP/tr/segments.csv")" -eq 18 ] && ok || bad "segments.csv does not hold 17 segments"
+# motion.ply: its properties, flags 0/1, segments 0..17 with each of 1..17 present, displacements >= 0
+LC_ALL=C awk '
+    /^property float / { prop[np++] = $3 }
+    /^element vertex / { nv = $3 }
+    /^end_header/ { body = 1; next }
+    body && row < nv {
+        row++
+        for (k = 0; k < np; k++) v[prop[k]] = $(k + 1)
+        if (v["displacement"] < 0 || (v["low_motion"] != 0 && v["low_motion"] != 1) || v["segment"] < 0 || v["segment"] > 17) bad++
+        seen[v["segment"]] = 1
+        low += v["low_motion"]
+    }
+    END {
+        if (np != 7 || prop[3] != "displacement" || prop[4] != "excursion" || prop[5] != "low_motion" || prop[6] != "segment") exit 1
+        for (s = 1; s <= 17; s++) if (!seen[s]) exit 2
+        exit (bad > 0 || low == 0) ? 3 : 0
+    }' "$TMP/tr/motion.ply" && ok || bad "motion.ply: wrong properties or values (awk status $?)"
+
 echo "cli: $passed passed, $failed failed"
 [ "$failed" -eq 0 ]

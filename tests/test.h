@@ -37,5 +37,7 @@ void suite_superquadric(void);
 void suite_ffd(void);
 void suite_io(void);
 void suite_internal(void);
+void suite_phantom(void);
+void suite_track(void);
 
 #endif

@@ -1222,39 +1222,6 @@ static void test_fit_workspace_canary(void)
     free(pts);
 }
 
-/* The phantom: a material point keeps its (u, theta) through the beat, the
-   apex stays, the base rim is open, and the hypokinetic zone moves far less
-   than the opposite wall. */
-static void test_phantom_lv(void)
-{
-    phantom_lv p = phantom_lv_default();
-    double a[3], b[3], apex[3], zone0[3], zone1[3], far0[3], far1[3], lo[3], hi[3], pts[3 * 2000];
-    size_t i;
-    int c;
-    phantom_lv_point(&p, 0.0, 0.0, 0.3, apex);
-    phantom_lv_point(&p, 0.5, 0.0, 1.7, a);
-    CHECK(dist3(apex, a) < 1e-12);
-    CHECK(fabs(apex[0]) < 1e-12 && fabs(apex[1]) < 1e-12 && apex[2] < -0.9 * p.height);
-    phantom_lv_point(&p, 0.0, p.low_motion[0], p.low_motion[1], zone0);
-    phantom_lv_point(&p, 0.5, p.low_motion[0], p.low_motion[1], zone1);
-    phantom_lv_point(&p, 0.0, p.low_motion[0], p.low_motion[1] + 3.14159, far0);
-    phantom_lv_point(&p, 0.5, p.low_motion[0], p.low_motion[1] + 3.14159, far1);
-    CHECK_MSG(5.0 * dist3(zone0, zone1) < dist3(far0, far1), "zone moves %g, opposite wall %g", dist3(zone0, zone1),
-              dist3(far0, far1));
-    phantom_lv_point(&p, 0.0, 0.5, 1.0, a);
-    phantom_lv_point(&p, 1.0, 0.5, 1.0, b);
-    CHECK(dist3(a, b) < 1e-9); /* a whole beat returns */
-    phantom_lv_sample(&p, 0.0, 2000, pts);
-    for (c = 0; c < 3; c++) { lo[c] = HUGE_VAL; hi[c] = -HUGE_VAL; }
-    for (i = 0; i < 2000; i++)
-        for (c = 0; c < 3; c++) {
-            if (pts[3 * i + c] < lo[c]) lo[c] = pts[3 * i + c];
-            if (pts[3 * i + c] > hi[c]) hi[c] = pts[3 * i + c];
-        }
-    CHECK(lo[2] > apex[2] - 0.01 * p.height && hi[2] < 0.5 * p.height); /* from about the apex to the base rim */
-    CHECK(hi[0] - lo[0] > 1.5 * p.radius && hi[1] - lo[1] > 1.5 * p.radius);
-}
-
 void suite_ffd(void)
 {
     RUN_TEST(test_ffd_local_coordinates);
@@ -1284,5 +1251,4 @@ void suite_ffd(void)
     RUN_TEST(test_fit_subsamples);
     RUN_TEST(test_fit_bad_input);
     RUN_TEST(test_fit_workspace_canary);
-    RUN_TEST(test_phantom_lv);
 }

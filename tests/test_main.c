@@ -44,6 +44,8 @@ int main(int argc, char **argv)
     suite_ffd();
     suite_io();
     suite_internal();
+    suite_phantom();
+    suite_track();
     printf("%d passed, %d failed\n", passed, failed);
     return failed ? 1 : 0;
 }
