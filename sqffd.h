@@ -1,4 +1,4 @@
-/* sqffd.h - v0.2.0 - superquadric + free-form deformation shape fitting
+/* sqffd.h - v0.3.0 - superquadric + free-form deformation shape fitting
    Public domain or MIT, your choice (see the end of this file).
 
    Turns 3-D points into a compact global shape model: a superquadric with
@@ -91,8 +91,18 @@
                                        data-to-model distances ("the error")
        sqffd_model_reverse_distances(_workspace_size)
                                        model-to-data distances
+   6. Tracking and motion
+       sqffd_ffd_system_size/_init, sqffd_fit_prepared(_workspace_size)
+                                       the FFD stage against a system prepared once
+       sqffd_track(_workspace_size), sqffd_track_options_default
+                                       a sequence: frame 0 whole, then frame to frame
+       sqffd_motion(_workspace_size), sqffd_motion_options_default
+                                       volumes, EF, motion, low-motion zones, 17 segments
 
    VERSION
+       0.3.0 (2026-11)  layer 6: prepared FFD systems, sqffd_track,
+                        sqffd_motion; SQFFD_STAGE_FRAME; the FFD stage takes
+                        the plain step once it is within the tolerance
        0.2.0 (2026-11)  the FFD stage minimises a stated energy (MM steps,
                         over-relaxed); the error is the exact
                         distance to the model mesh; robust FFD; options
@@ -110,9 +120,9 @@
 #include <stdint.h>
 
 #define SQFFD_VERSION_MAJOR 0
-#define SQFFD_VERSION_MINOR 2
+#define SQFFD_VERSION_MINOR 3
 #define SQFFD_VERSION_PATCH 0
-#define SQFFD_VERSION_STRING "0.2.0"
+#define SQFFD_VERSION_STRING "0.3.0"
 
 #ifndef SQFFD_DEF
 #ifdef SQFFD_STATIC
@@ -740,8 +750,8 @@ typedef struct sqffd_track_options {
     sqffd_fit_options fit;       /* frame 0's fit and every frame's FFD stage (fit.progress is not used);
                                     fit.max_iterations is frame 0's (default 100, so that it converges and
                                     the later frames measure motion, not the rest of its convergence) */
-    int frame_iterations;        /* FFD iterations of frames 1, 2, ... at most (default 30; the tolerance
-                                    usually stops them sooner: they start near their answer) */
+    int frame_iterations;        /* FFD iterations of frames 1, 2, ... at most (default 10: they start near
+                                    their answer; the tolerance may stop them sooner) */
     sqffd_progress_fn progress;  /* frames (SQFFD_STAGE_FRAME) and, within each, the stages' iterations */
     void *progress_user;
 } sqffd_track_options;
@@ -6228,7 +6238,7 @@ SQFFD_DEF sqffd_track_options sqffd_track_options_default(void)
     memset(&o, 0, sizeof o);
     o.fit = sqffd_fit_options_default();
     o.fit.max_iterations = 100;
-    o.frame_iterations = 30;
+    o.frame_iterations = 10;
     return o;
 }
 

@@ -35,7 +35,7 @@ typedef struct phantom_score {
 static int phantom_score_track(const phantom_lv *p, const sqffd_model *models, size_t frames,
                                const sqffd_motion_options *options, phantom_score *score)
 {
-    size_t m, nt, v, k, size;
+    size_t m = 0, nt = 0, v, k, size;
     double *traj, *area, *normal, *displacement, *excursion;
     double zone_and_flag = 0.0, zone = 0.0, flag = 0.0, model_exc = 0.0, true_exc = 0.0, model_disp = 0.0;
     double true_disp = 0.0, wall = 0.0, segment_area[SQFFD_SEGMENTS], segment_zone[SQFFD_SEGMENTS];
