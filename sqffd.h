@@ -865,6 +865,74 @@ SQFFD_DEF sqffd_result sqffd_motion(const sqffd_model *models, size_t frame_coun
                                     const sqffd_motion_outputs *outputs, sqffd_motion_report *report,
                                     void *workspace, size_t workspace_size);
 
+/* ======================================================================
+   Layer 7: volumes (3-D images) to points
+   ====================================================================== */
+
+/* Voxel types read in place (native byte order). */
+typedef enum sqffd_voxel_type {
+    SQFFD_VOXEL_U8 = 0,
+    SQFFD_VOXEL_I8 = 1,
+    SQFFD_VOXEL_U16 = 2,
+    SQFFD_VOXEL_I16 = 3,
+    SQFFD_VOXEL_I32 = 4,
+    SQFFD_VOXEL_F32 = 5,
+    SQFFD_VOXEL_F64 = 6
+} sqffd_voxel_type;
+
+/* A view of a 3-D image in caller memory: voxel (i, j, k) is at
+   (const char *)data + i strides[0] + j strides[1] + k strides[2] (bytes; any
+   sign, so a frame of a 4-D series or a flipped axis is a view, not a copy);
+   its value is scale * stored + offset (scale 0 means 1: no scaling); its
+   centre is at world affine * (i, j, k, 1) (row-major 4 x 4, last row 0 0 0 1). */
+typedef struct sqffd_volume {
+    const void *data;
+    sqffd_voxel_type type;
+    size_t dims[3];
+    ptrdiff_t strides[3];
+    double affine[16];
+    double scale, offset;
+} sqffd_volume;
+
+/* Scaled value range of the finite voxels: INVALID_ARGUMENT (a bad view:
+   NULL data, a zero dim or stride, an unknown type), NON_FINITE (affine or
+   scaling), TOO_LARGE (a voxel count beyond size_t), DEGENERATE (no finite
+   voxel). Every function of this layer validates its view the same way. */
+SQFFD_DEF sqffd_result sqffd_volume_range(const sqffd_volume *volume, double *min, double *max);
+/* Otsu's threshold (the cut of a 256-bin histogram of the scaled values
+   between their min and max that maximises the between-class variance;
+   where a range of cuts does equally well, its middle): a level for
+   sqffd_iso_points that separates the two main intensity classes. */
+SQFFD_DEF sqffd_result sqffd_volume_otsu(const sqffd_volume *volume, double *threshold);
+
+typedef struct sqffd_iso_options {
+    double level;              /* a voxel is inside when its scaled value >= level */
+    int largest_component;     /* keep only the crossings of the largest 6-connected inside component
+                                  (by voxel count): drops specks (default 0) */
+} sqffd_iso_options;
+
+SQFFD_DEF sqffd_iso_options sqffd_iso_options_default(void);
+/* Workspace for sqffd_iso_points: two slices of doubles, plus 8 bytes a
+   voxel with largest_component; 0 for a bad view or beyond size_t
+   (largest_component: beyond 2^32 - 1 voxels). */
+SQFFD_DEF size_t sqffd_iso_workspace_size(const sqffd_volume *volume, const sqffd_iso_options *options);
+/* Iso-surface points: one per grid edge between neighbouring voxels (along
+   i, j or k) where one is inside and the other not (each crossing once; an
+   edge with a non-finite value has none), at the linear interpolation of
+   the level between their values, in world coordinates (the affine).
+   normals (may be NULL): per point the unit world direction of that edge,
+   pointing from the inside voxel to the outside one. Writes the first
+   min(count, capacity) points (capacity 0: counts only; points may then be
+   NULL) in voxel order, and *count = how many there are. options NULL: level
+   0, all components. Results as sqffd_volume_range, plus
+   WORKSPACE_TOO_SMALL; an image with no crossing gives count 0 and OK. */
+SQFFD_DEF sqffd_result sqffd_iso_points(const sqffd_volume *volume, const sqffd_iso_options *options, double *points,
+                                        double *normals, size_t capacity, size_t *count,
+                                        void *workspace, size_t workspace_size);
+/* An even, deterministic subsample of k of n points (k <= n; 3 doubles
+   each): point floor(i n / k) for i < k. */
+SQFFD_DEF void sqffd_points_subsample(const double *points, size_t n, size_t k, double *out);
+
 #ifdef __cplusplus
 }
 #endif
@@ -6612,6 +6680,341 @@ SQFFD_DEF sqffd_result sqffd_motion(const sqffd_model *models, size_t frame_coun
     if (out->excursion) memcpy(out->excursion, w.inward, m * sizeof(double));
     if (out->segment) memcpy(out->segment, w.segment, m);
     if (report) *report = rep;
+    return SQFFD_OK;
+}
+
+/* ======================================================================
+   Layer 7: volumes to points
+   ====================================================================== */
+
+SQFFD_DEF void sqffd_points_subsample(const double *points, size_t n, size_t k, double *out)
+{
+    if (points && out && k <= n && k > 0) sqffd__subsample(points, n, k, out);
+}
+
+static size_t sqffd__vol_type_size(sqffd_voxel_type type)
+{
+    switch (type) {
+    case SQFFD_VOXEL_U8: case SQFFD_VOXEL_I8: return 1;
+    case SQFFD_VOXEL_U16: case SQFFD_VOXEL_I16: return 2;
+    case SQFFD_VOXEL_I32: case SQFFD_VOXEL_F32: return 4;
+    case SQFFD_VOXEL_F64: return 8;
+    }
+    return 0;
+}
+
+/* The checks every function of the layer makes of its view; *voxels = the count. */
+static sqffd_result sqffd__vol_check(const sqffd_volume *v, size_t *voxels)
+{
+    int a;
+    if (!v || !v->data || sqffd__vol_type_size(v->type) == 0) return SQFFD_ERROR_INVALID_ARGUMENT;
+    *voxels = 1;
+    for (a = 0; a < 3; ++a) {
+        if (v->dims[a] == 0 || v->strides[a] == 0) return SQFFD_ERROR_INVALID_ARGUMENT;
+        if (v->dims[a] > (size_t)-1 / *voxels) return SQFFD_ERROR_TOO_LARGE;
+        *voxels *= v->dims[a];
+    }
+    for (a = 0; a < 12; ++a)
+        if (!isfinite(v->affine[a])) return SQFFD_ERROR_NON_FINITE;
+    if (!isfinite(v->scale) || !isfinite(v->offset)) return SQFFD_ERROR_NON_FINITE;
+    return SQFFD_OK;
+}
+
+/* Voxels i0 .. i0 + count of row (j, k), scaled, into out. */
+static void sqffd__vol_row(const sqffd_volume *v, size_t i0, size_t j, size_t k, size_t count, double *out)
+{
+    const double scale = v->scale != 0.0 ? v->scale : 1.0, offset = v->offset;
+    const ptrdiff_t si = v->strides[0];
+    const char *row = (const char *)v->data + (ptrdiff_t)i0 * si + (ptrdiff_t)j * v->strides[1] + (ptrdiff_t)k * v->strides[2];
+    size_t i;
+#define SQFFD__VOL_ROW(T) \
+    for (i = 0; i < count; ++i) { T x; memcpy(&x, row + (ptrdiff_t)i * si, sizeof x); out[i] = scale * (double)x + offset; }
+    switch (v->type) {
+    case SQFFD_VOXEL_U8: SQFFD__VOL_ROW(uint8_t) break;
+    case SQFFD_VOXEL_I8: SQFFD__VOL_ROW(int8_t) break;
+    case SQFFD_VOXEL_U16: SQFFD__VOL_ROW(uint16_t) break;
+    case SQFFD_VOXEL_I16: SQFFD__VOL_ROW(int16_t) break;
+    case SQFFD_VOXEL_I32: SQFFD__VOL_ROW(int32_t) break;
+    case SQFFD_VOXEL_F32: SQFFD__VOL_ROW(float) break;
+    case SQFFD_VOXEL_F64: SQFFD__VOL_ROW(double) break;
+    }
+#undef SQFFD__VOL_ROW
+}
+
+/* Slice k's scaled values, i fastest: out[i + dims[0] j]. */
+static void sqffd__vol_slice(const sqffd_volume *v, size_t k, double *out)
+{
+    size_t j;
+    for (j = 0; j < v->dims[1]; ++j) sqffd__vol_row(v, 0, j, k, v->dims[0], out + j * v->dims[0]);
+}
+
+/* Runs body with `value` bound to each voxel's scaled value, a chunk of a
+   row at a time (the range and the histogram need no workspace). */
+#define SQFFD__VOL_CHUNK 128
+#define SQFFD__VOL_EACH(v, value, body)                                                              \
+    do {                                                                                             \
+        double chunk_[SQFFD__VOL_CHUNK];                                                             \
+        size_t i_, j_, k_, c_, n_;                                                                   \
+        for (k_ = 0; k_ < (v)->dims[2]; ++k_)                                                        \
+            for (j_ = 0; j_ < (v)->dims[1]; ++j_)                                                    \
+                for (i_ = 0; i_ < (v)->dims[0]; i_ += n_) {                                          \
+                    n_ = (v)->dims[0] - i_ < SQFFD__VOL_CHUNK ? (v)->dims[0] - i_ : SQFFD__VOL_CHUNK;  \
+                    sqffd__vol_row((v), i_, j_, k_, n_, chunk_);                                     \
+                    for (c_ = 0; c_ < n_; ++c_) {                                                    \
+                        const double value = chunk_[c_];                                             \
+                        body                                                                         \
+                    }                                                                                \
+                }                                                                                    \
+    } while (0)
+
+SQFFD_DEF sqffd_result sqffd_volume_range(const sqffd_volume *volume, double *min, double *max)
+{
+    double lo = HUGE_VAL, hi = -HUGE_VAL;
+    size_t voxels;
+    sqffd_result res = sqffd__vol_check(volume, &voxels);
+    if (res != SQFFD_OK) return res;
+    if (!min || !max) return SQFFD_ERROR_INVALID_ARGUMENT;
+    SQFFD__VOL_EACH(volume, x, {
+        if (isfinite(x)) {
+            lo = x < lo ? x : lo;
+            hi = x > hi ? x : hi;
+        }
+    });
+    if (!(lo <= hi)) return SQFFD_ERROR_DEGENERATE;
+    *min = lo;
+    *max = hi;
+    return SQFFD_OK;
+}
+
+#define SQFFD__VOL_BINS 256
+
+SQFFD_DEF sqffd_result sqffd_volume_otsu(const sqffd_volume *volume, double *threshold)
+{
+    uint32_t hist[SQFFD__VOL_BINS];
+    double lo = 0.0, hi = 0.0, width, total = 0.0, sum = 0.0, below = 0.0, below_sum = 0.0, best = -1.0;
+    size_t first = 0, last = 0;
+    int b;
+    sqffd_result res = sqffd_volume_range(volume, &lo, &hi);
+    if (res != SQFFD_OK) return res;
+    if (!threshold) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if (!(hi > lo)) return SQFFD_ERROR_DEGENERATE;
+    memset(hist, 0, sizeof hist);
+    width = (hi - lo) / SQFFD__VOL_BINS;
+    SQFFD__VOL_EACH(volume, x, {
+        if (isfinite(x)) {
+            b = (int)((x - lo) / width);
+            b = b < 0 ? 0 : b >= SQFFD__VOL_BINS ? SQFFD__VOL_BINS - 1 : b;
+            if (hist[b] < UINT32_MAX) ++hist[b]; /* (beyond 2^32 - 1 voxels in a bin it saturates) */
+        }
+    });
+    for (b = 0; b < SQFFD__VOL_BINS; ++b) {
+        total += hist[b];
+        sum += hist[b] * (b + 0.5);
+    }
+    /* cut after bin b: between-class variance w0 w1 (m0 - m1)^2, in bin units */
+    for (b = 0; b + 1 < SQFFD__VOL_BINS; ++b) {
+        double above, m0, m1, between;
+        below += hist[b];
+        below_sum += hist[b] * (b + 0.5);
+        above = total - below;
+        if (below == 0.0 || above == 0.0) continue;
+        m0 = below_sum / below;
+        m1 = (sum - below_sum) / above;
+        between = below * above * (m0 - m1) * (m0 - m1);
+        if (between > best * (1.0 + 1e-12)) { best = between; first = last = (size_t)b; }
+        else if (between >= best * (1.0 - 1e-12)) last = (size_t)b;
+    }
+    if (best < 0.0) return SQFFD_ERROR_DEGENERATE; /* one value only */
+    *threshold = lo + width * (0.5 * (double)(first + last) + 1.0);
+    return SQFFD_OK;
+}
+
+SQFFD_DEF sqffd_iso_options sqffd_iso_options_default(void)
+{
+    sqffd_iso_options o;
+    memset(&o, 0, sizeof o);
+    o.level = 0.0;
+    o.largest_component = 0;
+    return o;
+}
+
+typedef struct sqffd__iso_work {
+    double *slice[2];        /* slices k and k + 1 */
+    unsigned char *flag[2];  /* and their voxels' inside flags (8 bytes of padding: read a word at a time) */
+    uint32_t *parent;        /* largest_component: union-find over the voxels */
+    uint32_t *size;          /* and each root's voxel count */
+} sqffd__iso_work;
+
+static void sqffd__iso_layout(sqffd__arena *a, const sqffd_volume *v, size_t voxels, int components, sqffd__iso_work *w)
+{
+    size_t plane = v->dims[0] * v->dims[1];
+    w->slice[0] = (double *)sqffd__arena_take(a, plane, sizeof(double));
+    w->slice[1] = (double *)sqffd__arena_take(a, plane, sizeof(double));
+    w->flag[0] = (unsigned char *)sqffd__arena_take(a, plane + 8, 1);
+    w->flag[1] = (unsigned char *)sqffd__arena_take(a, plane + 8, 1);
+    w->parent = w->size = NULL;
+    if (components) {
+        if (voxels > 0xFFFFFFFFu) a->overflow = 1;
+        w->parent = (uint32_t *)sqffd__arena_take(a, voxels, sizeof(uint32_t));
+        w->size = (uint32_t *)sqffd__arena_take(a, voxels, sizeof(uint32_t));
+    }
+}
+
+/* Slice k into slice and flag buffer b. */
+static void sqffd__iso_slice(const sqffd_volume *v, size_t k, double level, sqffd__iso_work *w, int b)
+{
+    size_t at, plane = v->dims[0] * v->dims[1];
+    sqffd__vol_slice(v, k, w->slice[b]);
+    for (at = 0; at < plane; ++at) w->flag[b][at] = (unsigned char)(w->slice[b][at] >= level);
+    memset(w->flag[b] + plane, 0, 8);
+}
+
+SQFFD_DEF size_t sqffd_iso_workspace_size(const sqffd_volume *volume, const sqffd_iso_options *options)
+{
+    sqffd__arena a;
+    sqffd__iso_work w;
+    size_t voxels;
+    if (sqffd__vol_check(volume, &voxels) != SQFFD_OK) return 0;
+    sqffd__arena_measure(&a);
+    sqffd__iso_layout(&a, volume, voxels, options ? options->largest_component : 0, &w);
+    return sqffd__arena_required(&a);
+}
+
+static uint32_t sqffd__iso_root(uint32_t *parent, uint32_t x)
+{
+    while (parent[x] != x) {
+        parent[x] = parent[parent[x]]; /* path halving */
+        x = parent[x];
+    }
+    return x;
+}
+
+static void sqffd__iso_union(uint32_t *parent, uint32_t a, uint32_t b)
+{
+    a = sqffd__iso_root(parent, a);
+    b = sqffd__iso_root(parent, b);
+    if (a != b) parent[a > b ? a : b] = a < b ? a : b; /* the smaller index is the root: deterministic */
+}
+
+/* The root of the largest 6-connected inside component (by voxel count), or
+   UINT32_MAX when nothing is inside. */
+static uint32_t sqffd__iso_largest(const sqffd_volume *v, double level, sqffd__iso_work *w)
+{
+    size_t nx = v->dims[0], ny = v->dims[1], plane = nx * ny, i, j, k;
+    uint32_t best = UINT32_MAX, x;
+    for (k = 0; k < v->dims[2]; ++k) {
+        double *cur = w->slice[k & 1], *prev = w->slice[(k + 1) & 1];
+        sqffd__vol_slice(v, k, cur);
+        for (j = 0; j < ny; ++j)
+            for (i = 0; i < nx; ++i) {
+                size_t at = i + nx * j;
+                x = (uint32_t)(at + plane * k);
+                w->parent[x] = x;
+                w->size[x] = 0;
+                if (!(cur[at] >= level)) continue;
+                if (i > 0 && cur[at - 1] >= level) sqffd__iso_union(w->parent, x, x - 1);
+                if (j > 0 && cur[at - nx] >= level) sqffd__iso_union(w->parent, x, (uint32_t)(x - nx));
+                if (k > 0 && prev[at] >= level) sqffd__iso_union(w->parent, x, (uint32_t)(x - plane));
+            }
+    }
+    for (k = 0; k < v->dims[2]; ++k) {
+        sqffd__vol_slice(v, k, w->slice[0]);
+        for (j = 0; j < plane; ++j)
+            if (w->slice[0][j] >= level) {
+                uint32_t r = sqffd__iso_root(w->parent, (uint32_t)(j + plane * k));
+                ++w->size[r];
+                if (best == UINT32_MAX || w->size[r] > w->size[best] || (w->size[r] == w->size[best] && r < best))
+                    best = r;
+            }
+    }
+    return best;
+}
+
+SQFFD_DEF sqffd_result sqffd_iso_points(const sqffd_volume *volume, const sqffd_iso_options *options, double *points,
+                                        double *normals, size_t capacity, size_t *count,
+                                        void *workspace, size_t workspace_size)
+{
+    sqffd_iso_options defaults = sqffd_iso_options_default();
+    const sqffd_iso_options *o = options ? options : &defaults;
+    const sqffd_volume *v = volume;
+    sqffd__arena a;
+    sqffd__iso_work w;
+    double axis[3][3];
+    size_t voxels, nx, ny, plane, i, j, k, found = 0;
+    uint32_t keep = UINT32_MAX;
+    int d, r;
+    sqffd_result res = sqffd__vol_check(volume, &voxels);
+    if (res != SQFFD_OK) return res;
+    if (!count || (capacity && !points) || !isfinite(o->level)) return SQFFD_ERROR_INVALID_ARGUMENT;
+    *count = 0;
+    sqffd__arena_init(&a, workspace, workspace_size);
+    sqffd__iso_layout(&a, v, voxels, o->largest_component, &w);
+    if (a.overflow) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
+    for (d = 0; d < 3; ++d) { /* the world direction of each voxel axis */
+        double len = 0.0;
+        for (r = 0; r < 3; ++r) len += v->affine[4 * r + d] * v->affine[4 * r + d];
+        len = sqrt(len);
+        for (r = 0; r < 3; ++r) axis[d][r] = len > 0.0 ? v->affine[4 * r + d] / len : 0.0;
+    }
+    if (o->largest_component) {
+        keep = sqffd__iso_largest(v, o->level, &w);
+        if (keep == UINT32_MAX) return SQFFD_OK;
+    }
+    nx = v->dims[0];
+    ny = v->dims[1];
+    plane = nx * ny;
+    sqffd__iso_slice(v, 0, o->level, &w, 0);
+    for (k = 0; k < v->dims[2]; ++k) {
+        const double *cur = w.slice[k & 1], *up = w.slice[(k + 1) & 1];
+        const unsigned char *fc = w.flag[k & 1], *fu = w.flag[(k + 1) & 1];
+        int inner_k = k + 1 < v->dims[2];
+        if (inner_k) sqffd__iso_slice(v, k + 1, o->level, &w, (int)((k + 1) & 1));
+        for (j = 0; j < ny; ++j)
+            for (i = 0; i < nx; ++i) {
+                size_t at = i + nx * j;
+                const double here = cur[at];
+                if (inner_k && j + 1 < ny && i + 9 <= nx && (i & 7) == 0) {
+                    /* eight voxels whose three forward neighbours are all alike: no crossing, skipped at once */
+                    uint64_t a8, b8, c8, d8;
+                    memcpy(&a8, fc + at, 8);
+                    memcpy(&b8, fc + at + 1, 8);
+                    memcpy(&c8, fc + at + nx, 8);
+                    memcpy(&d8, fu + at, 8);
+                    if (((a8 ^ b8) | (a8 ^ c8) | (a8 ^ d8)) == 0) {
+                        i += 7;
+                        continue;
+                    }
+                }
+                for (d = 0; d < 3; ++d) {
+                    double there, t, p[3];
+                    int inside;
+                    size_t in_at;
+                    if (d == 0 ? i + 1 >= nx : d == 1 ? j + 1 >= ny : !inner_k) continue;
+                    there = d == 0 ? cur[at + 1] : d == 1 ? cur[at + nx] : up[at];
+                    inside = here >= o->level;
+                    if (inside == (there >= o->level) || !isfinite(here) || !isfinite(there)) continue;
+                    if (o->largest_component) {
+                        in_at = inside ? at + plane * k
+                                       : (d == 0 ? at + 1 : d == 1 ? at + nx : at) + plane * (k + (d == 2 ? 1u : 0u));
+                        if (sqffd__iso_root(w.parent, (uint32_t)in_at) != keep) continue;
+                    }
+                    if (found < capacity) {
+                        double *out = points + 3 * found;
+                        t = (o->level - here) / (there - here);
+                        p[0] = (double)i + (d == 0 ? t : 0.0);
+                        p[1] = (double)j + (d == 1 ? t : 0.0);
+                        p[2] = (double)k + (d == 2 ? t : 0.0);
+                        for (r = 0; r < 3; ++r)
+                            out[r] = v->affine[4 * r] * p[0] + v->affine[4 * r + 1] * p[1] + v->affine[4 * r + 2] * p[2] +
+                                     v->affine[4 * r + 3];
+                        if (normals)
+                            for (r = 0; r < 3; ++r) normals[3 * found + (size_t)r] = inside ? axis[d][r] : -axis[d][r];
+                    }
+                    ++found;
+                }
+            }
+    }
+    *count = found;
     return SQFFD_OK;
 }
 

@@ -39,5 +39,6 @@ void suite_io(void);
 void suite_internal(void);
 void suite_phantom(void);
 void suite_track(void);
+void suite_volume(void);
 
 #endif

@@ -46,6 +46,7 @@ int main(int argc, char **argv)
     suite_internal();
     suite_phantom();
     suite_track();
+    suite_volume();
     printf("%d passed, %d failed\n", passed, failed);
     return failed ? 1 : 0;
 }
