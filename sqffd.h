@@ -6900,33 +6900,38 @@ static void sqffd__iso_union(uint32_t *parent, uint32_t a, uint32_t b)
    UINT32_MAX when nothing is inside. */
 static uint32_t sqffd__iso_largest(const sqffd_volume *v, double level, sqffd__iso_work *w)
 {
-    size_t nx = v->dims[0], ny = v->dims[1], plane = nx * ny, i, j, k;
-    uint32_t best = UINT32_MAX, x;
+    const uint32_t none = UINT32_MAX; /* an outside voxel's parent */
+    size_t nx = v->dims[0], ny = v->dims[1], plane = nx * ny, voxels = plane * v->dims[2], i, j, k, x;
+    uint32_t best = none;
     for (k = 0; k < v->dims[2]; ++k) {
-        double *cur = w->slice[k & 1], *prev = w->slice[(k + 1) & 1];
-        sqffd__vol_slice(v, k, cur);
+        const int b = (int)(k & 1);
+        const unsigned char *f, *back = w->flag[b ^ 1];
+        sqffd__iso_slice(v, k, level, w, b);
+        f = w->flag[b];
         for (j = 0; j < ny; ++j)
             for (i = 0; i < nx; ++i) {
                 size_t at = i + nx * j;
-                x = (uint32_t)(at + plane * k);
-                w->parent[x] = x;
-                w->size[x] = 0;
-                if (!(cur[at] >= level)) continue;
-                if (i > 0 && cur[at - 1] >= level) sqffd__iso_union(w->parent, x, x - 1);
-                if (j > 0 && cur[at - nx] >= level) sqffd__iso_union(w->parent, x, (uint32_t)(x - nx));
-                if (k > 0 && prev[at] >= level) sqffd__iso_union(w->parent, x, (uint32_t)(x - plane));
+                int left;
+                x = at + plane * k;
+                if (!f[at]) {
+                    w->parent[x] = none;
+                    continue;
+                }
+                /* a voxel joins the run on its left; the one above (behind) is already joined
+                   through its left neighbour when both left ones are inside */
+                left = i > 0 && f[at - 1];
+                w->parent[x] = left ? w->parent[x - 1] : (uint32_t)x;
+                if (j > 0 && f[at - nx] && !(left && f[at - nx - 1])) sqffd__iso_union(w->parent, (uint32_t)x, (uint32_t)(x - nx));
+                if (k > 0 && back[at] && !(left && back[at - 1])) sqffd__iso_union(w->parent, (uint32_t)x, (uint32_t)(x - plane));
             }
     }
-    for (k = 0; k < v->dims[2]; ++k) {
-        sqffd__vol_slice(v, k, w->slice[0]);
-        for (j = 0; j < plane; ++j)
-            if (w->slice[0][j] >= level) {
-                uint32_t r = sqffd__iso_root(w->parent, (uint32_t)(j + plane * k));
-                ++w->size[r];
-                if (best == UINT32_MAX || w->size[r] > w->size[best] || (w->size[r] == w->size[best] && r < best))
-                    best = r;
-            }
-    }
+    memset(w->size, 0, voxels * sizeof *w->size);
+    for (x = 0; x < voxels; ++x)
+        if (w->parent[x] != none) {
+            uint32_t r = sqffd__iso_root(w->parent, (uint32_t)x);
+            ++w->size[r];
+            if (best == none || w->size[r] > w->size[best] || (w->size[r] == w->size[best] && r < best)) best = r;
+        }
     return best;
 }
 
