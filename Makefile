@@ -109,8 +109,7 @@ fuzz: | $(BUILD)
 
 # ---- make demo: the embedded default run of the command-line tool
 demo: $(BUILD)/sqffd
-	@mkdir -p $(BUILD)/demo
-	./$(BUILD)/sqffd fit tests/data/bunny.ply -o $(BUILD)/demo/bunny_model.ply
+	./$(BUILD)/sqffd demo -o $(BUILD)/demo
 
 # ---- make bench: medians of repeated runs, peers where installable
 BENCH_CFLAGS = -O2 -march=native -std=c99 -D_POSIX_C_SOURCE=200809L -Wall -Wextra
@@ -122,6 +121,7 @@ bench: | $(BUILD)
 	    g++ -O2 -march=native -std=c++14 -c bench/peer_nanoflann.cpp -o $(BUILD)/peer_nanoflann.o || exit 1; \
 	    extra="-DSQFFD_BENCH_NANOFLANN $(BUILD)/peer_nanoflann.o"; link="g++ -x none"; fi; \
 	  if [ $$b = bench_linalg ] && [ -f /usr/include/lapacke.h ]; then extra="-DSQFFD_BENCH_LAPACKE -llapacke"; fi; \
+	  if [ $$b = bench_inflate ] && [ -f /usr/include/zlib.h ]; then extra="-DSQFFD_BENCH_ZLIB -lz"; fi; \
 	  $(CC) $(BENCH_CFLAGS) -c bench/$$b.c -o $(BUILD)/$$b.o $$(echo $$extra | grep -o -- '-DSQFFD_BENCH_[A-Z]*') || exit 1; \
 	  $$link $(BUILD)/$$b.o $$(echo $$extra | sed 's/-DSQFFD_BENCH_[A-Z]*//') -o $(BUILD)/$$b -lm || exit 1; \
 	  ./$(BUILD)/$$b || exit 1; \

@@ -1,7 +1,7 @@
 /* sqffd_io.h - point-cloud and mesh files for the sqffd tools (not part of the library).
 
    Header-only, every function `static inline`; plain C99 plus the C library
-   (stdio, stdlib). Independent of sqffd.h.
+   (stdio, stdlib) and sqffd_inflate.h beside it. Independent of sqffd.h.
 
    Reading: XYZ, PLY (ascii, binary_little_endian, binary_big_endian), OFF
    and the vertices of Wavefront OBJ.
@@ -11,7 +11,10 @@
      1  with *points = NULL, *count = 0 and a message "NAME: what is wrong"
         in err (NAME is the file name the caller passed, for messages only).
    A file that holds no points is an error; so are NaN and infinite
-   coordinates. Element indices in messages count from 0 (like PLY face
+   coordinates. gzip-compressed input (any of these formats) is decompressed
+   first, with sqffd_inflate.h, up to SQFFD_IO_MAX_FILE_SIZE bytes (the
+   format then comes from the content, or the name without its .gz).
+   Element indices in messages count from 0 (like PLY face
    indices), line numbers from 1. Coordinates keep the precision of their
    source: a PLY float property gives a float's value, in ascii files too.
    sqffd_io_read_off_mesh also reads an OFF file's faces, as triangles.
@@ -32,7 +35,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* sqffd_io_read_file refuses larger files. */
+#include "sqffd_inflate.h"
+
+/* sqffd_io_read_file refuses larger files, and larger decompressed data. */
 #define SQFFD_IO_MAX_FILE_SIZE ((size_t)1 << 31)
 /* The writer's limit on per-vertex scalars. */
 #define SQFFD_IO_MAX_SCALARS 16
@@ -873,9 +878,10 @@ static inline int sqffd_io_read_ply(const void *data, size_t size, const char *n
 
 /* ---- format detection and files ------------------------------------------ */
 
-static inline int sqffd_io__has_extension(const char *name, const char *ext)
+/* Whether the first n characters of name end in ext (lower case), any case. */
+static inline int sqffd_io__has_extension(const char *name, size_t n, const char *ext)
 {
-    size_t n = name ? strlen(name) : 0, m = strlen(ext), i;
+    size_t m = strlen(ext), i;
     if (n < m) return 0;
     for (i = 0; i < m; i++) {
         char c = name[n - m + i];
@@ -887,12 +893,12 @@ static inline int sqffd_io__has_extension(const char *name, const char *ext)
 
 /* The format of a file: by content (the PLY magic line; an OFF keyword or an
    OBJ statement as the first word), else by the name's extension (.ply,
-   .off, .obj), else XYZ. */
+   .off, .obj; a final .gz is skipped: x.ply.gz is PLY), else XYZ. */
 static inline sqffd_io_format sqffd_io_detect(const void *data, size_t size, const char *name)
 {
     const char *text = (const char *)data, *s, *e, *tok;
     sqffd_io__text t;
-    size_t len;
+    size_t len, name_len = name ? strlen(name) : 0;
     int other_dimension;
     if (size >= 4 && memcmp(text, "ply", 3) == 0 && (text[3] == '\n' || text[3] == '\r')) return SQFFD_IO_PLY;
     t.p = text;
@@ -902,22 +908,17 @@ static inline sqffd_io_format sqffd_io_detect(const void *data, size_t size, con
         if (sqffd_io__off_keyword(tok, len, &other_dimension)) return SQFFD_IO_OFF;
         if (sqffd_io__obj_keyword(tok, len)) return SQFFD_IO_OBJ;
     }
-    if (sqffd_io__has_extension(name, ".ply")) return SQFFD_IO_PLY;
-    if (sqffd_io__has_extension(name, ".off")) return SQFFD_IO_OFF;
-    if (sqffd_io__has_extension(name, ".obj")) return SQFFD_IO_OBJ;
+    if (sqffd_io__has_extension(name, name_len, ".gz")) name_len -= 3;
+    if (sqffd_io__has_extension(name, name_len, ".ply")) return SQFFD_IO_PLY;
+    if (sqffd_io__has_extension(name, name_len, ".off")) return SQFFD_IO_OFF;
+    if (sqffd_io__has_extension(name, name_len, ".obj")) return SQFFD_IO_OBJ;
     return SQFFD_IO_XYZ;
 }
 
-/* Reads points from memory in the detected format. */
-static inline int sqffd_io_read_points(const void *data, size_t size, const char *name, double **points,
-                                       size_t *count, char *err, size_t err_size)
+/* Reads plain (not compressed) points in the detected format. */
+static inline int sqffd_io__read_detected(const void *data, size_t size, const char *name, double **points,
+                                          size_t *count, char *err, size_t err_size)
 {
-    const unsigned char *b = (const unsigned char *)data;
-    *points = NULL;
-    *count = 0;
-    if (size == 0) return sqffd_io__fail(err, err_size, name, "file is empty");
-    if (size >= 2 && b[0] == 0x1f && b[1] == 0x8b)
-        return sqffd_io__fail(err, err_size, name, "gzip-compressed; decompress it first");
     switch (sqffd_io_detect(data, size, name)) {
     case SQFFD_IO_PLY: return sqffd_io_read_ply(data, size, name, points, count, err, err_size);
     case SQFFD_IO_OFF: return sqffd_io_read_off(data, size, name, points, count, err, err_size);
@@ -926,9 +927,36 @@ static inline int sqffd_io_read_points(const void *data, size_t size, const char
     }
 }
 
+/* Reads points from memory in the detected format; gzip-compressed data is
+   decompressed first (messages "NAME: gzip-compressed data: ..." when that
+   fails; those about the points count lines of the decompressed text). */
+static inline int sqffd_io_read_points(const void *data, size_t size, const char *name, double **points,
+                                       size_t *count, char *err, size_t err_size)
+{
+    *points = NULL;
+    *count = 0;
+    if (size == 0) return sqffd_io__fail(err, err_size, name, "file is empty");
+    if (sqffd_gz_is_gzip(data, size)) {
+        unsigned char *raw;
+        size_t raw_size;
+        int r;
+        if (sqffd_gz__decompress(data, size, name, "gzip-compressed data", SQFFD_IO_MAX_FILE_SIZE, &raw, &raw_size,
+                                 err, err_size))
+            return 1;
+        /* not sqffd_io_read_points again: gzip inside gzip is not a point file */
+        if (raw_size == 0) r = sqffd_io__fail(err, err_size, name, "decompresses to nothing");
+        else if (sqffd_gz_is_gzip(raw, raw_size)) r = sqffd_io__fail(err, err_size, name, "gzip-compressed twice");
+        else r = sqffd_io__read_detected(raw, raw_size, name, points, count, err, err_size);
+        free(raw);
+        return r;
+    }
+    return sqffd_io__read_detected(data, size, name, points, count, err, err_size);
+}
+
 /* The whole file at `path` in a malloc'd buffer (free() it); refuses files
-   over SQFFD_IO_MAX_FILE_SIZE. */
-static inline int sqffd_io_load_file(const char *path, unsigned char **data, size_t *size, char *err, size_t err_size)
+   over max_bytes. */
+static inline int sqffd_io_load_file_limit(const char *path, size_t max_bytes, unsigned char **data, size_t *size,
+                                           char *err, size_t err_size)
 {
     FILE *f;
     unsigned char *buf = NULL;
@@ -942,17 +970,17 @@ static inline int sqffd_io_load_file(const char *path, unsigned char **data, siz
         size_t got;
         if (used == capacity) {
             unsigned char *grown;
-            if (capacity == SQFFD_IO_MAX_FILE_SIZE) { /* full: one more byte means too large */
+            if (capacity == max_bytes) { /* full: one more byte means too large */
                 if (fread(buf + used, 1, 1, f) == 1) {
                     free(buf);
                     fclose(f);
                     return sqffd_io__fail(err, err_size, path, "larger than %llu bytes, the limit",
-                                          (unsigned long long)SQFFD_IO_MAX_FILE_SIZE);
+                                          (unsigned long long)max_bytes);
                 }
                 break;
             }
             capacity = capacity ? 2 * capacity : (size_t)1 << 16;
-            if (capacity > SQFFD_IO_MAX_FILE_SIZE) capacity = SQFFD_IO_MAX_FILE_SIZE;
+            if (capacity > max_bytes) capacity = max_bytes;
             grown = (unsigned char *)realloc(buf, capacity + 1); /* +1: the probe byte above */
             if (!grown) {
                 free(buf);
@@ -975,6 +1003,12 @@ static inline int sqffd_io_load_file(const char *path, unsigned char **data, siz
     *data = buf;
     *size = used;
     return 0;
+}
+
+/* The whole file, up to SQFFD_IO_MAX_FILE_SIZE. */
+static inline int sqffd_io_load_file(const char *path, unsigned char **data, size_t *size, char *err, size_t err_size)
+{
+    return sqffd_io_load_file_limit(path, SQFFD_IO_MAX_FILE_SIZE, data, size, err, err_size);
 }
 
 /* Reads the points of the file at `path` (any supported format). */

@@ -108,7 +108,7 @@ expect 0 "points read      " fit "$TMP/bunny.ply" -o "$TMP/again.ply" --iteratio
 # phantom -> track -> motion.ply read back
 expect 0 "usage: sqffd track" track --help
 expect 0 "usage: sqffd phantom" phantom --help
-expect 2 "at least two FRAME" track "$DATA" -o "$TMP/t"
+expect 2 "at least two are needed" track "$DATA" -o "$TMP/t"
 expect 2 "no output folder" track "$DATA" "$DATA"
 expect 2 "--septum takes" track "$DATA" "$DATA" -o "$TMP/t" --septum 1,2
 expect 2 "--ed 5: there are 2 frames" track "$DATA" "$DATA" -o "$TMP/t" --ed 5
@@ -151,6 +151,41 @@ LC_ALL=C awk '
         for (s = 1; s <= 17; s++) if (!seen[s]) exit 2
         exit (bad > 0 || low == 0) ? 3 : 0
     }' "$TMP/tr/motion.ply" && ok || bad "motion.ply: wrong properties or values (awk status $?)"
+
+# volumes: fit on a NIfTI iso-surface, info, the outputs re-read
+BRAIN=tests/data/KmeansTest_T1UCharRaw.nii.gz
+expect 0 "iso-surface      level" fit "$BRAIN" -o "$TMP/brain.vtk" --vtk --ascii --json "$TMP/brain.json" --svg "$TMP/brain.svg" --iterations 5
+grep -q "of the largest component, 6000 kept" "$TMP/out" && ok || bad "fit on a volume did not keep 6000 points of the largest component"
+head -n 1 "$TMP/brain.vtk" | grep -q '^# vtk DataFile Version' && grep -q '^DATASET POLYDATA$' "$TMP/brain.vtk" &&
+    grep -q '^POINTS 8194 ' "$TMP/brain.vtk" && grep -q '^POLYGONS 16384 65536$' "$TMP/brain.vtk" &&
+    grep -q '^SCALARS error float 1$' "$TMP/brain.vtk" && ok || bad "brain.vtk: not the VTK polydata expected"
+grep -q '"format": *"sqffd-model"' "$TMP/brain.json" && grep -q '"control"' "$TMP/brain.json" && ok || bad "brain.json lacks its format or control points"
+grep -q '<svg' "$TMP/brain.svg" && tail -c 20 "$TMP/brain.svg" | grep -q '</svg>' && ok || bad "brain.svg is not a whole SVG"
+expect 0 "iso-surface      level 60," fit "$BRAIN" -o "$TMP/b60.ply" --iso 60 --sample 500 --all-components --iterations 1
+grep -q "crossing points, 500 kept" "$TMP/out" && ok || bad "--iso 60 --sample 500 --all-components not reported"
+expect 2 "--iso takes" fit "$BRAIN" -o "$TMP/x.ply" --iso abc
+expect 2 "--sample takes" fit "$BRAIN" -o "$TMP/x.ply" --sample 5
+expect 1 "no voxel crosses the iso level" fit "$BRAIN" -o "$TMP/x.ply" --iso 1000
+expect 0 "dims        128 x 128 x 62, 1 frame" info "$BRAIN"
+for word in "NIfTI-1" "spacing" "values      0 .. 255" "affine"; do grep -q "$word" "$TMP/out" && ok || bad "info lacks '$word'"; done
+expect 0 "big-endian" info tests/data/anatomical.nii
+expect 0 "2 frames" info tests/data/example4d.nii.gz
+expect 0 "points      1839" info "$DATA"
+expect 2 "one FILE" info
+expect 1 "$TMP/missing.nii: cannot open" info "$TMP/missing.nii"
+printf 'not a volume\n' >"$TMP/bad.nii"
+expect 1 "$TMP/bad.nii: " info "$TMP/bad.nii"
+# track from one 4-D volume
+expect 0 "ejection fraction" track tests/data/example4d.nii.gz -o "$TMP/t4" --frame-iterations 2 --iterations 5
+grep -q '^ *1 *6000 ' "$TMP/out" && ok || bad "the 4-D volume's frame 1 was not tracked"
+# the demo: everything it lists exists and reads back
+expect 0 "written to $TMP/demo/" demo -o "$TMP/demo"
+for f in frame_00.ply frame_15.ply motion.ply segments.csv volumes.csv model.json fig3_error.svg table1_alpha.svg volumes.svg bullseye.svg; do
+    [ -s "$TMP/demo/$f" ] && ok || bad "demo did not write $f"
+done
+check_ply "$TMP/demo/motion.ply"
+[ "$(grep -c 'id="segment-' "$TMP/demo/bullseye.svg")" -eq 17 ] && ok || bad "bullseye.svg does not hold 17 segments"
+grep -q "Table 1" "$TMP/out" && grep -q "Fig. 3" "$TMP/out" && ok || bad "demo report lacks Table 1 or Fig. 3"
 
 echo "cli: $passed passed, $failed failed"
 [ "$failed" -eq 0 ]

@@ -39,6 +39,9 @@ void suite_io(void);
 void suite_internal(void);
 void suite_phantom(void);
 void suite_track(void);
+void suite_inflate(void);
+void suite_volume_io(void);
+void suite_export(void);
 void suite_volume(void);
 
 #endif

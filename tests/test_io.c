@@ -2,35 +2,11 @@
    Every file is built here byte by byte (independently of the reader), so
    the expected points are known exactly. */
 #include "test.h"
+#include "test_bytes.h"
 #include "../examples/sqffd_io.h"
 
 /* ---- a growing byte buffer and a PLY encoder independent of the reader ---- */
 
-typedef struct bytes {
-    unsigned char *data;
-    size_t size, capacity;
-} bytes;
-
-static void bytes_put(bytes *b, const void *p, size_t n)
-{
-    if (b->size + n > b->capacity) {
-        b->capacity = 2 * (b->size + n) + 256;
-        b->data = (unsigned char *)realloc(b->data, b->capacity);
-    }
-    memcpy(b->data + b->size, p, n);
-    b->size += n;
-}
-
-static void bytes_text(bytes *b, const char *fmt, ...)
-{
-    char line[512];
-    va_list ap;
-    int n;
-    va_start(ap, fmt);
-    n = vsnprintf(line, sizeof line, fmt, ap);
-    va_end(ap);
-    bytes_put(b, line, (size_t)n);
-}
 
 enum { ASCII, LE, BE };
 static const char *const format_names[] = {"ascii", "binary_little_endian", "binary_big_endian"};

@@ -46,6 +46,9 @@ int main(int argc, char **argv)
     suite_internal();
     suite_phantom();
     suite_track();
+    suite_inflate();
+    suite_volume_io();
+    suite_export();
     suite_volume();
     printf("%d passed, %d failed\n", passed, failed);
     return failed ? 1 : 0;
