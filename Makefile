@@ -113,7 +113,7 @@ demo: $(BUILD)/sqffd
 
 # ---- make bench: medians of repeated runs, peers where installable
 BENCH_CFLAGS = -O2 -march=native -std=c99 -D_POSIX_C_SOURCE=200809L -Wall -Wextra
-bench: | $(BUILD)
+bench: $(BUILD)/sqffd | $(BUILD)
 	@sh bench/install_peers.sh
 	@for b in $(BENCHES); do \
 	  extra=""; link="$(CC)"; \

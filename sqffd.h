@@ -912,9 +912,9 @@ typedef struct sqffd_iso_options {
 } sqffd_iso_options;
 
 SQFFD_DEF sqffd_iso_options sqffd_iso_options_default(void);
-/* Workspace for sqffd_iso_points: two slices of doubles, plus 8 bytes a
+/* Workspace for sqffd_iso_points: two slices of doubles, plus 4 bytes a
    voxel with largest_component; 0 for a bad view or beyond size_t
-   (largest_component: beyond 2^32 - 1 voxels). */
+   (largest_component: beyond 2^31 - 1 voxels). */
 SQFFD_DEF size_t sqffd_iso_workspace_size(const sqffd_volume *volume, const sqffd_iso_options *options);
 /* Iso-surface points: one per grid edge between neighbouring voxels (along
    i, j or k) where one is inside and the other not (each crossing once; an
@@ -6838,11 +6838,13 @@ SQFFD_DEF sqffd_iso_options sqffd_iso_options_default(void)
     return o;
 }
 
+#define SQFFD__ISO_ROOT 0x80000000u
+
 typedef struct sqffd__iso_work {
     double *slice[2];        /* slices k and k + 1 */
     unsigned char *flag[2];  /* and their voxels' inside flags (8 bytes of padding: read a word at a time) */
-    uint32_t *parent;        /* largest_component: union-find over the voxels */
-    uint32_t *size;          /* and each root's voxel count */
+    uint32_t *parent;        /* largest_component: union-find over the voxels; once counted, a root holds
+                                SQFFD__ISO_ROOT | its voxel count and every other voxel its root */
 } sqffd__iso_work;
 
 static void sqffd__iso_layout(sqffd__arena *a, const sqffd_volume *v, size_t voxels, int components, sqffd__iso_work *w)
@@ -6852,11 +6854,10 @@ static void sqffd__iso_layout(sqffd__arena *a, const sqffd_volume *v, size_t vox
     w->slice[1] = (double *)sqffd__arena_take(a, plane, sizeof(double));
     w->flag[0] = (unsigned char *)sqffd__arena_take(a, plane + 8, 1);
     w->flag[1] = (unsigned char *)sqffd__arena_take(a, plane + 8, 1);
-    w->parent = w->size = NULL;
+    w->parent = NULL;
     if (components) {
-        if (voxels > 0xFFFFFFFFu) a->overflow = 1;
+        if (voxels > 0x7FFFFFFFu) a->overflow = 1; /* (the top bit marks the roots) */
         w->parent = (uint32_t *)sqffd__arena_take(a, voxels, sizeof(uint32_t));
-        w->size = (uint32_t *)sqffd__arena_take(a, voxels, sizeof(uint32_t));
     }
 }
 
@@ -6925,13 +6926,23 @@ static uint32_t sqffd__iso_largest(const sqffd_volume *v, double level, sqffd__i
                 if (k > 0 && back[at] && !(left && back[at - 1])) sqffd__iso_union(w->parent, (uint32_t)x, (uint32_t)(x - plane));
             }
     }
-    memset(w->size, 0, voxels * sizeof *w->size);
-    for (x = 0; x < voxels; ++x)
-        if (w->parent[x] != none) {
-            uint32_t r = sqffd__iso_root(w->parent, (uint32_t)x);
-            ++w->size[r];
-            if (best == none || w->size[r] > w->size[best] || (w->size[r] == w->size[best] && r < best)) best = r;
+    /* a root is its component's smallest voxel (unions keep the smaller), so in voxel order it comes
+       first: it becomes a counter, and each later voxel points straight at it (its chain's voxels,
+       all smaller, already do: at most two steps) */
+    for (x = 0; x < voxels; ++x) {
+        uint32_t r = w->parent[x], count;
+        if (r == none) continue;
+        if (r == (uint32_t)x) {
+            w->parent[x] = SQFFD__ISO_ROOT | 1u;
+            r = (uint32_t)x;
+        } else {
+            while (!(w->parent[r] & SQFFD__ISO_ROOT)) r = w->parent[r];
+            w->parent[x] = r;
+            ++w->parent[r];
         }
+        count = w->parent[r] & ~SQFFD__ISO_ROOT;
+        if (best == none || count > (w->parent[best] & ~SQFFD__ISO_ROOT)) best = r;
+    }
     return best;
 }
 
@@ -7001,7 +7012,7 @@ SQFFD_DEF sqffd_result sqffd_iso_points(const sqffd_volume *volume, const sqffd_
                     if (o->largest_component) {
                         in_at = inside ? at + plane * k
                                        : (d == 0 ? at + 1 : d == 1 ? at + nx : at) + plane * (k + (d == 2 ? 1u : 0u));
-                        if (sqffd__iso_root(w.parent, (uint32_t)in_at) != keep) continue;
+                        if ((w.parent[in_at] & SQFFD__ISO_ROOT ? (uint32_t)in_at : w.parent[in_at]) != keep) continue;
                     }
                     if (found < capacity) {
                         double *out = points + 3 * found;

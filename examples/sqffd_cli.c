@@ -374,7 +374,10 @@ static int volume_points(const sqffd_image *image, size_t t, const char *name, c
     }
     size = sqffd_iso_workspace_size(&frame, &o);
     work = size ? malloc(size) : NULL;
+    /* every component's crossings bound the largest one's: counted without the labelling, filled with it */
+    o.largest_component = 0;
     r = work ? sqffd_iso_points(&frame, &o, NULL, NULL, 0, &n, work, size) : SQFFD_ERROR_TOO_LARGE;
+    o.largest_component = !in->all_components;
     all = r == SQFFD_OK && n ? (double *)malloc(3 * n * sizeof *all) : NULL;
     if (all) r = sqffd_iso_points(&frame, &o, all, NULL, n, &n, work, size);
     free(work);
@@ -1317,7 +1320,7 @@ static int cmd_info(int argc, char **argv)
         printf(", %lu frame%s", (unsigned long)image.frames, image.frames == 1 ? "" : "s");
         if (image.frames > 1 && image.time_step > 0.0) printf(" (%g apart)", image.time_step);
         printf("\n  voxels      %s", image.stored_type);
-        if (v->scale != 0.0 || v->offset != 0.0) printf(", scaled: value = %g x stored + %g", v->scale != 0.0 ? v->scale : 1.0, v->offset);
+        if ((v->scale != 0.0 && v->scale != 1.0) || v->offset != 0.0) printf(", scaled: value = %g x stored + %g", v->scale != 0.0 ? v->scale : 1.0, v->offset);
         printf("\n  spacing     %g x %g x %g\n", image.spacing[0], image.spacing[1], image.spacing[2]);
         if (r == SQFFD_OK) printf("  values      %g .. %g (frame 0)\n", lo, hi);
         else printf("  values      %s\n", sqffd_result_string(r));
