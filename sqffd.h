@@ -1,4 +1,4 @@
-/* sqffd.h - v0.3.0 - superquadric + free-form deformation shape fitting
+/* sqffd.h - v0.4.0 - superquadric + free-form deformation shape fitting
    Public domain or MIT, your choice (see the end of this file).
 
    Turns 3-D points into a compact global shape model: a superquadric with
@@ -98,8 +98,17 @@
                                        a sequence: frame 0 whole, then frame to frame
        sqffd_motion(_workspace_size), sqffd_motion_options_default
                                        volumes, EF, motion, low-motion zones, 17 segments
+   7. Volumes to points
+       sqffd_volume                    a view of a 3-D image (any voxel type, strides, affine)
+       sqffd_volume_range, sqffd_volume_otsu
+                                       value range, automatic threshold
+       sqffd_iso_points(_workspace_size), sqffd_iso_options_default
+                                       iso-surface crossing points (largest component)
+       sqffd_points_subsample          an even subsample of points
 
    VERSION
+       0.4.0 (2026-11)  layer 7: volume views, Otsu, iso-surface points,
+                        largest component, subsample
        0.3.0 (2026-11)  layer 6: prepared FFD systems, sqffd_track,
                         sqffd_motion; SQFFD_STAGE_FRAME; the FFD stage takes
                         the plain step once it is within the tolerance
@@ -120,9 +129,9 @@
 #include <stdint.h>
 
 #define SQFFD_VERSION_MAJOR 0
-#define SQFFD_VERSION_MINOR 3
+#define SQFFD_VERSION_MINOR 4
 #define SQFFD_VERSION_PATCH 0
-#define SQFFD_VERSION_STRING "0.3.0"
+#define SQFFD_VERSION_STRING "0.4.0"
 
 #ifndef SQFFD_DEF
 #ifdef SQFFD_STATIC
