@@ -22,6 +22,7 @@
 #include <time.h>
 #include <math.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #define EXIT_BAD_INPUT 1
 #define EXIT_USAGE 2
@@ -883,7 +884,8 @@ static void track_details(FILE *f)
 typedef struct track_progress {
     double start;
     size_t frames;
-    int shown;
+    int terminal;         /* stderr is a terminal */
+    int shown;            /* a rewriting line is on it */
 } track_progress;
 
 static int track_progress_report(void *user, int stage, int iteration, double error)
@@ -891,8 +893,10 @@ static int track_progress_report(void *user, int stage, int iteration, double er
     track_progress *p = (track_progress *)user;
     (void)error;
     if (stage == SQFFD_STAGE_FRAME && seconds_now() - p->start > 1.0) {
-        fprintf(stderr, "\rsqffd track: frame %d of %lu", iteration + 1, (unsigned long)p->frames);
-        p->shown = 1;
+        /* a line that rewrites itself on a terminal, plain lines into a file or a pipe */
+        fprintf(stderr, p->terminal ? "\rsqffd track: frame %d of %lu" : "sqffd track: frame %d of %lu\n", iteration + 1,
+                (unsigned long)p->frames);
+        p->shown = p->terminal;
     }
     return 0;
 }
@@ -1054,6 +1058,7 @@ static int track_run(track_args *a, double **points, size_t *counts, track_resul
     start = seconds_now();
     progress.start = start;
     progress.frames = frames;
+    progress.terminal = isatty(fileno(stderr));
     progress.shown = 0;
     a->options.progress = track_progress_report;
     a->options.progress_user = &progress;
