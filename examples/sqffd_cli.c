@@ -476,6 +476,31 @@ static void free_frames(double **frames, size_t *counts, size_t frame_count)
     free(counts);
 }
 
+/* Progress on stderr once a fit or a tracking has taken more than a second. */
+typedef struct track_progress {
+    double start;
+    size_t frames;        /* 0: a single fit (its iterations are shown) */
+    int terminal;         /* stderr is a terminal */
+    int shown;            /* a rewriting line is on it */
+} track_progress;
+
+static int track_progress_report(void *user, int stage, int iteration, double error)
+{
+    track_progress *p = (track_progress *)user;
+    if (seconds_now() - p->start <= 1.0) return 0;
+    /* a line that rewrites itself on a terminal, plain lines into a file or a pipe */
+    if (p->frames && stage == SQFFD_STAGE_FRAME)
+        fprintf(stderr, p->terminal ? "\rsqffd track: frame %d of %lu" : "sqffd track: frame %d of %lu\n", iteration + 1,
+                (unsigned long)p->frames);
+    else if (!p->frames && stage == SQFFD_STAGE_FFD)
+        fprintf(stderr, p->terminal ? "\rsqffd fit: FFD iteration %d, error %.4f %%" : "sqffd fit: FFD iteration %d, error %.4f %%\n",
+                iteration, 100.0 * error);
+    else
+        return 0;
+    p->shown = p->terminal;
+    return 0;
+}
+
 /* ---- sqffd fit --------------------------------------------------------- */
 
 typedef struct fit_args {
@@ -645,6 +670,7 @@ static int cmd_fit(int argc, char **argv)
     double **frames = NULL, *points, *vertices = NULL, *vertex_error = NULL, *point_error = NULL, t[4];
     sqffd_distance_stats mesh_stats;
     input_summary input;
+    track_progress progress;
     uint32_t *triangles = NULL;
     void *work = NULL;
     size_t *counts = NULL, frame_count = 0, n, work_size, nv = 0, nt = 0;
@@ -678,7 +704,16 @@ static int cmd_fit(int argc, char **argv)
         fprintf(stderr, "%s: out of memory (the fit needs %lu bytes)\n", a.input, (unsigned long)work_size);
         goto done;
     }
+    progress.start = t[0];
+    progress.frames = 0;
+    progress.terminal = isatty(fileno(stderr));
+    progress.shown = 0;
+    if (!a.quiet) {
+        a.options.progress = track_progress_report;
+        a.options.progress_user = &progress;
+    }
     r = sqffd_fit(points, n, &a.options, &model, &report, work, work_size);
+    if (progress.shown) fputc('\n', stderr);
     if (r != SQFFD_OK) {
         fprintf(stderr, "%s: fit failed: %s\n", a.input, sqffd_result_string(r));
         goto done;
@@ -878,27 +913,6 @@ static void track_details(FILE *f)
     fprintf(f,
             "  --ascii                write ascii PLY instead of binary little endian\n"
             "  --quiet                print nothing on success\n");
-}
-
-/* Progress on stderr once the tracking has taken more than a second. */
-typedef struct track_progress {
-    double start;
-    size_t frames;
-    int terminal;         /* stderr is a terminal */
-    int shown;            /* a rewriting line is on it */
-} track_progress;
-
-static int track_progress_report(void *user, int stage, int iteration, double error)
-{
-    track_progress *p = (track_progress *)user;
-    (void)error;
-    if (stage == SQFFD_STAGE_FRAME && seconds_now() - p->start > 1.0) {
-        /* a line that rewrites itself on a terminal, plain lines into a file or a pipe */
-        fprintf(stderr, p->terminal ? "\rsqffd track: frame %d of %lu" : "sqffd track: frame %d of %lu\n", iteration + 1,
-                (unsigned long)p->frames);
-        p->shown = p->terminal;
-    }
-    return 0;
 }
 
 /* DIR/NAME into path; 0 on success. */
