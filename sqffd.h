@@ -6548,7 +6548,7 @@ SQFFD_DEF sqffd_result sqffd_motion(const sqffd_model *models, size_t frame_coun
                                     void *workspace, size_t workspace_size)
 {
     sqffd_motion_outputs none;
-    const sqffd_motion_outputs *out = outputs ? outputs : &none;
+    const sqffd_motion_outputs *out;
     sqffd_motion_options defaults = sqffd_motion_options_default();
     const sqffd_motion_options *o = options ? options : &defaults;
     sqffd_motion_report rep;
@@ -6570,6 +6570,7 @@ SQFFD_DEF sqffd_result sqffd_motion(const sqffd_model *models, size_t frame_coun
                                    models + t))
             return SQFFD_ERROR_INVALID_ARGUMENT;
     memset(&none, 0, sizeof none);
+    out = outputs ? outputs : &none;
     m = sqffd__fit_grid_count(models->grid);
     sqffd__arena_init(&a, workspace, workspace_size);
     sqffd__motion_layout(&a, m, &w);
