@@ -1074,7 +1074,7 @@ static int track_run(track_args *a, double **points, size_t *counts, track_resul
     progress.frames = frames;
     progress.terminal = isatty(fileno(stderr));
     progress.shown = 0;
-    a->options.progress = track_progress_report;
+    a->options.progress = a->quiet ? NULL : track_progress_report;
     a->options.progress_user = &progress;
     r = sqffd_track((const double *const *)points, counts, frames, &a->options, res->models, res->reports, &done, work,
                     work_size);
