@@ -1427,7 +1427,7 @@ static int cmd_demo(int argc, char **argv)
     }
     a.options = sqffd_track_options_default();
     a.motion = sqffd_motion_options_default();
-    a.motion.septum_direction[0] = -1.0; /* the phantom's convention */
+    memcpy(a.motion.septum_direction, phantom_septum, sizeof phantom_septum);
     a.frames = frames;
     a.frame_count = DEMO_FRAMES;
     memset(&res, 0, sizeof res);
