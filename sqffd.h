@@ -19,8 +19,10 @@
        SQFFD_DEF             linkage of the public functions (extern/static)
        SQFFD_ASSERT(x)       programmer-error checks (default: assert); bad
                              data never asserts, it returns a result code
-       SQFFD_MAX_LATTICE     control points per FFD axis at most (default 8);
-                             sizes sqffd_ffd and sqffd_model at compile time
+       SQFFD_MAX_LATTICE     control points per FFD axis at most (default 8, a
+                             plain integer); sizes sqffd_ffd and sqffd_model at
+                             compile time; translation units built with
+                             different values fail to link
 
    MEMORY
        The library never allocates. Every operation that needs scratch memory
@@ -160,7 +162,10 @@ extern "C" {
     X(SQFFD_ERROR_WORKSPACE_TOO_SMALL, "workspace smaller than the matching _workspace_size()") \
     X(SQFFD_ERROR_NOT_POSITIVE_DEFINITE, "matrix is not symmetric positive definite") \
     X(SQFFD_ERROR_NO_CONVERGENCE, "iteration did not converge within its limit")     \
-    X(SQFFD_ERROR_CANCELLED, "cancelled by the progress callback")
+    X(SQFFD_ERROR_CANCELLED, "cancelled by the progress callback")                   \
+    X(SQFFD_ERROR_INVALID_MODEL, "superquadric, lattice or model out of range, not finite or inconsistent") \
+    X(SQFFD_ERROR_BAD_FORMAT, "not a saved model: wrong magic, unknown version, bad checksum or wrong length") \
+    X(SQFFD_ERROR_OUTPUT_TOO_SMALL, "output buffer smaller than the size the call reports")
 
 typedef enum sqffd_result {
 #define SQFFD__RESULT_ENUM(name, text) name,
@@ -413,16 +418,26 @@ typedef struct sqffd_superquadric {
     double center[3];
 } sqffd_superquadric;
 
+/* A valid superquadric (sqffd_sq_validate): sizes positive and at most
+   1e100, 0 < e1, e2 <= 4, |Kx|, |Ky| < 1, a centre within +-1e100 on each
+   axis, and a proper rotation
+   (orthonormal within 1e-6, det +1). Every function below checks it and
+   returns INVALID_MODEL otherwise (INVALID_ARGUMENT for NULL pointers). */
+SQFFD_DEF sqffd_result sqffd_sq_validate(const sqffd_superquadric *sq);
 /* Inside-outside function F (tapering undone first): < 1 inside, 1 on the
-   surface, > 1 outside. Computed in logarithms; may be +inf far away. */
-SQFFD_DEF double sqffd_sq_inside_outside(const sqffd_superquadric *sq, const double point[3]);
+   surface, > 1 outside. Computed in logarithms; may be +inf far away (not an
+   error). NON_FINITE for a non-finite point. */
+SQFFD_DEF sqffd_result sqffd_sq_inside_outside(const sqffd_superquadric *sq, const double point[3], double *value);
 /* Radial distance: |u| |1 - F^(-e1/2)|, u the point in the untapered local
    frame: the distance along the ray from the centre (an approximation of the
-   Euclidean distance that is exact for spheres). */
-SQFFD_DEF double sqffd_sq_radial_distance(const sqffd_superquadric *sq, const double point[3]);
+   Euclidean distance that is exact for spheres). NON_FINITE for a
+   non-finite point. */
+SQFFD_DEF sqffd_result sqffd_sq_radial_distance(const sqffd_superquadric *sq, const double point[3], double *distance);
 /* World surface point and outward unit normal at (eta, omega); normal may be
-   NULL. The normal is analytic (finite at the poles and for small e). */
-SQFFD_DEF void sqffd_sq_point(const sqffd_superquadric *sq, double eta, double omega, double point[3], double normal[3]);
+   NULL. The normal is analytic (finite at the poles and for small e).
+   NON_FINITE for non-finite angles. */
+SQFFD_DEF sqffd_result sqffd_sq_point(const sqffd_superquadric *sq, double eta, double omega, double point[3],
+                                      double normal[3]);
 /* Regular grid: n_eta rows from eta = -pi/2 to pi/2 (poles included), n_omega
    columns from omega = -pi (included) to pi (excluded); row-major, point
    (i, j) at index i * n_omega + j. normals may be NULL. INVALID_ARGUMENT for
@@ -435,21 +450,23 @@ SQFFD_DEF sqffd_result sqffd_sq_sample_grid(const sqffd_superquadric *sq, int n_
    its chord is the spacing within 10%), so flat and pointy shapes are
    covered evenly. Like Pilu & Fisher's product sampling, a shape much
    longer in x or y than its meridians are elsewhere gets its rows closer
-   than `spacing` where the meridians are short. Returns how many points the
-   sampling has and writes at most `capacity` of them (points may be NULL
-   with capacity 0 to count). Returns 0 for an invalid superquadric, a
-   spacing that is not positive and finite, or one so small that the count
-   could pass ~1e8. */
-SQFFD_DEF size_t sqffd_sq_sample_uniform(const sqffd_superquadric *sq, double spacing, double *points, size_t capacity);
+   than `spacing` where the meridians are short. *count = how many points
+   the sampling has; the first min(*count, capacity) are written (points may
+   be NULL with capacity 0 to count). INVALID_ARGUMENT for a spacing that is
+   not positive and finite, TOO_LARGE for one so small that the count could
+   pass ~1e8. */
+SQFFD_DEF sqffd_result sqffd_sq_sample_uniform(const sqffd_superquadric *sq, double spacing, double *points,
+                                               size_t capacity, size_t *count);
 /* Enclosed volume: a1 a2 a3 e1 e2 B(e2/2, e2/2) [B(e1/2, e1+1) + Kx Ky B(3 e1/2, e1+1)]
    (the untapered 2 a1 a2 a3 e1 e2 B(e1/2+1, e1) B(e2/2, e2/2), plus the
    tapering's term from the second moment of the cross-sections in z). */
-SQFFD_DEF double sqffd_sq_volume(const sqffd_superquadric *sq);
+SQFFD_DEF sqffd_result sqffd_sq_volume(const sqffd_superquadric *sq, double *volume);
 /* Deterministic volumetric intersection-over-union of two superquadrics,
    counted at the cell centres of a resolution^3 grid over the union of
-   their bounding boxes (48-64 resolve ~0.5%). -1 for NULL, an invalid
-   superquadric or resolution < 1. */
-SQFFD_DEF double sqffd_sq_iou(const sqffd_superquadric *a, const sqffd_superquadric *b, int resolution);
+   their bounding boxes (48-64 resolve ~0.5%). INVALID_ARGUMENT for
+   resolution < 1 or > 4096. */
+SQFFD_DEF sqffd_result sqffd_sq_iou(const sqffd_superquadric *a, const sqffd_superquadric *b, int resolution,
+                                    double *iou);
 
 typedef enum sqffd_sq_cost {
     SQFFD_SQ_COST_SOLINA = 0, /* sqrt(a1 a2 a3) (F^e1 - 1): the paper's equation (1) family (default) */
@@ -527,6 +544,42 @@ SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_
 #define SQFFD_MAX_LATTICE 8 /* control points per axis at most; bounds sqffd_ffd's size */
 #endif
 
+/* sqffd_ffd's and sqffd_model's layouts depend on SQFFD_MAX_LATTICE. A build
+   with another value (a plain integer) renames every function that takes
+   them, so translation units that disagree fail to link ("undefined
+   reference to sqffd_fit_lattice6") instead of reading each other's structs
+   wrongly. */
+#if SQFFD_MAX_LATTICE != 8
+#define SQFFD__LATTICE_NAME2(name, n) name##_lattice##n
+#define SQFFD__LATTICE_NAME(name, n) SQFFD__LATTICE_NAME2(name, n)
+#define sqffd_ffd_init SQFFD__LATTICE_NAME(sqffd_ffd_init, SQFFD_MAX_LATTICE)
+#define sqffd_ffd_validate SQFFD__LATTICE_NAME(sqffd_ffd_validate, SQFFD_MAX_LATTICE)
+#define sqffd_ffd_local SQFFD__LATTICE_NAME(sqffd_ffd_local, SQFFD_MAX_LATTICE)
+#define sqffd_ffd_eval SQFFD__LATTICE_NAME(sqffd_ffd_eval, SQFFD_MAX_LATTICE)
+#define sqffd_ffd_deform SQFFD__LATTICE_NAME(sqffd_ffd_deform, SQFFD_MAX_LATTICE)
+#define sqffd_model_init SQFFD__LATTICE_NAME(sqffd_model_init, SQFFD_MAX_LATTICE)
+#define sqffd_model_validate SQFFD__LATTICE_NAME(sqffd_model_validate, SQFFD_MAX_LATTICE)
+#define sqffd_model_point SQFFD__LATTICE_NAME(sqffd_model_point, SQFFD_MAX_LATTICE)
+#define sqffd_model_mesh SQFFD__LATTICE_NAME(sqffd_model_mesh, SQFFD_MAX_LATTICE)
+#define sqffd_model_save_size SQFFD__LATTICE_NAME(sqffd_model_save_size, SQFFD_MAX_LATTICE)
+#define sqffd_model_save SQFFD__LATTICE_NAME(sqffd_model_save, SQFFD_MAX_LATTICE)
+#define sqffd_model_load SQFFD__LATTICE_NAME(sqffd_model_load, SQFFD_MAX_LATTICE)
+#define sqffd_model_distances_workspace_size SQFFD__LATTICE_NAME(sqffd_model_distances_workspace_size, SQFFD_MAX_LATTICE)
+#define sqffd_model_distances SQFFD__LATTICE_NAME(sqffd_model_distances, SQFFD_MAX_LATTICE)
+#define sqffd_model_reverse_distances_workspace_size \
+    SQFFD__LATTICE_NAME(sqffd_model_reverse_distances_workspace_size, SQFFD_MAX_LATTICE)
+#define sqffd_model_reverse_distances SQFFD__LATTICE_NAME(sqffd_model_reverse_distances, SQFFD_MAX_LATTICE)
+#define sqffd_fit SQFFD__LATTICE_NAME(sqffd_fit, SQFFD_MAX_LATTICE)
+#define sqffd_fit_ffd_workspace_size SQFFD__LATTICE_NAME(sqffd_fit_ffd_workspace_size, SQFFD_MAX_LATTICE)
+#define sqffd_fit_ffd SQFFD__LATTICE_NAME(sqffd_fit_ffd, SQFFD_MAX_LATTICE)
+#define sqffd_ffd_system_size SQFFD__LATTICE_NAME(sqffd_ffd_system_size, SQFFD_MAX_LATTICE)
+#define sqffd_ffd_system_init SQFFD__LATTICE_NAME(sqffd_ffd_system_init, SQFFD_MAX_LATTICE)
+#define sqffd_fit_prepared SQFFD__LATTICE_NAME(sqffd_fit_prepared, SQFFD_MAX_LATTICE)
+#define sqffd_track SQFFD__LATTICE_NAME(sqffd_track, SQFFD_MAX_LATTICE)
+#define sqffd_motion_workspace_size SQFFD__LATTICE_NAME(sqffd_motion_workspace_size, SQFFD_MAX_LATTICE)
+#define sqffd_motion SQFFD__LATTICE_NAME(sqffd_motion, SQFFD_MAX_LATTICE)
+#endif
+
 /* A box (origin + three edge vectors, not necessarily orthogonal) holding an
    l x m x n lattice of control points (Sederberg & Parry); a point with local
    coordinates (s, t, u) maps to
@@ -550,14 +603,23 @@ typedef struct sqffd_ffd {
    INVALID_ARGUMENT for NULL or dims out of range, NON_FINITE, DEGENERATE for a
    flat box (|det| <= 1e-12 |S| |T| |U|). */
 SQFFD_DEF sqffd_result sqffd_ffd_init(sqffd_ffd *ffd, const int dims[3], const double origin[3], const double edges[9]);
+/* A valid lattice: dims in 2..SQFFD_MAX_LATTICE, a box that is not flat,
+   `inverse` its inverse (within 1e-9), and the box and the l*m*n control
+   points used within +-1e100 on each axis. INVALID_MODEL otherwise. The per-point functions below check the
+   dims only (so a stored lattice can never make them index out of bounds)
+   and report a non-finite result as NON_FINITE; call sqffd_ffd_validate
+   once on a lattice you did not make yourself. */
+SQFFD_DEF sqffd_result sqffd_ffd_validate(const sqffd_ffd *ffd);
 /* Local (s, t, u) of a world point. */
-SQFFD_DEF void sqffd_ffd_local(const sqffd_ffd *ffd, const double point[3], double stu[3]);
+SQFFD_DEF sqffd_result sqffd_ffd_local(const sqffd_ffd *ffd, const double point[3], double stu[3]);
 /* The deformed position of local coordinates (s, t, u). */
-SQFFD_DEF void sqffd_ffd_eval(const sqffd_ffd *ffd, const double stu[3], double out[3]);
+SQFFD_DEF sqffd_result sqffd_ffd_eval(const sqffd_ffd *ffd, const double stu[3], double out[3]);
 /* Forward deformation of a world point: eval(local(point)). */
-SQFFD_DEF void sqffd_ffd_deform(const sqffd_ffd *ffd, const double point[3], double out[3]);
-/* One row of the matrix B: the l*m*n Bernstein products at (s, t, u), in control-point order. */
-SQFFD_DEF void sqffd_ffd_weights(const int dims[3], const double stu[3], double *weights);
+SQFFD_DEF sqffd_result sqffd_ffd_deform(const sqffd_ffd *ffd, const double point[3], double out[3]);
+/* One row of the matrix B: the l*m*n Bernstein products at (s, t, u), in
+   control-point order (weights has room for l*m*n). INVALID_ARGUMENT for
+   dims out of range. */
+SQFFD_DEF sqffd_result sqffd_ffd_weights(const int dims[3], const double stu[3], double *weights);
 /* ======================================================================
    Layer 5: model fit (superquadric + FFD, the paper's two-step algorithm)
    ====================================================================== */
@@ -675,8 +737,38 @@ SQFFD_DEF size_t sqffd_fit_ffd_workspace_size(size_t n, const sqffd_model *model
 SQFFD_DEF sqffd_result sqffd_fit_ffd(const double *points, size_t n, const sqffd_fit_options *options, sqffd_model *model,
                                      sqffd_fit_report *report, void *workspace, size_t workspace_size);
 
-/* The model surface point at (eta, omega). */
-SQFFD_DEF void sqffd_model_point(const sqffd_model *model, double eta, double omega, double point[3]);
+/* The model surface point at (eta, omega). Checks the model as the per-point
+   FFD functions check a lattice (the superquadric and the dims); NON_FINITE
+   for non-finite angles or result. */
+SQFFD_DEF sqffd_result sqffd_model_point(const sqffd_model *model, double eta, double omega, double point[3]);
+/* A valid model: sqffd_sq_validate(&sq), sqffd_ffd_validate(&ffd), and a grid
+   of 2..65,536 rows and 3..65,536 columns. INVALID_MODEL otherwise. Every
+   function taking a model checks this (the per-point ones, less: see
+   sqffd_model_point) and returns INVALID_MODEL for a model that fails it. */
+SQFFD_DEF sqffd_result sqffd_model_validate(const sqffd_model *model);
+/* Save and load: a byte form of a model that any build reads back, whatever
+   its endianness or SQFFD_MAX_LATTICE (when the lattice fits it).
+   Little-endian throughout:
+     0   8 bytes  magic "SQFFDMDL"
+     8   u32      format version (1)
+     12  u32      total length in bytes
+     16  19 f64   superquadric: size[3], shape[2], taper[2], rotation[9], center[3]
+     168 3 u32    lattice dims l, m, n
+     180 12 f64   box: origin[3], edges[9]
+     276 2 u32    grid n_eta, n_omega
+     284 3lmn f64 the control points used, in sqffd_ffd's order
+     end u32      CRC-32 (IEEE, as zlib's) of every byte before it
+   3,288 bytes for a 5 x 5 x 5 lattice. The lattice's inverse is recomputed
+   on load. sqffd_model_save_size: the byte count for a valid model (0 for
+   NULL or an invalid one). sqffd_model_save: INVALID_MODEL, and
+   OUTPUT_TOO_SMALL when capacity is below that count (nothing written).
+   sqffd_model_load: BAD_FORMAT for anything but exactly one saved model
+   (magic, version, length, checksum), TOO_LARGE for a lattice beyond this
+   build's SQFFD_MAX_LATTICE, INVALID_MODEL for a well-formed record whose
+   model fails sqffd_model_validate; *model is written only on success. */
+SQFFD_DEF size_t sqffd_model_save_size(const sqffd_model *model);
+SQFFD_DEF sqffd_result sqffd_model_save(const sqffd_model *model, void *bytes, size_t capacity);
+SQFFD_DEF sqffd_result sqffd_model_load(sqffd_model *model, const void *bytes, size_t size);
 /* Triangle mesh of the model surface on an n_eta x n_omega grid laid out as
    above (closed, poles included): n_eta n_omega + 2 vertices (x y z each),
    2 n_eta n_omega triangles (3 uint32 indices each). INVALID_ARGUMENT when
@@ -1036,6 +1128,16 @@ static size_t sqffd__arena_required(const sqffd__arena *a)
 static int sqffd__finite3(const double *p)
 {
     return isfinite(p[0]) && isfinite(p[1]) && isfinite(p[2]);
+}
+
+/* A stored superquadric's or lattice's numbers are at most this in
+   magnitude, so that their squares and products stay far from overflow. */
+#define SQFFD__MAX_MAGNITUDE 1e100
+
+static int sqffd__bounded3(const double *p)
+{
+    return fabs(p[0]) <= SQFFD__MAX_MAGNITUDE && fabs(p[1]) <= SQFFD__MAX_MAGNITUDE &&
+           fabs(p[2]) <= SQFFD__MAX_MAGNITUDE; /* (false for NaN) */
 }
 
 /* An even, deterministic subsample of k of the n points (k <= n): point
@@ -2135,8 +2237,10 @@ SQFFD_DEF sqffd_result sqffd_kdtree_refit(sqffd_kdtree *tree, const double *poin
         const double *first;
         if (n->axis != SQFFD_KDTREE_LEAF || n->u.leaf.end - n->u.leaf.begin <= SQFFD__KD_LEAF_SIZE) continue;
         first = points + 3 * (size_t)tree->index[n->u.leaf.begin];
-        for (k = n->u.leaf.begin + 1; k < n->u.leaf.end; k++)
-            if (memcmp(points + 3 * (size_t)tree->index[k], first, 3 * sizeof(double)) != 0) return SQFFD_ERROR_DEGENERATE;
+        for (k = n->u.leaf.begin + 1; k < n->u.leaf.end; k++) {
+            const double *p = points + 3 * (size_t)tree->index[k];
+            if (p[0] != first[0] || p[1] != first[1] || p[2] != first[2]) return SQFFD_ERROR_DEGENERATE;
+        }
     }
     for (i = tree->node_count; i-- > 0;) {
         sqffd_kdtree_node *n = &tree->nodes[i];
@@ -2465,21 +2569,34 @@ static double sqffd__sq_log_f_at(const sqffd_superquadric *sq, const double u[3]
     return sqffd__sq_log_f(u, log_size, &x, NULL);
 }
 
-SQFFD_DEF double sqffd_sq_inside_outside(const sqffd_superquadric *sq, const double point[3])
+/* The checks every public superquadric function starts with. */
+static sqffd_result sqffd__sq_check(const sqffd_superquadric *sq, const double *point, const void *out)
 {
-    double u[3];
-    SQFFD_ASSERT(sq && point);
-    sqffd__sq_untapered(sq, point, u);
-    return exp(sqffd__sq_log_f_at(sq, u));
+    if (!sq || !out) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if (sqffd_sq_validate(sq) != SQFFD_OK) return SQFFD_ERROR_INVALID_MODEL;
+    if (point && !sqffd__finite3(point)) return SQFFD_ERROR_NON_FINITE;
+    return SQFFD_OK;
 }
 
-SQFFD_DEF double sqffd_sq_radial_distance(const sqffd_superquadric *sq, const double point[3])
+SQFFD_DEF sqffd_result sqffd_sq_inside_outside(const sqffd_superquadric *sq, const double point[3], double *value)
+{
+    double u[3];
+    sqffd_result r = point ? sqffd__sq_check(sq, point, value) : SQFFD_ERROR_INVALID_ARGUMENT;
+    if (r != SQFFD_OK) return r;
+    sqffd__sq_untapered(sq, point, u);
+    *value = exp(sqffd__sq_log_f_at(sq, u));
+    return SQFFD_OK;
+}
+
+SQFFD_DEF sqffd_result sqffd_sq_radial_distance(const sqffd_superquadric *sq, const double point[3], double *distance)
 {
     double u[3], lf;
-    SQFFD_ASSERT(sq && point);
+    sqffd_result r = point ? sqffd__sq_check(sq, point, distance) : SQFFD_ERROR_INVALID_ARGUMENT;
+    if (r != SQFFD_OK) return r;
     sqffd__sq_untapered(sq, point, u);
     lf = sqffd__sq_log_f_at(sq, u);
-    return sqrt(sqffd__dot3(u, u)) * fabs(1.0 - exp(-0.5 * sq->shape[0] * lf));
+    *distance = sqrt(sqffd__dot3(u, u)) * fabs(1.0 - exp(-0.5 * sq->shape[0] * lf));
+    return SQFFD_OK;
 }
 
 /* Untapered local surface point at (eta, omega). */
@@ -2510,10 +2627,10 @@ static void sqffd__sq_place(const sqffd_superquadric *sq, const double s[3], dou
     point[0] += sq->center[0]; point[1] += sq->center[1]; point[2] += sq->center[2];
 }
 
-SQFFD_DEF void sqffd_sq_point(const sqffd_superquadric *sq, double eta, double omega, double point[3], double normal[3])
+/* sqffd_sq_point on a valid superquadric. */
+static void sqffd__sq_point(const sqffd_superquadric *sq, double eta, double omega, double point[3], double normal[3])
 {
     double s[3], q[3];
-    SQFFD_ASSERT(sq && point);
     sqffd__sq_local_point(sq, eta, omega, s);
     sqffd__sq_place(sq, s, point);
     if (normal) {
@@ -2538,17 +2655,29 @@ SQFFD_DEF void sqffd_sq_point(const sqffd_superquadric *sq, double eta, double o
     }
 }
 
+SQFFD_DEF sqffd_result sqffd_sq_point(const sqffd_superquadric *sq, double eta, double omega, double point[3],
+                                      double normal[3])
+{
+    sqffd_result r = sqffd__sq_check(sq, NULL, point);
+    if (r != SQFFD_OK) return r;
+    if (!isfinite(eta) || !isfinite(omega)) return SQFFD_ERROR_NON_FINITE;
+    sqffd__sq_point(sq, eta, omega, point, normal);
+    return SQFFD_OK;
+}
+
 SQFFD_DEF sqffd_result sqffd_sq_sample_grid(const sqffd_superquadric *sq, int n_eta, int n_omega, double *points, double *normals)
 {
     int i, j;
-    if (!sq || !points || n_eta < 2 || n_omega < 1) return SQFFD_ERROR_INVALID_ARGUMENT;
+    sqffd_result r = sqffd__sq_check(sq, NULL, points);
+    if (r != SQFFD_OK) return r;
+    if (n_eta < 2 || n_omega < 1) return SQFFD_ERROR_INVALID_ARGUMENT;
     if ((size_t)n_eta > ((size_t)-1 / 3 / sizeof(double)) / (size_t)n_omega) return SQFFD_ERROR_TOO_LARGE;
     for (i = 0; i < n_eta; i++) {
         double eta = -0.5 * SQFFD__SQ_PI + SQFFD__SQ_PI * (double)i / (double)(n_eta - 1);
         for (j = 0; j < n_omega; j++) {
             double omega = -SQFFD__SQ_PI + 2.0 * SQFFD__SQ_PI * (double)j / (double)n_omega;
             size_t k = 3 * ((size_t)i * (size_t)n_omega + (size_t)j);
-            sqffd_sq_point(sq, eta, omega, points + k, normals ? normals + k : NULL);
+            sqffd__sq_point(sq, eta, omega, points + k, normals ? normals + k : NULL);
         }
     }
     return SQFFD_OK;
@@ -2659,7 +2788,7 @@ static size_t sqffd__sq_sample_row(const sqffd_superquadric *sq, double eta, dou
         double t = -SQFFD__SQ_PI + 0.5 * SQFFD__SQ_PI * quadrant, t_end = t + 0.5 * SQFFD__SQ_PI, guess = 0.0;
         sqffd__sq_arc_begin(&arc, t_end);
         while (t < t_end) {
-            if (count < capacity) sqffd_sq_point(sq, eta, t, points + 3 * count, NULL);
+            if (count < capacity) sqffd__sq_point(sq, eta, t, points + 3 * count, NULL);
             count++;
             if (ring < spacing) return count; /* a ring smaller than the spacing (a pole): one point */
             t = sqffd__sq_next(&arc, t, t_end, spacing, &guess);
@@ -2679,39 +2808,52 @@ static double sqffd__sq_sample_bound(const sqffd_superquadric *sq, double spacin
     return (2.0 * (2.0 * (r + z)) / spacing + 2.0) * (4.0 * (x + y) / spacing + 4.0);
 }
 
-static int sqffd__sq_valid(const sqffd_superquadric *sq)
+SQFFD_DEF sqffd_result sqffd_sq_validate(const sqffd_superquadric *sq)
 {
-    int k;
-    for (k = 0; k < 3; k++)
-        if (!(sq->size[k] > 0.0) || !isfinite(sq->size[k]) || !isfinite(sq->center[k])) return 0;
-    for (k = 0; k < 2; k++)
-        if (!(sq->shape[k] > 0.0) || !(sq->shape[k] <= 4.0) || !(fabs(sq->taper[k]) < 1.0)) return 0;
-    for (k = 0; k < 9; k++)
-        if (!isfinite(sq->rotation[k])) return 0;
-    return 1;
+    double cross[3];
+    int i, j;
+    if (!sq) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if (!sqffd__bounded3(sq->size) || !sqffd__bounded3(sq->center)) return SQFFD_ERROR_INVALID_MODEL;
+    for (i = 0; i < 3; i++)
+        if (!(sq->size[i] > 0.0)) return SQFFD_ERROR_INVALID_MODEL;
+    for (i = 0; i < 2; i++)
+        if (!(sq->shape[i] > 0.0) || !(sq->shape[i] <= 4.0) || !(fabs(sq->taper[i]) < 1.0))
+            return SQFFD_ERROR_INVALID_MODEL;
+    for (i = 0; i < 3; i++) /* columns orthonormal (NaN fails the comparison) */
+        for (j = i; j < 3; j++) {
+            const double *r = sq->rotation;
+            double d = r[i] * r[j] + r[3 + i] * r[3 + j] + r[6 + i] * r[6 + j];
+            if (!(fabs(d - (i == j ? 1.0 : 0.0)) <= 1e-6)) return SQFFD_ERROR_INVALID_MODEL;
+        }
+    sqffd__cross3(sq->rotation + 3, sq->rotation + 6, cross);
+    return sqffd__dot3(sq->rotation, cross) > 0.0 ? SQFFD_OK : SQFFD_ERROR_INVALID_MODEL;
 }
 
-SQFFD_DEF size_t sqffd_sq_sample_uniform(const sqffd_superquadric *sq, double spacing, double *points, size_t capacity)
+SQFFD_DEF sqffd_result sqffd_sq_sample_uniform(const sqffd_superquadric *sq, double spacing, double *points,
+                                               size_t capacity, size_t *count)
 {
     sqffd__sq_arc arc;
-    size_t count = 0;
+    size_t found = 0;
     int half;
+    sqffd_result r = sqffd__sq_check(sq, NULL, count);
+    if (r != SQFFD_OK) return r;
+    *count = 0;
+    if (!(spacing > 0.0) || !isfinite(spacing) || (capacity && !points)) return SQFFD_ERROR_INVALID_ARGUMENT;
+    /* refuse samplings beyond ~1e8 points rather than run for minutes */
+    if (sqffd__sq_sample_bound(sq, spacing) > 1e8) return SQFFD_ERROR_TOO_LARGE;
     arc.sq = sq;
     arc.along_omega = 0;
     arc.fixed = 0.0;
-    if (!sq || !sqffd__sq_valid(sq) || !(spacing > 0.0) || !isfinite(spacing)) return 0;
-    if (!points) capacity = 0;
-    /* refuse samplings beyond ~1e8 points rather than run for minutes */
-    if (sqffd__sq_sample_bound(sq, spacing) > 1e8) return 0;
     for (half = 0; half < 2; half++) { /* eta in [-pi/2, 0), then [0, pi/2) */
         double t = -0.5 * SQFFD__SQ_PI + 0.5 * SQFFD__SQ_PI * half, t_end = t + 0.5 * SQFFD__SQ_PI, guess = 0.0;
         sqffd__sq_arc_begin(&arc, t_end);
         while (t < t_end) {
-            count = sqffd__sq_sample_row(sq, t, spacing, points, capacity, count);
+            found = sqffd__sq_sample_row(sq, t, spacing, points, capacity, found);
             t = sqffd__sq_next(&arc, t, t_end, spacing, &guess);
         }
     }
-    return sqffd__sq_sample_row(sq, 0.5 * SQFFD__SQ_PI, spacing, points, capacity, count);
+    *count = sqffd__sq_sample_row(sq, 0.5 * SQFFD__SQ_PI, spacing, points, capacity, found);
+    return SQFFD_OK;
 }
 
 /* ---- volume and IoU ----
@@ -2727,13 +2869,15 @@ static double sqffd__sq_beta(double x, double y)
     return tgamma(x) * tgamma(y) / tgamma(x + y);
 }
 
-SQFFD_DEF double sqffd_sq_volume(const sqffd_superquadric *sq)
+SQFFD_DEF sqffd_result sqffd_sq_volume(const sqffd_superquadric *sq, double *volume)
 {
     double e1, e2;
-    SQFFD_ASSERT(sq);
+    sqffd_result r = sqffd__sq_check(sq, NULL, volume);
+    if (r != SQFFD_OK) return r;
     e1 = sq->shape[0]; e2 = sq->shape[1];
-    return sq->size[0] * sq->size[1] * sq->size[2] * e1 * e2 * sqffd__sq_beta(0.5 * e2, 0.5 * e2) *
-           (sqffd__sq_beta(0.5 * e1, e1 + 1.0) + sq->taper[0] * sq->taper[1] * sqffd__sq_beta(1.5 * e1, e1 + 1.0));
+    *volume = sq->size[0] * sq->size[1] * sq->size[2] * e1 * e2 * sqffd__sq_beta(0.5 * e2, 0.5 * e2) *
+              (sqffd__sq_beta(0.5 * e1, e1 + 1.0) + sq->taper[0] * sq->taper[1] * sqffd__sq_beta(1.5 * e1, e1 + 1.0));
+    return isfinite(*volume) ? SQFFD_OK : SQFFD_ERROR_NON_FINITE;
 }
 
 /* World axis-aligned box around the tapered shape. */
@@ -2766,12 +2910,16 @@ static int sqffd__sq_contains(const sqffd_superquadric *sq, const double p[3])
     return pow(pow(x, 2.0 / e2) + pow(y, 2.0 / e2), e2 / e1) + pow(z, 2.0 / e1) <= 1.0;
 }
 
-SQFFD_DEF double sqffd_sq_iou(const sqffd_superquadric *a, const sqffd_superquadric *b, int resolution)
+SQFFD_DEF sqffd_result sqffd_sq_iou(const sqffd_superquadric *a, const sqffd_superquadric *b, int resolution,
+                                    double *iou)
 {
     double lo[3], hi[3], lo_b[3], hi_b[3], step[3];
     size_t in_a = 0, in_b = 0, in_both = 0;
     int i, j, k;
-    if (!a || !b || resolution < 1 || !sqffd__sq_valid(a) || !sqffd__sq_valid(b)) return -1.0;
+    sqffd_result r = sqffd__sq_check(a, NULL, iou);
+    if (r == SQFFD_OK) r = sqffd__sq_check(b, NULL, iou);
+    if (r != SQFFD_OK) return r;
+    if (resolution < 1 || resolution > 4096) return SQFFD_ERROR_INVALID_ARGUMENT;
     sqffd__sq_bounds(a, lo, hi);
     sqffd__sq_bounds(b, lo_b, hi_b);
     for (i = 0; i < 3; i++) {
@@ -2793,8 +2941,8 @@ SQFFD_DEF double sqffd_sq_iou(const sqffd_superquadric *a, const sqffd_superquad
                 in_b += (size_t)ib;
                 in_both += (size_t)(ia & ib);
             }
-    if (in_a + in_b == 0) return 0.0;
-    return (double)in_both / (double)(in_a + in_b - in_both);
+    *iou = in_a + in_b == 0 ? 0.0 : (double)in_both / (double)(in_a + in_b - in_both);
+    return SQFFD_OK;
 }
 
 /* ---- fit ------------------------------------------------------------------
@@ -4102,13 +4250,25 @@ static int sqffd__ffd_dims_valid(const int dims[3])
     return 1;
 }
 
+/* The box's determinant test of sqffd_ffd_init and sqffd_ffd_validate:
+   S . (T x U) against |S| |T| |U|. */
+static int sqffd__ffd_box_flat(const double edges[9], double *det)
+{
+    double cross[3], scale;
+    sqffd__cross3(edges + 3, edges + 6, cross);
+    *det = sqffd__dot3(edges, cross);
+    scale = sqrt(sqffd__dot3(edges, edges) * sqffd__dot3(edges + 3, edges + 3) * sqffd__dot3(edges + 6, edges + 6));
+    return !(fabs(*det) > 1e-12 * scale) || !isfinite(*det);
+}
+
 SQFFD_DEF sqffd_result sqffd_ffd_init(sqffd_ffd *ffd, const int dims[3], const double origin[3], const double edges[9])
 {
-    double det, scale;
+    double det;
     int a, i, j, k;
     if (!ffd || !dims || !origin || !edges || !sqffd__ffd_dims_valid(dims)) return SQFFD_ERROR_INVALID_ARGUMENT;
     if (!sqffd__finite3(origin) || !sqffd__finite3(edges) || !sqffd__finite3(edges + 3) || !sqffd__finite3(edges + 6))
         return SQFFD_ERROR_NON_FINITE;
+    if (sqffd__ffd_box_flat(edges, &det)) return SQFFD_ERROR_DEGENERATE;
     memset(ffd, 0, sizeof *ffd);
     /* Sederberg & Parry's local coordinates: s = (T x U).(X - X0) / (T x U).S
        and cyclically, so the rows of `inverse` are T x U, U x S, S x T over
@@ -4116,9 +4276,6 @@ SQFFD_DEF sqffd_result sqffd_ffd_init(sqffd_ffd *ffd, const int dims[3], const d
     sqffd__cross3(edges + 3, edges + 6, ffd->inverse);
     sqffd__cross3(edges + 6, edges, ffd->inverse + 3);
     sqffd__cross3(edges, edges + 3, ffd->inverse + 6);
-    det = sqffd__dot3(edges, ffd->inverse);
-    scale = sqrt(sqffd__dot3(edges, edges) * sqffd__dot3(edges + 3, edges + 3) * sqffd__dot3(edges + 6, edges + 6));
-    if (!(fabs(det) > 1e-12 * scale) || !isfinite(det)) return SQFFD_ERROR_DEGENERATE;
     for (a = 0; a < 9; ++a) ffd->inverse[a] /= det;
     for (a = 0; a < 3; ++a) ffd->dims[a] = dims[a];
     memcpy(ffd->origin, origin, sizeof ffd->origin);
@@ -4135,28 +4292,87 @@ SQFFD_DEF sqffd_result sqffd_ffd_init(sqffd_ffd *ffd, const int dims[3], const d
     return SQFFD_OK;
 }
 
-SQFFD_DEF void sqffd_ffd_local(const sqffd_ffd *ffd, const double point[3], double stu[3])
+SQFFD_DEF sqffd_result sqffd_ffd_validate(const sqffd_ffd *ffd)
+{
+    double det;
+    size_t k, used;
+    int i, j;
+    if (!ffd) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if (!sqffd__ffd_dims_valid(ffd->dims)) return SQFFD_ERROR_INVALID_MODEL;
+    for (i = 0; i < 3; ++i)
+        if (!sqffd__bounded3(ffd->edges + 3 * i) || !sqffd__finite3(ffd->inverse + 3 * i)) return SQFFD_ERROR_INVALID_MODEL;
+    if (!sqffd__bounded3(ffd->origin) || sqffd__ffd_box_flat(ffd->edges, &det)) return SQFFD_ERROR_INVALID_MODEL;
+    for (i = 0; i < 3; ++i) /* inverse times the edge matrix (columns S, T, U) is the identity */
+        for (j = 0; j < 3; ++j) {
+            double e = ffd->inverse[3 * i] * ffd->edges[3 * j] + ffd->inverse[3 * i + 1] * ffd->edges[3 * j + 1] +
+                       ffd->inverse[3 * i + 2] * ffd->edges[3 * j + 2];
+            if (!(fabs(e - (i == j ? 1.0 : 0.0)) <= 1e-9)) return SQFFD_ERROR_INVALID_MODEL;
+        }
+    used = (size_t)ffd->dims[0] * (size_t)ffd->dims[1] * (size_t)ffd->dims[2];
+    for (k = 0; k < used; ++k)
+        if (!sqffd__bounded3(ffd->control[k])) return SQFFD_ERROR_INVALID_MODEL;
+    return SQFFD_OK;
+}
+
+/* The per-point functions on a lattice whose dims are valid. */
+static void sqffd__ffd_local(const sqffd_ffd *ffd, const double point[3], double stu[3])
 {
     double d[3];
     sqffd__sub3(point, ffd->origin, d);
     sqffd__mat3_vec(ffd->inverse, d, stu);
 }
 
-SQFFD_DEF void sqffd_ffd_eval(const sqffd_ffd *ffd, const double stu[3], double out[3])
+static void sqffd__ffd_eval(const sqffd_ffd *ffd, const double stu[3], double out[3])
 {
     double w[3 * SQFFD_MAX_LATTICE], q[SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE][4];
     const int *d = ffd->dims;
-    SQFFD_ASSERT(sqffd__ffd_dims_valid(d));
     sqffd__ffd_axis_weights(d, stu, w);
     sqffd__ffd_sum_u(d, (const double (*)[3])ffd->control, w + d[0] + d[1], q);
     sqffd__ffd_sum_st(d, (const double (*)[4])q, w, w + d[0], out);
 }
 
-SQFFD_DEF void sqffd_ffd_deform(const sqffd_ffd *ffd, const double point[3], double out[3])
+static void sqffd__ffd_deform(const sqffd_ffd *ffd, const double point[3], double out[3])
 {
     double stu[3];
-    sqffd_ffd_local(ffd, point, stu);
-    sqffd_ffd_eval(ffd, stu, out);
+    sqffd__ffd_local(ffd, point, stu);
+    sqffd__ffd_eval(ffd, stu, out);
+}
+
+/* The checks the per-point functions start with, and their ending. */
+static sqffd_result sqffd__ffd_check(const sqffd_ffd *ffd, const double *in, const double *out)
+{
+    if (!ffd || !in || !out) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if (!sqffd__ffd_dims_valid(ffd->dims)) return SQFFD_ERROR_INVALID_MODEL;
+    return sqffd__finite3(in) ? SQFFD_OK : SQFFD_ERROR_NON_FINITE;
+}
+
+static sqffd_result sqffd__finite_result(const double out[3])
+{
+    return sqffd__finite3(out) ? SQFFD_OK : SQFFD_ERROR_NON_FINITE;
+}
+
+SQFFD_DEF sqffd_result sqffd_ffd_local(const sqffd_ffd *ffd, const double point[3], double stu[3])
+{
+    sqffd_result r = sqffd__ffd_check(ffd, point, stu);
+    if (r != SQFFD_OK) return r;
+    sqffd__ffd_local(ffd, point, stu);
+    return sqffd__finite_result(stu);
+}
+
+SQFFD_DEF sqffd_result sqffd_ffd_eval(const sqffd_ffd *ffd, const double stu[3], double out[3])
+{
+    sqffd_result r = sqffd__ffd_check(ffd, stu, out);
+    if (r != SQFFD_OK) return r;
+    sqffd__ffd_eval(ffd, stu, out);
+    return sqffd__finite_result(out);
+}
+
+SQFFD_DEF sqffd_result sqffd_ffd_deform(const sqffd_ffd *ffd, const double point[3], double out[3])
+{
+    sqffd_result r = sqffd__ffd_check(ffd, point, out);
+    if (r != SQFFD_OK) return r;
+    sqffd__ffd_deform(ffd, point, out);
+    return sqffd__finite_result(out);
 }
 
 /* The l*m*n products of the three 1-D weight vectors, in control-point order. */
@@ -4171,12 +4387,14 @@ static void sqffd__ffd_expand(const int dims[3], const double *w, double *weight
         }
 }
 
-SQFFD_DEF void sqffd_ffd_weights(const int dims[3], const double stu[3], double *weights)
+SQFFD_DEF sqffd_result sqffd_ffd_weights(const int dims[3], const double stu[3], double *weights)
 {
     double w[3 * SQFFD_MAX_LATTICE];
-    SQFFD_ASSERT(sqffd__ffd_dims_valid(dims));
+    if (!dims || !stu || !weights || !sqffd__ffd_dims_valid(dims)) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if (!sqffd__finite3(stu)) return SQFFD_ERROR_NON_FINITE;
     sqffd__ffd_axis_weights(dims, stu, w);
     sqffd__ffd_expand(dims, w, weights);
+    return SQFFD_OK;
 }
 /* ======================================================================
    Layer 5: model fit (superquadric + FFD, the paper's two-step algorithm)
@@ -4377,7 +4595,7 @@ static double sqffd__fit_fan_closest(const double *x, const sqffd__fit_ring *rin
         t[1] = sqffd__fit_ring_at(r, k);
         t[2] = sqffd__fit_ring_at(r, k + 1 < r->count ? k + 1 : 0);
         d = sqffd__fit_corner_triangle(x, t, q, tw);
-        if (d < best) {
+        if (d < best || k == 0) { /* (k == 0: an answer even when every distance overflows) */
             *second = best;
             best = d;
             memcpy(tri, t, sizeof t);
@@ -5061,16 +5279,16 @@ static sqffd_result sqffd__fit_pass(const double *points, size_t n, sqffd__fit_s
     }
     if (step1) step1->energy = energy;
     sqffd__fit_stats(sum, sum2, max, n, diagonal, stats);
-    return SQFFD_OK;
+    return isfinite(sum2) ? SQFFD_OK : SQFFD_ERROR_NON_FINITE; /* (model and data too far apart to square) */
 }
 
 /* ---- model geometry ------------------------------------------------------ */
 
-SQFFD_DEF void sqffd_model_point(const sqffd_model *model, double eta, double omega, double point[3])
+SQFFD_DEF sqffd_result sqffd_model_point(const sqffd_model *model, double eta, double omega, double point[3])
 {
     double p[3];
-    sqffd_sq_point(&model->sq, eta, omega, p, NULL);
-    sqffd_ffd_deform(&model->ffd, p, point);
+    sqffd_result r = model ? sqffd_sq_point(&model->sq, eta, omega, p, NULL) : SQFFD_ERROR_INVALID_ARGUMENT;
+    return r == SQFFD_OK ? sqffd_ffd_deform(&model->ffd, p, point) : r;
 }
 
 /* The superquadric's points on the grid into x, each as sqffd_sq_point gives
@@ -5100,7 +5318,7 @@ static void sqffd__fit_sq_grid(const sqffd_superquadric *sq, const int grid[2], 
     }
     for (v = rows * cols; v < rows * cols + 2; ++v) {
         sqffd__fit_grid_angles(grid, v, &eta, &omega);
-        sqffd_sq_point(sq, eta, omega, x + 3 * v, NULL);
+        sqffd__sq_point(sq, eta, omega, x + 3 * v, NULL);
     }
 }
 
@@ -5109,12 +5327,164 @@ static void sqffd__fit_surface(const sqffd_model *model, const int grid[2], doub
 {
     size_t v, count = sqffd__fit_grid_count(grid);
     sqffd__fit_sq_grid(&model->sq, grid, x);
-    for (v = 0; v < count; ++v) sqffd_ffd_deform(&model->ffd, x + 3 * v, x + 3 * v);
+    for (v = 0; v < count; ++v) sqffd__ffd_deform(&model->ffd, x + 3 * v, x + 3 * v);
+}
+
+SQFFD_DEF sqffd_result sqffd_model_validate(const sqffd_model *model)
+{
+    sqffd_result r;
+    if (!model) return SQFFD_ERROR_INVALID_ARGUMENT;
+    r = sqffd_sq_validate(&model->sq);
+    if (r == SQFFD_OK) r = sqffd_ffd_validate(&model->ffd);
+    if (r == SQFFD_OK && sqffd__fit_grid_check(model->grid) != SQFFD_OK) r = SQFFD_ERROR_INVALID_MODEL;
+    return r;
 }
 
 static int sqffd__fit_model_valid(const sqffd_model *model)
 {
-    return sqffd__ffd_dims_valid(model->ffd.dims) && sqffd__fit_grid_check(model->grid) == SQFFD_OK;
+    return model && sqffd_model_validate(model) == SQFFD_OK;
+}
+
+/* ---- save and load: the byte form documented at sqffd_model_save ---------- */
+
+#define SQFFD__SAVE_VERSION 1u
+#define SQFFD__SAVE_HEADER 284u /* bytes before the control points */
+
+static const unsigned char sqffd__save_magic[8] = {'S', 'Q', 'F', 'F', 'D', 'M', 'D', 'L'};
+
+/* CRC-32 with the reflected IEEE polynomial 0xEDB88320, four bits a step:
+   entry k is the register after shifting k through four plain steps. */
+static uint32_t sqffd__crc32(const unsigned char *p, size_t n)
+{
+    static const uint32_t nibble[16] = {
+        0x00000000u, 0x1DB71064u, 0x3B6E20C8u, 0x26D930ACu, 0x76DC4190u, 0x6B6B51F4u, 0x4DB26158u, 0x5005713Cu,
+        0xEDB88320u, 0xF00F9344u, 0xD6D6A3E8u, 0xCB61B38Cu, 0x9B64C2B0u, 0x86D3D2D4u, 0xA00AE278u, 0xBDBDF21Cu};
+    uint32_t crc = 0xFFFFFFFFu;
+    size_t i;
+    for (i = 0; i < n; ++i) {
+        crc ^= p[i];
+        crc = (crc >> 4) ^ nibble[crc & 15u];
+        crc = (crc >> 4) ^ nibble[crc & 15u];
+    }
+    return ~crc;
+}
+
+static void sqffd__put_u32(unsigned char *p, uint32_t v)
+{
+    int i;
+    for (i = 0; i < 4; ++i) p[i] = (unsigned char)(v >> (8 * i));
+}
+
+static uint32_t sqffd__get_u32(const unsigned char *p)
+{
+    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+}
+
+/* Doubles by their IEEE bits, least significant byte first, whatever the host. */
+static unsigned char *sqffd__put_f64s(unsigned char *p, const double *v, size_t n)
+{
+    size_t k;
+    int i;
+    for (k = 0; k < n; ++k) {
+        uint64_t bits;
+        memcpy(&bits, v + k, 8);
+        for (i = 0; i < 8; ++i) *p++ = (unsigned char)(bits >> (8 * i));
+    }
+    return p;
+}
+
+static const unsigned char *sqffd__get_f64s(const unsigned char *p, double *v, size_t n)
+{
+    size_t k;
+    int i;
+    for (k = 0; k < n; ++k) {
+        uint64_t bits = 0;
+        for (i = 0; i < 8; ++i) bits |= (uint64_t)*p++ << (8 * i);
+        memcpy(v + k, &bits, 8);
+    }
+    return p;
+}
+
+static size_t sqffd__save_size(const int dims[3])
+{
+    return SQFFD__SAVE_HEADER + 24u * (size_t)dims[0] * (size_t)dims[1] * (size_t)dims[2] + 4u;
+}
+
+SQFFD_DEF size_t sqffd_model_save_size(const sqffd_model *model)
+{
+    return sqffd__fit_model_valid(model) ? sqffd__save_size(model->ffd.dims) : 0;
+}
+
+SQFFD_DEF sqffd_result sqffd_model_save(const sqffd_model *model, void *bytes, size_t capacity)
+{
+    unsigned char *out = (unsigned char *)bytes, *p;
+    const sqffd_superquadric *sq;
+    size_t size;
+    int i;
+    sqffd_result r;
+    if (!model || !bytes) return SQFFD_ERROR_INVALID_ARGUMENT;
+    r = sqffd_model_validate(model);
+    if (r != SQFFD_OK) return r;
+    size = sqffd__save_size(model->ffd.dims);
+    if (capacity < size) return SQFFD_ERROR_OUTPUT_TOO_SMALL;
+    sq = &model->sq;
+    memcpy(out, sqffd__save_magic, 8);
+    sqffd__put_u32(out + 8, SQFFD__SAVE_VERSION);
+    sqffd__put_u32(out + 12, (uint32_t)size);
+    p = sqffd__put_f64s(out + 16, sq->size, 3);
+    p = sqffd__put_f64s(p, sq->shape, 2);
+    p = sqffd__put_f64s(p, sq->taper, 2);
+    p = sqffd__put_f64s(p, sq->rotation, 9);
+    p = sqffd__put_f64s(p, sq->center, 3);
+    for (i = 0; i < 3; ++i, p += 4) sqffd__put_u32(p, (uint32_t)model->ffd.dims[i]);
+    p = sqffd__put_f64s(p, model->ffd.origin, 3);
+    p = sqffd__put_f64s(p, model->ffd.edges, 9);
+    for (i = 0; i < 2; ++i, p += 4) sqffd__put_u32(p, (uint32_t)model->grid[i]);
+    p = sqffd__put_f64s(p, &model->ffd.control[0][0], (size - SQFFD__SAVE_HEADER - 4u) / 8u);
+    sqffd__put_u32(p, sqffd__crc32(out, size - 4u));
+    return SQFFD_OK;
+}
+
+SQFFD_DEF sqffd_result sqffd_model_load(sqffd_model *model, const void *bytes, size_t size)
+{
+    const unsigned char *in = (const unsigned char *)bytes, *p;
+    sqffd_model m;
+    uint32_t dims[3], grid[2];
+    int lattice[3], i, magic = 1;
+    double box[12];
+    sqffd_result r;
+    if (!model || !bytes) return SQFFD_ERROR_INVALID_ARGUMENT;
+    for (i = 0; i < 8 && (size_t)i < size; ++i) magic &= in[i] == sqffd__save_magic[i];
+    if (size < SQFFD__SAVE_HEADER + 4u || !magic ||
+        sqffd__get_u32(in + 8) != SQFFD__SAVE_VERSION || sqffd__get_u32(in + 12) != size ||
+        sqffd__get_u32(in + size - 4u) != sqffd__crc32(in, size - 4u))
+        return SQFFD_ERROR_BAD_FORMAT;
+    for (i = 0; i < 3; ++i) dims[i] = sqffd__get_u32(in + 168 + 4 * i);
+    for (i = 0; i < 2; ++i) grid[i] = sqffd__get_u32(in + 276 + 4 * i);
+    for (i = 0; i < 3; ++i) /* the length must match the lattice it claims */
+        if (dims[i] < 2 || dims[i] > 0xFFFFu) return SQFFD_ERROR_BAD_FORMAT;
+    if (size != SQFFD__SAVE_HEADER + 24u * (size_t)dims[0] * (size_t)dims[1] * (size_t)dims[2] + 4u)
+        return SQFFD_ERROR_BAD_FORMAT;
+    for (i = 0; i < 3; ++i)
+        if (dims[i] > SQFFD_MAX_LATTICE) return SQFFD_ERROR_TOO_LARGE;
+    for (i = 0; i < 2; ++i)
+        if (grid[i] > SQFFD__FIT_MAX_GRID) return SQFFD_ERROR_INVALID_MODEL;
+    memset(&m, 0, sizeof m);
+    p = sqffd__get_f64s(in + 16, m.sq.size, 3);
+    p = sqffd__get_f64s(p, m.sq.shape, 2);
+    p = sqffd__get_f64s(p, m.sq.taper, 2);
+    p = sqffd__get_f64s(p, m.sq.rotation, 9);
+    sqffd__get_f64s(p, m.sq.center, 3);
+    for (i = 0; i < 2; ++i) m.grid[i] = (int)grid[i];
+    for (i = 0; i < 3; ++i) lattice[i] = (int)dims[i];
+    sqffd__get_f64s(in + 180, box, 12);
+    r = sqffd_ffd_init(&m.ffd, lattice, box, box + 3); /* (the inverse) */
+    if (r != SQFFD_OK) return SQFFD_ERROR_INVALID_MODEL;
+    sqffd__get_f64s(in + SQFFD__SAVE_HEADER, &m.ffd.control[0][0], (size - SQFFD__SAVE_HEADER - 4u) / 8u);
+    r = sqffd_model_validate(&m);
+    if (r != SQFFD_OK) return r;
+    *model = m;
+    return SQFFD_OK;
 }
 
 SQFFD_DEF sqffd_result sqffd_model_mesh_size(int n_eta, int n_omega, size_t *vertex_count, size_t *triangle_count)
@@ -5133,7 +5503,9 @@ SQFFD_DEF sqffd_result sqffd_model_mesh(const sqffd_model *model, int n_eta, int
 {
     int grid[2];
     sqffd_result r;
-    if (!model || !sqffd__ffd_dims_valid(model->ffd.dims)) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if (!model) return SQFFD_ERROR_INVALID_ARGUMENT;
+    r = sqffd_model_validate(model);
+    if (r != SQFFD_OK) return r;
     grid[0] = n_eta; grid[1] = n_omega;
     r = sqffd__fit_grid_check(grid);
     if (r != SQFFD_OK) return r;
@@ -5170,7 +5542,7 @@ static size_t sqffd__fit_distances_size(size_t n, const sqffd_model *model, int 
     sqffd__arena a;
     sqffd__fit_mesh_work w;
     size_t m;
-    if (!model || !sqffd__fit_model_valid(model) || n == 0) return 0;
+    if (!sqffd__fit_model_valid(model) || n == 0) return 0;
     m = sqffd__fit_grid_count(model->grid);
     sqffd__arena_measure(&a);
     sqffd__fit_distances_layout(&a, reverse ? n : m, model->grid, reverse, &w);
@@ -5197,7 +5569,9 @@ static sqffd_result sqffd__fit_distances_setup(const sqffd_model *model, const d
     sqffd__arena a;
     size_t m;
     sqffd_result r;
-    if (!model || !points || !sqffd__fit_model_valid(model)) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if (!model || !points) return SQFFD_ERROR_INVALID_ARGUMENT;
+    r = sqffd_model_validate(model);
+    if (r != SQFFD_OK) return r;
     if (n == 0) return SQFFD_ERROR_TOO_FEW_POINTS;
     r = sqffd__fit_diagonal(points, n, diagonal);
     if (r != SQFFD_OK) return r;
@@ -5294,17 +5668,18 @@ static sqffd_result sqffd__fit_check_options(const sqffd_fit_options *o)
 
 SQFFD_DEF sqffd_result sqffd_model_init(sqffd_model *model, const sqffd_superquadric *sq, const sqffd_fit_options *options)
 {
+    sqffd_fit_options defaults = sqffd_fit_options_default();
     sqffd_superquadric shape;
     double half[3], origin[3], edges[9], m;
     int a, r;
     sqffd_result res;
-    if (!model || !sq || !options || !sqffd__ffd_dims_valid(options->lattice)) return SQFFD_ERROR_INVALID_ARGUMENT;
-    res = sqffd__fit_grid_check(options->grid);
+    if (!options) options = &defaults;
+    if (!model || !sq || !sqffd__ffd_dims_valid(options->lattice)) return SQFFD_ERROR_INVALID_ARGUMENT;
+    res = sqffd_sq_validate(sq);
+    if (res == SQFFD_OK) res = sqffd__fit_grid_check(options->grid);
     if (res != SQFFD_OK) return res;
     m = options->box_margin;
     if (!(m >= 0.0) || !isfinite(m)) return SQFFD_ERROR_INVALID_ARGUMENT;
-    for (a = 0; a < 3; ++a)
-        if (!(sq->size[a] > 0.0)) return isfinite(sq->size[a]) ? SQFFD_ERROR_INVALID_ARGUMENT : SQFFD_ERROR_NON_FINITE;
     /* the tapered shape lies within |X| <= a1 (1 + |Kx|), |Y| <= a2 (1 + |Ky|), |Z| <= a3 */
     half[0] = sq->size[0] * (1.0 + fabs(sq->taper[0])) * (1.0 + m);
     half[1] = sq->size[1] * (1.0 + fabs(sq->taper[1])) * (1.0 + m);
@@ -5660,7 +6035,7 @@ static sqffd_result sqffd__fit_prepare(const sqffd_model *model, double alpha, d
     for (v = 0; v < m; ++v) {
         double stu[3];
         if (!sqffd__finite3(s->rest + 3 * v)) return SQFFD_ERROR_NON_FINITE;
-        sqffd_ffd_local(&model->ffd, s->rest + 3 * v, stu);
+        sqffd__ffd_local(&model->ffd, s->rest + 3 * v, stu);
         if (v > 0 && fabs(stu[2] - run_u) <= SQFFD__FIT_SNAP) stu[2] = run_u;
         else { s->run[s->runs++] = (uint32_t)v; run_u = stu[2]; }
         sqffd__ffd_axis_weights(s->dims, stu, s->weights + v * s->stride);
@@ -6027,7 +6402,7 @@ SQFFD_DEF size_t sqffd_fit_ffd_workspace_size(size_t n, const sqffd_model *model
     sqffd__arena a;
     sqffd__fit_system s;
     sqffd__fit_frame f;
-    if (!model || !options || n == 0 || !sqffd__fit_model_valid(model)) return 0;
+    if (!options || n == 0 || !sqffd__fit_model_valid(model)) return 0;
     sqffd__arena_measure(&a);
     sqffd__fit_system_layout(&a, model->ffd.dims, model->grid, &s);
     sqffd__fit_frame_layout(&a, n, model->ffd.dims, model->grid, options, 0, &f);
@@ -6084,8 +6459,9 @@ SQFFD_DEF sqffd_result sqffd_fit_ffd(const double *points, size_t n, const sqffd
     sqffd_fit_report local;
     double diagonal = 0.0;
     sqffd_result res;
-    if (!points || !options || !model || !sqffd__fit_model_valid(model)) return SQFFD_ERROR_INVALID_ARGUMENT;
-    res = sqffd__fit_check_options(options);
+    if (!points || !options || !model) return SQFFD_ERROR_INVALID_ARGUMENT;
+    res = sqffd_model_validate(model);
+    if (res == SQFFD_OK) res = sqffd__fit_check_options(options);
     if (res == SQFFD_OK) res = sqffd__fit_check_data(points, n, &diagonal);
     if (res != SQFFD_OK) return res;
     sqffd__arena_init(&a, workspace, workspace_size);
@@ -6199,7 +6575,7 @@ SQFFD_DEF size_t sqffd_ffd_system_size(const sqffd_model *model)
 {
     sqffd__arena a;
     sqffd__fit_system *state;
-    if (!model || !sqffd__fit_model_valid(model)) return 0;
+    if (!sqffd__fit_model_valid(model)) return 0;
     sqffd__arena_measure(&a);
     sqffd__fit_state_layout(&a, model->ffd.dims, model->grid, &state);
     return sqffd__arena_required(&a);
@@ -6213,9 +6589,10 @@ SQFFD_DEF sqffd_result sqffd_ffd_system_init(sqffd_ffd_system *system, const sqf
     sqffd__arena a;
     sqffd__fit_system *state;
     sqffd_result res;
-    if (!system || !model || !sqffd__fit_model_valid(model)) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if (!system || !model) return SQFFD_ERROR_INVALID_ARGUMENT;
     memset(system, 0, sizeof *system);
-    res = sqffd__fit_check_options(o);
+    res = sqffd_model_validate(model);
+    if (res == SQFFD_OK) res = sqffd__fit_check_options(o);
     if (res != SQFFD_OK) return res;
     sqffd__arena_init(&a, memory, memory_size);
     sqffd__fit_state_layout(&a, model->ffd.dims, model->grid, &state);
@@ -6560,15 +6937,17 @@ SQFFD_DEF sqffd_result sqffd_motion(const sqffd_model *models, size_t frame_coun
     double inward[SQFFD_SEGMENTS];
     size_t m, t, v, wall = 0;
     int k, b;
-    if (!models || frame_count == 0 || !sqffd__fit_model_valid(models) || o->ed_frame >= frame_count)
-        return SQFFD_ERROR_INVALID_ARGUMENT;
+    if (!models || frame_count == 0 || o->ed_frame >= frame_count) return SQFFD_ERROR_INVALID_ARGUMENT;
     if (!(o->low_motion_fraction >= 0.0) || !isfinite(o->low_motion_fraction) || !(o->hypokinetic_share >= 0.0) ||
         !(o->hypokinetic_share <= 1.0) || !(o->apex_fraction >= 0.0) || !(o->apex_fraction < 1.0))
         return SQFFD_ERROR_INVALID_ARGUMENT;
-    for (t = 1; t < frame_count; ++t)
-        if (!sqffd__fit_same_frame(&models->sq, models->ffd.dims, models->ffd.origin, models->ffd.edges, models->grid,
-                                   models + t))
+    for (t = 0; t < frame_count; ++t) {
+        sqffd_result r = sqffd_model_validate(models + t);
+        if (r != SQFFD_OK) return r;
+        if (t && !sqffd__fit_same_frame(&models->sq, models->ffd.dims, models->ffd.origin, models->ffd.edges,
+                                        models->grid, models + t))
             return SQFFD_ERROR_INVALID_ARGUMENT;
+    }
     memset(&none, 0, sizeof none);
     out = outputs ? outputs : &none;
     m = sqffd__fit_grid_count(models->grid);

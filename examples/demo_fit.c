@@ -55,7 +55,7 @@ int main(void)
     printf("error (RMS distance / diagonal): superquadric %.4f%%, after %d FFD iterations %.4f%%\n",
            100 * rep.sq_error.rms_relative, rep.iterations, 100 * rep.error.rms_relative);
 
-    sqffd_model_point(&model, 1.5707963267948966, 0.0, top); /* eta = pi/2: the end of the local z axis */
+    if (sqffd_model_point(&model, 1.5707963267948966, 0.0, top) != SQFFD_OK) return 1; /* eta = pi/2: the end of the local z axis */
     printf("model point (pi/2, 0) at %.3f %.3f %.3f\n", top[0], top[1], top[2]);
 
     if (sqffd_model_mesh_size(MESH_ETA, MESH_OMEGA, &vertex_count, &triangle_count) != SQFFD_OK) return 1;

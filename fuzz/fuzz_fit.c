@@ -115,7 +115,12 @@ static void fuzz_model_fit(const double *points, size_t n, uint8_t flags, int la
     if (!work) return;
     if (sqffd_fit(points, n, &o, &model, &report, work, size) == SQFFD_OK) {
         double p[3];
-        sqffd_model_point(&model, 0.3, -1.0, p);
+        unsigned char saved[4096];
+        sqffd_model back;
+        if (sqffd_model_validate(&model) != SQFFD_OK) abort(); /* a fit gives a valid model ... */
+        if (sqffd_model_point(&model, 0.3, -1.0, p) != SQFFD_OK) abort();
+        if (sqffd_model_save(&model, saved, sizeof saved) != SQFFD_OK) abort(); /* ... that saves and loads */
+        if (sqffd_model_load(&back, saved, sqffd_model_save_size(&model)) != SQFFD_OK) abort();
         if (!isfinite(report.error.rms) || report.iterations < 0 || report.iterations > 3) abort();
     }
     free(work);

@@ -43,5 +43,6 @@ void suite_inflate(void);
 void suite_volume_io(void);
 void suite_export(void);
 void suite_volume(void);
+void suite_model(void);
 
 #endif

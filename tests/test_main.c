@@ -50,6 +50,7 @@ int main(int argc, char **argv)
     suite_volume_io();
     suite_export();
     suite_volume();
+    suite_model();
     printf("%d passed, %d failed\n", passed, failed);
     return failed ? 1 : 0;
 }

@@ -17,6 +17,36 @@ static sqffd_superquadric sq_make(double a1, double a2, double a3, double e1, do
     return sq;
 }
 
+/* The value-returning forms the checks below read best in: a call that
+   fails fails the test and gives NaN. */
+static double io_of(const sqffd_superquadric *sq, const double p[3])
+{
+    double f = NAN;
+    CHECK_RESULT(sqffd_sq_inside_outside(sq, p, &f), SQFFD_OK);
+    return f;
+}
+
+static double radial_of(const sqffd_superquadric *sq, const double p[3])
+{
+    double d = NAN;
+    CHECK_RESULT(sqffd_sq_radial_distance(sq, p, &d), SQFFD_OK);
+    return d;
+}
+
+static double volume_of(const sqffd_superquadric *sq)
+{
+    double v = NAN;
+    CHECK_RESULT(sqffd_sq_volume(sq, &v), SQFFD_OK);
+    return v;
+}
+
+static double iou_of(const sqffd_superquadric *a, const sqffd_superquadric *b, int resolution)
+{
+    double iou = NAN;
+    CHECK_RESULT(sqffd_sq_iou(a, b, resolution, &iou), SQFFD_OK);
+    return iou;
+}
+
 static int cmp_double(const void *a, const void *b)
 {
     double x = *(const double *)a, y = *(const double *)b;
@@ -38,10 +68,10 @@ static void test_sq_surface_points_have_f_one(void)
                 double p[3], eta = -1.5 + 3.0 * i / 12.0, omega = -3.1 + 6.2 * j / 16.0;
                 double f;
                 sqffd_sq_point(&sq, eta, omega, p, NULL);
-                f = sqffd_sq_inside_outside(&sq, p);
+                f = io_of(&sq, p);
                 CHECK_MSG(fabs(f - 1.0) < 1e-9, "shape %d: F = %.15g at eta %g omega %g (e %g %g)", s, f, eta, omega,
                           sq.shape[0], sq.shape[1]);
-                CHECK_MSG(sqffd_sq_radial_distance(&sq, p) < 1e-9 * synth_mean_size(&sq), "radial distance on surface");
+                CHECK_MSG(radial_of(&sq, p) < 1e-9 * synth_mean_size(&sq), "radial distance on surface");
             }
     }
 }
@@ -75,9 +105,9 @@ static void test_sq_normals_orthogonal_and_outward(void)
                 CHECK_MSG(fabs(n[0] * to[0] + n[1] * to[1] + n[2] * to[2]) < 1e-5 * len, "normal . d/domega");
                 step = 1e-3 * synth_mean_size(&sq);
                 for (k = 0; k < 3; k++) q[k] = p[k] + step * n[k];
-                CHECK(sqffd_sq_inside_outside(&sq, q) > 1.0);
+                CHECK(io_of(&sq, q) > 1.0);
                 for (k = 0; k < 3; k++) q[k] = p[k] - step * n[k];
-                CHECK(sqffd_sq_inside_outside(&sq, q) < 1.0);
+                CHECK(io_of(&sq, q) < 1.0);
             }
     }
 }
@@ -117,7 +147,7 @@ static double volume_by_grid(const sqffd_superquadric *sq, int n)
                 p[0] = sq->center[0] + ext[0] * (-1.0 + (2.0 * i + 1.0) / n);
                 p[1] = sq->center[1] + ext[1] * (-1.0 + (2.0 * j + 1.0) / n);
                 p[2] = sq->center[2] + ext[2] * (-1.0 + (2.0 * k + 1.0) / n);
-                count += sqffd_sq_inside_outside(sq, p) <= 1.0;
+                count += io_of(sq, p) <= 1.0;
             }
     return count * cell;
 }
@@ -128,14 +158,14 @@ static void test_sq_volume_closed_form(void)
     sqffd_superquadric ellipsoid = sq_make(1, 2, 3, 1, 1, 0, 0);
     sqffd_superquadric cases[5];
     int i;
-    CHECK_NEAR(sqffd_sq_volume(&sphere), 4.0 / 3.0 * SYNTH_PI * 8.0, 1e-12);
-    CHECK_NEAR(sqffd_sq_volume(&ellipsoid), 4.0 / 3.0 * SYNTH_PI * 6.0, 1e-12);
+    CHECK_NEAR(volume_of(&sphere), 4.0 / 3.0 * SYNTH_PI * 8.0, 1e-12);
+    CHECK_NEAR(volume_of(&ellipsoid), 4.0 / 3.0 * SYNTH_PI * 6.0, 1e-12);
     /* a near-box: e -> 0 tends to 8 a1 a2 a3 */
     ellipsoid = sq_make(1, 2, 3, 0.01, 0.01, 0, 0);
-    CHECK_NEAR(sqffd_sq_volume(&ellipsoid) / 48.0, 1.0, 0.02);
+    CHECK_NEAR(volume_of(&ellipsoid) / 48.0, 1.0, 0.02);
     /* octahedron: e1 = e2 = 2, volume 4/3 a1 a2 a3 */
     ellipsoid = sq_make(1, 2, 3, 2, 2, 0, 0);
-    CHECK_NEAR(sqffd_sq_volume(&ellipsoid), 8.0, 1e-12);
+    CHECK_NEAR(volume_of(&ellipsoid), 8.0, 1e-12);
     /* tapered and untapered against a grid count */
     cases[0] = sq_make(1, 2, 3, 0.5, 1.5, 0, 0);
     cases[1] = sq_make(1, 2, 3, 0.5, 1.5, 0.6, 0.5);
@@ -143,11 +173,11 @@ static void test_sq_volume_closed_form(void)
     cases[3] = sq_make(1.5, 1, 2, 0.2, 1.0, 0.9, 0.9);
     cases[4] = sq_make(1, 1, 1, 1.0, 1.0, 0.8, -0.3);
     for (i = 0; i < 5; i++) {
-        double exact = sqffd_sq_volume(&cases[i]), grid = volume_by_grid(&cases[i], 64);
+        double exact = volume_of(&cases[i]), grid = volume_by_grid(&cases[i], 64);
         CHECK_MSG(fabs(grid / exact - 1.0) < 0.005, "case %d: volume %.6f, grid %.6f", i, exact, grid);
     }
     /* tapering with Kx Ky < 0 shrinks, > 0 grows */
-    CHECK(sqffd_sq_volume(&cases[4]) < sqffd_sq_volume(&sphere) / 8.0);
+    CHECK(volume_of(&cases[4]) < volume_of(&sphere) / 8.0);
 }
 
 static void test_sq_sphere_analytic(void)
@@ -163,8 +193,8 @@ static void test_sq_sphere_analytic(void)
         for (k = 0; k < 3; k++) d[k] = synth_gaussian(&rng);
         len = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
         for (k = 0; k < 3; k++) p[k] = sq.center[k] + r * d[k] / len;
-        CHECK_NEAR(sqffd_sq_inside_outside(&sq, p), r * r / 4.0, 1e-12 * r * r);
-        CHECK_NEAR(sqffd_sq_radial_distance(&sq, p), fabs(r - 2.0), 1e-12);
+        CHECK_NEAR(io_of(&sq, p), r * r / 4.0, 1e-12 * r * r);
+        CHECK_NEAR(radial_of(&sq, p), fabs(r - 2.0), 1e-12);
     }
 }
 
@@ -241,16 +271,18 @@ static void test_sq_uniform_sampling_even(void)
     shapes[2] = sq_make(2, 1, 1, 0.2, 1.8, 0.0, 0.6);
     for (s = 0; s < 3; s++) {
         double spacing = 0.15, med, cv_uniform, cv_grid;
-        size_t count = sqffd_sq_sample_uniform(&shapes[s], spacing, NULL, 0), again, m;
-        double *pts = (double *)malloc(3 * count * sizeof *pts);
-        double *grid;
+        size_t count = 0, again = 0, m;
+        double *pts, *grid;
         int side;
-        again = sqffd_sq_sample_uniform(&shapes[s], spacing, pts, count);
+        CHECK_RESULT(sqffd_sq_sample_uniform(&shapes[s], spacing, NULL, 0, &count), SQFFD_OK);
+        pts = (double *)malloc(3 * count * sizeof *pts);
+        CHECK_RESULT(sqffd_sq_sample_uniform(&shapes[s], spacing, pts, count, &again), SQFFD_OK);
         CHECK(again == count);
         CHECK(count > 100);
         cv_uniform = nn_spread(pts, count, &med);
         CHECK_MSG(med > 0.5 * spacing && med < 1.05 * spacing, "shape %d: median spacing %g for %g", s, med, spacing);
-        CHECK(sqffd_sq_sample_uniform(&shapes[s], spacing, pts, 10) == count); /* capacity respected, count kept */
+        CHECK_RESULT(sqffd_sq_sample_uniform(&shapes[s], spacing, pts, 10, &again), SQFFD_OK);
+        CHECK(again == count); /* capacity respected, count kept */
         /* a grid with about as many points */
         side = (int)sqrt((double)count / 2.0);
         m = (size_t)side * (size_t)(2 * side);
@@ -262,8 +294,13 @@ static void test_sq_uniform_sampling_even(void)
         free(pts);
         free(grid);
     }
-    CHECK(sqffd_sq_sample_uniform(&shapes[0], 0.0, NULL, 0) == 0);
-    CHECK(sqffd_sq_sample_uniform(&shapes[0], 1e-9, NULL, 0) == 0);
+    {
+        size_t count = 1;
+        CHECK_RESULT(sqffd_sq_sample_uniform(&shapes[0], 0.0, NULL, 0, &count), SQFFD_ERROR_INVALID_ARGUMENT);
+        CHECK(count == 0);
+        CHECK_RESULT(sqffd_sq_sample_uniform(&shapes[0], 1e-9, NULL, 0, &count), SQFFD_ERROR_TOO_LARGE);
+        CHECK_RESULT(sqffd_sq_sample_uniform(&shapes[0], 0.1, NULL, 5, &count), SQFFD_ERROR_INVALID_ARGUMENT);
+    }
 }
 
 static void test_sq_iou(void)
@@ -271,19 +308,24 @@ static void test_sq_iou(void)
     sqffd_superquadric a = sq_make(1, 2, 3, 0.4, 1.3, 0.3, -0.2), b, c;
     synth_rng rng = synth_rng_seed(4);
     synth_rotation(&rng, a.rotation);
-    CHECK_NEAR(sqffd_sq_iou(&a, &a, 40), 1.0, 0.0);
+    CHECK_NEAR(iou_of(&a, &a, 40), 1.0, 0.0);
     b = sq_make(1, 1, 1, 1, 1, 0, 0);
     c = sq_make(1.5, 1.5, 1.5, 1, 1, 0, 0);
-    CHECK_NEAR(sqffd_sq_iou(&b, &c, 64), 1.0 / 3.375, 0.01);
-    CHECK_NEAR(sqffd_sq_iou(&c, &b, 64), 1.0 / 3.375, 0.01);
+    CHECK_NEAR(iou_of(&b, &c, 64), 1.0 / 3.375, 0.01);
+    CHECK_NEAR(iou_of(&c, &b, 64), 1.0 / 3.375, 0.01);
     c.center[0] = 10.0; /* disjoint */
-    CHECK_NEAR(sqffd_sq_iou(&b, &c, 32), 0.0, 0.0);
+    CHECK_NEAR(iou_of(&b, &c, 32), 0.0, 0.0);
     /* half-overlapping boxes: 1/3 */
     b = sq_make(1, 1, 1, 0.1, 0.1, 0, 0);
     c = b;
     c.center[0] = 1.0;
-    CHECK_NEAR(sqffd_sq_iou(&b, &c, 60), 1.0 / 3.0, 0.02);
-    CHECK(sqffd_sq_iou(&b, &c, 0) < 0.0);
+    CHECK_NEAR(iou_of(&b, &c, 60), 1.0 / 3.0, 0.02);
+    {
+        double iou = 0.5;
+        CHECK_RESULT(sqffd_sq_iou(&b, &c, 0, &iou), SQFFD_ERROR_INVALID_ARGUMENT);
+        CHECK_RESULT(sqffd_sq_iou(&b, &c, 8, NULL), SQFFD_ERROR_INVALID_ARGUMENT);
+        CHECK(iou == 0.5); /* untouched on failure */
+    }
 }
 
 /* ---- fit -------------------------------------------------------------------- */
@@ -334,7 +376,7 @@ static void fit_statistics(int kind, int cases, size_t n, int robust, int resolu
         size_t m = make_case(&rng, kind, n, &truth, pts);
         sqffd_result r = sqffd_sq_fit(pts, m, &o, &fit, NULL, work, size);
         CHECK_MSG(r == SQFFD_OK, "case %d: %s", c, sqffd_result_string(r));
-        iou[c] = r == SQFFD_OK ? sqffd_sq_iou(&truth, &fit, resolution) : 0.0;
+        iou[c] = r == SQFFD_OK ? iou_of(&truth, &fit, resolution) : 0.0;
     }
     qsort(iou, (size_t)cases, sizeof *iou, cmp_double);
     free(work);
@@ -381,7 +423,7 @@ static void test_sq_fit_robust_report(void)
     CHECK_MSG(rep.inlier_fraction > 0.75 && rep.inlier_fraction < 0.85, "inlier fraction %.3f of 0.8",
               rep.inlier_fraction);
     CHECK(rep.rms_radial < 0.01 * synth_mean_size(&truth));
-    CHECK(sqffd_sq_iou(&truth, &fit, 40) > 0.98);
+    CHECK(iou_of(&truth, &fit, 40) > 0.98);
 }
 
 /* Untapered model: K stays 0; exact on an untapered shape; radial cost too. */
@@ -402,14 +444,14 @@ static void test_sq_fit_options_variants(void)
         o.taper = 0;
         CHECK_RESULT(fit_points(pts, 800, &o, &fit, &rep), SQFFD_OK);
         CHECK(fit.taper[0] == 0.0 && fit.taper[1] == 0.0);
-        CHECK_MSG(sqffd_sq_iou(&truth, &fit, 40) > 0.995, "11 parameters: IoU %.4f", sqffd_sq_iou(&truth, &fit, 40));
+        CHECK_MSG(iou_of(&truth, &fit, 40) > 0.995, "11 parameters: IoU %.4f", iou_of(&truth, &fit, 40));
         CHECK(rep.converged);
         CHECK(rep.rms_radial < 1e-6 * synth_mean_size(&truth));
         CHECK(rep.iterations > 0);
         o = sqffd_sq_fit_options_default();
         o.cost = SQFFD_SQ_COST_RADIAL;
         CHECK_RESULT(fit_points(pts, 800, &o, &fit, &rep), SQFFD_OK);
-        CHECK_MSG(sqffd_sq_iou(&truth, &fit, 40) > 0.99, "radial cost: IoU %.4f", sqffd_sq_iou(&truth, &fit, 40));
+        CHECK_MSG(iou_of(&truth, &fit, 40) > 0.99, "radial cost: IoU %.4f", iou_of(&truth, &fit, 40));
     }
 }
 
@@ -425,7 +467,7 @@ static void test_sq_fit_cg(void)
     for (c = 0; c < 2; c++) {
         size_t m = make_case(&rng, DATA_CLEAN, 400, &truth, pts);
         CHECK_RESULT(fit_points(pts, m, &o, &fit, NULL), SQFFD_OK);
-        CHECK_MSG(sqffd_sq_iou(&truth, &fit, 40) > 0.98, "CG: IoU %.4f", sqffd_sq_iou(&truth, &fit, 40));
+        CHECK_MSG(iou_of(&truth, &fit, 40) > 0.98, "CG: IoU %.4f", iou_of(&truth, &fit, 40));
     }
 }
 
@@ -456,7 +498,7 @@ static void test_sq_fit_similarity(void)
     truth.center[2] = 1e6 + 1e3 * truth.center[2];
     for (i = 0; i < 3; i++) truth.size[i] *= 1e3;
     CHECK_RESULT(fit_points(pts, 1000, NULL, &fit, NULL), SQFFD_OK);
-    CHECK_MSG(sqffd_sq_iou(&truth, &fit, 40) > 0.995, "IoU %.4f", sqffd_sq_iou(&truth, &fit, 40));
+    CHECK_MSG(iou_of(&truth, &fit, 40) > 0.995, "IoU %.4f", iou_of(&truth, &fit, 40));
 }
 
 static int cancel_after_three(void *user, int stage, int iteration, double error)
