@@ -11,7 +11,7 @@ TEST_DEP = sqffd.h $(wildcard tests/*.h) $(wildcard examples/*.h)
 FUZZ_TARGETS = $(patsubst fuzz/%.c,%,$(wildcard fuzz/fuzz_*.c))
 BENCHES = $(patsubst bench/%.c,%,$(wildcard bench/bench_*.c))
 
-.PHONY: all test check check-header check-symbols cli-test api-demo unit unit-asan fuzz-replay demo bench fuzz install clean
+.PHONY: all test check check-header check-symbols cli-test api-demo package-test unit unit-asan fuzz-replay demo bench fuzz install clean stack embedded test-cross
 
 all: $(BUILD)/sqffd $(BUILD)/demo_fit
 
@@ -26,7 +26,7 @@ $(BUILD)/demo_fit: examples/demo_fit.c $(TEST_DEP) | $(BUILD)
 	$(CC) $(CFLAGS) -std=c99 $(STRICT) -o $@ examples/demo_fit.c -lm
 
 # ---- make test: header checks, symbol check, fuzz corpus replay, unit tests twice
-test: check-header check-symbols fuzz-replay cli-test api-demo unit unit-asan
+test: check-header check-symbols fuzz-replay cli-test api-demo package-test unit unit-asan
 
 # The header as C99/C11 (gcc, and clang when present) and C++ (g++, clang++),
 # strict warnings as errors; two translation units; an SQFFD_STATIC build.
@@ -37,19 +37,28 @@ check-header: | $(BUILD)
 	  $(CC) $(BUILD)/check_$$std.o $(BUILD)/check_use_$$std.o -o $(BUILD)/check_link_$$std -lm || exit 1; \
 	  $(CC) -std=$$std $(STRICT) -Wno-unused-function -DSQFFD_STATIC tests/check_use.c -o $(BUILD)/check_static_$$std -lm || exit 1; \
 	done
+	@$(CC) -std=c99 -DSQFFD_MAX_LATTICE=6 -c tests/check_header.c -o $(BUILD)/check_lattice6.o
+	@if $(CC) $(BUILD)/check_lattice6.o $(BUILD)/check_use_c99.o -o $(BUILD)/check_lattice_mix -lm 2>/dev/null; then \
+	  echo "check-header: units built with SQFFD_MAX_LATTICE 6 and 8 linked together"; exit 1; fi
 	@g++ -x c++ -std=c++11 $(STRICT) -c tests/check_header.c -o $(BUILD)/check_cxx.o
 	@g++ -x c++ -std=c++11 $(STRICT) -c tests/check_use.c -o $(BUILD)/check_use_cxx.o && g++ $(BUILD)/check_cxx.o $(BUILD)/check_use_cxx.o -o $(BUILD)/check_link_cxx -lm
 	@if command -v clang >/dev/null 2>&1; then \
 	  for std in c99 c11; do clang -std=$$std $(STRICT) -c tests/check_header.c -o $(BUILD)/check_clang_$$std.o || exit 1; done; \
 	  clang++ -x c++ -std=c++11 $(STRICT) -c tests/check_header.c -o $(BUILD)/check_clangxx.o || exit 1; \
-	  echo "header: C99/C11 (gcc, clang), C++11 (g++, clang++), two TUs, SQFFD_STATIC: clean"; \
-	else echo "header: C99/C11 (gcc), C++11 (g++), two TUs, SQFFD_STATIC: clean; clang not installed, its checks skipped"; fi
+	  echo "header: C99/C11 (gcc, clang), C++11 (g++, clang++), two TUs, SQFFD_STATIC, lattice mismatch fails to link: clean"; \
+	else echo "header: C99/C11 (gcc), C++11 (g++), two TUs, SQFFD_STATIC, lattice mismatch fails to link: clean; clang not installed, its checks skipped"; fi
 
 # The core object may reference libm, memcpy/memset/memmove and assert only,
-# and may define no writable globals.
+# and may define no writable globals: at -O2 and at -O0 (no inlining, no
+# builtins folded away: every call the code makes shows).
 check-symbols: | $(BUILD)
 	@$(CC) -std=c99 -O2 -c tests/check_header.c -o $(BUILD)/core.o
-	@sh tests/check_symbols.sh $(BUILD)/core.o
+	@$(CC) -std=c99 -O0 -c tests/check_header.c -o $(BUILD)/core_O0.o
+	@bad=0; for o in O2 O0; do \
+	  f=$(BUILD)/core.o; [ $$o = O0 ] && f=$(BUILD)/core_O0.o; \
+	  out=$$(sh tests/check_symbols.sh $$f) || bad=1; \
+	  echo "$$out" | sed "s/^\([a-z-]*\):/\1 (-$$o):/"; \
+	done; exit $$bad
 
 $(BUILD)/sqffd_tests: $(TEST_SRC) tests/test_main.c tests/test_impl.c $(TEST_DEP) | $(BUILD)
 	$(CC) $(CFLAGS) -std=c99 -Wall -Wextra -o $@ tests/test_main.c tests/test_impl.c $(TEST_SRC) -lm
@@ -64,6 +73,11 @@ cli-test: $(BUILD)/sqffd
 api-demo: $(BUILD)/demo_fit
 	@./$(BUILD)/demo_fit > $(BUILD)/demo_fit.log && echo "api demo: fit, report, model point and mesh: ok" \
 	  || { cat $(BUILD)/demo_fit.log; exit 1; }
+
+# make install into a temporary DESTDIR, then a tiny consumer built with pkg-config
+# and (when cmake is present) through add_subdirectory, FetchContent and find_package.
+package-test: $(BUILD)/sqffd $(BUILD)/demo_fit
+	@sh tests/package_test.sh
 
 unit: $(BUILD)/sqffd_tests
 	@echo "== unit tests (-O2)"
@@ -80,9 +94,39 @@ $(BUILD)/replay_%: fuzz/%.c fuzz/replay.c $(TEST_DEP) | $(BUILD)
 fuzz-replay: $(addprefix $(BUILD)/replay_,$(FUZZ_TARGETS))
 	@for t in $(FUZZ_TARGETS); do ./$(BUILD)/replay_$$t fuzz/corpus/$$t || exit 1; done
 
-# ---- make check: make test, then static analysis and valgrind (skipped when missing).
+# ---- make check: make test, then (each one status line, skipped when its tool is missing)
+# the unit tests under clang's address + undefined sanitizers, clang's static
+# analyzer on the implementation (any report fails; -analyze-headers: the code
+# is in sqffd.h, which the analyzer otherwise skips), concurrent fits under
+# ThreadSanitizer (tests/check_threads.c), cppcheck and valgrind.
 # legacyUninitvar is off: it flags output arrays passed to a function that fills them.
-check: test
+check: test stack
+	@printf 'int main(void) { return 0; }\n' > $(BUILD)/probe.c; \
+	if ! command -v clang >/dev/null 2>&1; then echo "check: clang not installed, clang sanitizers skipped"; \
+	elif ! clang -fsanitize=address,undefined $(BUILD)/probe.c -o $(BUILD)/probe 2>/dev/null; then \
+	  echo "check: clang has no sanitizer runtime (Debian: libclang-rt-dev), clang sanitizers skipped"; \
+	else \
+	  clang $(SAN) -std=c99 -Wall -Wextra -o $(BUILD)/sqffd_tests_clang_asan tests/test_main.c tests/test_impl.c $(TEST_SRC) -lm || exit 1; \
+	  ./$(BUILD)/sqffd_tests_clang_asan > $(BUILD)/clang_asan.log 2>&1 \
+	    && tail -n 1 $(BUILD)/clang_asan.log | sed 's/^/clang address+undefined sanitizers: /' || { tail -n 30 $(BUILD)/clang_asan.log; exit 1; }; \
+	fi
+	@if command -v clang >/dev/null 2>&1; then \
+	  clang --analyze -std=c99 -Xanalyzer -analyzer-opt-analyze-headers -Xanalyzer -analyzer-output=text \
+	    tests/check_header.c -o /dev/null > $(BUILD)/analyzer.log 2>&1 || { cat $(BUILD)/analyzer.log; exit 1; }; \
+	  if grep -q 'warning:' $(BUILD)/analyzer.log; then grep 'warning:' $(BUILD)/analyzer.log; \
+	    echo "clang analyzer: $$(grep -c 'warning:' $(BUILD)/analyzer.log) reports (their paths: $(BUILD)/analyzer.log)"; exit 1; fi; \
+	  echo "clang analyzer: sqffd.h with its implementation: no reports"; \
+	else echo "check: clang not installed, static analysis skipped"; fi
+	@tsan=""; for c in clang gcc; do \
+	  command -v $$c >/dev/null 2>&1 && $$c -fsanitize=thread $(BUILD)/probe.c -o $(BUILD)/probe_tsan 2>/dev/null \
+	    && ./$(BUILD)/probe_tsan >/dev/null 2>&1 && { tsan=$$c; break; }; \
+	done; \
+	if [ -z "$$tsan" ]; then echo "check: no compiler with a working ThreadSanitizer (clang or gcc), thread check skipped"; \
+	else \
+	  $$tsan -std=c99 -O1 -g -fsanitize=thread -Wall -Wextra -o $(BUILD)/check_threads tests/check_threads.c -lm -pthread || exit 1; \
+	  ./$(BUILD)/check_threads > $(BUILD)/check_threads.log 2>&1 \
+	    && sed "s/^threads:/threads ($$tsan -fsanitize=thread):/" $(BUILD)/check_threads.log || { cat $(BUILD)/check_threads.log; exit 1; }; \
+	fi
 	@if command -v cppcheck >/dev/null 2>&1; then \
 	  cppcheck --enable=warning,performance,portability --std=c99 --suppress=legacyUninitvar --quiet \
 	    --error-exitcode=1 -DSQFFD_IMPLEMENTATION tests/check_header.c && echo "cppcheck: clean"; \
@@ -91,6 +135,38 @@ check: test
 	  valgrind -q --error-exitcode=1 --leak-check=full ./$(BUILD)/sqffd_tests > $(BUILD)/valgrind.log 2>&1 \
 	    && tail -n 1 $(BUILD)/valgrind.log | sed 's/^/valgrind: /' || { tail -n 30 $(BUILD)/valgrind.log; exit 1; }; \
 	else echo "check: valgrind not installed, skipped"; fi
+
+# ---- make stack: the worst-case stack from gcc's call graph (-fcallgraph-info, GCC >= 10),
+# x86-64 at -O2 and -Os: every frame <= 2048 bytes, sqffd_fit and sqffd_track <= 8192
+# bytes, no recursion, no unbounded dynamic frame (tests/stack_bound.c; -v: every
+# frame). The objective, projection and progress the superquadric's CG hands to
+# sqffd_ncg_minimize are named here; the user's callbacks come on top of the bound.
+STACK_CC ?= gcc
+STACK_FLAGS = --frame-limit 2048 --stack-limit 8192 --root sqffd_fit --root sqffd_track --public sqffd_ \
+  --indirect sqffd_ncg_minimize=sqffd__sq_cg_objective,sqffd__sq_cg_project,sqffd__sq_cg_progress,user
+$(BUILD)/stack/stack_bound: tests/stack_bound.c
+	@mkdir -p $(BUILD)/stack
+	$(STACK_CC) -O2 -std=c99 -Wall -Wextra -o $@ tests/stack_bound.c
+
+stack: $(BUILD)/stack/stack_bound
+	@fail=0; for o in O2 Os; do \
+	  $(STACK_CC) -std=c99 -$$o -fcallgraph-info=su -fstack-usage -c tests/check_header.c -o $(BUILD)/stack/core_$$o.o || exit 1; \
+	  ./$(BUILD)/stack/stack_bound -v $(STACK_FLAGS) --title "stack, x86-64 $(STACK_CC) -$$o" $(BUILD)/stack/core_$$o.ci > $(BUILD)/stack/report_$$o.txt; \
+	  ./$(BUILD)/stack/stack_bound --brief $(STACK_FLAGS) --title "stack, x86-64 $(STACK_CC) -$$o" $(BUILD)/stack/core_$$o.ci || fail=1; \
+	done; \
+	[ $$fail -eq 0 ] || echo "stack: limits broken (every frame and chain: $(BUILD)/stack/report_O2.txt, report_Os.txt)"; exit $$fail
+
+# ---- make embedded: the core cross-compiled for Cortex-M7 (arm-none-eabi-gcc, newlib;
+# installed with apt-get when missing): only libm and the listed helpers needed,
+# .text <= 64 KB, a firmware-style fit links (and runs under qemu-arm when present),
+# the stack limits above on the Cortex-M7 call graph.
+embedded: $(BUILD)/stack/stack_bound
+	@sh tests/embedded/embedded.sh $(BUILD) ./$(BUILD)/stack/stack_bound $(STACK_FLAGS)
+
+# ---- make test-cross: the unit tests on 32-bit ARM and big-endian s390x under qemu-user
+# (cross compilers and qemu installed with apt-get when missing; skipped when impossible).
+test-cross: | $(BUILD)
+	@sh tests/cross_test.sh $(BUILD) $(TEST_SRC)
 
 # ---- make fuzz: libFuzzer (clang) on each target, FUZZ_SECONDS each
 # (FUZZ_FLAGS adds libFuzzer options, e.g. -seed=1 for a repeatable run)
@@ -104,7 +180,7 @@ fuzz: | $(BUILD)
 	for t in $(FUZZ_TARGETS); do \
 	  clang -g -O1 -fsanitize=fuzzer,address,undefined -o $(BUILD)/libfuzzer_$$t fuzz/$$t.c -lm || exit 1; \
 	  mkdir -p $(BUILD)/corpus_$$t; \
-	  ./$(BUILD)/libfuzzer_$$t -max_total_time=$(FUZZ_SECONDS) -max_len=65536 $(FUZZ_FLAGS) $(BUILD)/corpus_$$t fuzz/corpus/$$t || exit 1; \
+	  ./$(BUILD)/libfuzzer_$$t -max_total_time=$(FUZZ_SECONDS) -max_len=65536 $$(test -f fuzz/$$t.dict && echo -dict=fuzz/$$t.dict) $(FUZZ_FLAGS) $(BUILD)/corpus_$$t fuzz/corpus/$$t || exit 1; \
 	done
 
 # ---- make demo: the embedded default run of the command-line tool
@@ -128,9 +204,13 @@ bench: $(BUILD)/sqffd | $(BUILD)
 	done
 
 install: $(BUILD)/sqffd $(BUILD)/demo_fit
-	install -d $(DESTDIR)$(PREFIX)/include $(DESTDIR)$(PREFIX)/bin
+	install -d $(DESTDIR)$(PREFIX)/include $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/lib/pkgconfig
 	install -m 644 sqffd.h $(DESTDIR)$(PREFIX)/include/sqffd.h
 	install -m 755 $(BUILD)/sqffd $(DESTDIR)$(PREFIX)/bin/sqffd
+	@printf 'prefix=%s\nincludedir=$${prefix}/include\n\nName: sqffd\nDescription: %s\nVersion: %s\nCflags: -I$${includedir}\nLibs: -lm\n' \
+	  '$(PREFIX)' 'Superquadric + free-form deformation shape model (single header)' \
+	  "$$(sed -n 's/^#define SQFFD_VERSION_STRING "\(.*\)"$$/\1/p' sqffd.h)" > $(BUILD)/sqffd.pc
+	install -m 644 $(BUILD)/sqffd.pc $(DESTDIR)$(PREFIX)/lib/pkgconfig/sqffd.pc
 
 clean:
 	rm -rf $(BUILD)

@@ -298,7 +298,8 @@ SQFFD_DEF sqffd_result sqffd_ncg_minimize(int n, sqffd_objective_fn f, sqffd_pro
    stay alive and unchanged while the tree is used (points that move a
    little, as a deforming surface's do, can take the tree along:
    sqffd_kdtree_refit). Memory: 4 bytes per point for the permutation plus at
-   most one 24-byte node per 2.5 points (under 14 bytes per point in all). The
+   most one 24-byte node per 2.5 points (under 14 bytes per point in all),
+   and 3 KB for the build's and the refit's stack. The
    fields are readable but belong to the library. A built tree is read-only:
    any number of threads may query it.
 
@@ -332,7 +333,7 @@ SQFFD_DEF sqffd_result sqffd_ncg_minimize(int n, sqffd_objective_fn f, sqffd_pro
    - equal distances are ordered arbitrarily but deterministically (the same
      tree and query always give the same answer). */
 
-#define SQFFD_KDTREE_MAX_DEPTH 64 /* bound on the leaf depth (and the query stack) */
+#define SQFFD_KDTREE_MAX_DEPTH 40 /* bound on the leaf depth (and the stacks): 2^32 points need 30 at the median */
 
 /* One node, 24 bytes. Nodes are stored depth-first: an inner node's low child
    is the next node. */
@@ -354,6 +355,7 @@ typedef struct sqffd_kdtree {
     sqffd_kdtree_node *nodes;/* node 0 is the root */
     size_t node_count;       /* nodes used: 1 if count <= 10, else at most 2 (count / 5) - 1 */
     double bbox[2][3];       /* bounding box of all points: [0] = min corner, [1] = max corner */
+    void *scratch;           /* the build's and sqffd_kdtree_refit's stack (in the workspace) */
 } sqffd_kdtree;
 
 /* Workspace bytes sqffd_kdtree_build() needs for n points (the tree lives in
@@ -1068,6 +1070,14 @@ SQFFD_DEF const char *sqffd_result_string(sqffd_result result)
     }
     return "unknown result code";
 }
+
+/* Scratch taken from the workspace instead of the stack aliases nothing the
+   hot loops write; saying so keeps them as fast as with local arrays. */
+#if defined(__GNUC__) || defined(__clang__) || defined(_MSC_VER)
+#define SQFFD__RESTRICT __restrict
+#else
+#define SQFFD__RESTRICT
+#endif
 
 /* ---- Workspace arena ------------------------------------------------------
    Every operation that needs scratch memory lays it out with one function
@@ -2025,10 +2035,26 @@ static size_t sqffd__kd_max_nodes(size_t n)
 }
 
 /* The one workspace layout: the permutation, then the nodes. */
-static void sqffd__kd_layout(sqffd__arena *a, size_t n, uint32_t **index, sqffd_kdtree_node **nodes)
+/* A node waiting to be built: its point range, depth, tight box, and the
+   node whose high child it is (0 for a low child or the root: those are
+   simply the next node). */
+typedef struct sqffd__kd_pending {
+    size_t begin, end;
+    unsigned depth;
+    uint32_t parent_of_high;
+    double box[2][3];
+} sqffd__kd_pending;
+
+/* The refit's stack of subtree boxes (one per level), in the same memory as
+   the build's stack of pending nodes. */
+typedef double sqffd__kd_box[2][3];
+
+static void sqffd__kd_layout(sqffd__arena *a, size_t n, uint32_t **index, sqffd_kdtree_node **nodes, void **stack)
 {
     *index = (uint32_t *)sqffd__arena_take(a, n, sizeof(uint32_t));
     *nodes = (sqffd_kdtree_node *)sqffd__arena_take(a, sqffd__kd_max_nodes(n), sizeof(sqffd_kdtree_node));
+    *stack = sqffd__arena_take(a, SQFFD_KDTREE_MAX_DEPTH + 1, sizeof(sqffd__kd_pending) > sizeof(sqffd__kd_box)
+                                                                  ? sizeof(sqffd__kd_pending) : sizeof(sqffd__kd_box));
 }
 
 SQFFD_DEF size_t sqffd_kdtree_workspace_size(size_t n)
@@ -2036,9 +2062,10 @@ SQFFD_DEF size_t sqffd_kdtree_workspace_size(size_t n)
     sqffd__arena a;
     uint32_t *index;
     sqffd_kdtree_node *nodes;
+    void *stack;
     if (n == 0 || n > (size_t)UINT32_MAX) return 0;
     sqffd__arena_measure(&a);
-    sqffd__kd_layout(&a, n, &index, &nodes);
+    sqffd__kd_layout(&a, n, &index, &nodes, &stack);
     return sqffd__arena_required(&a);
 }
 
@@ -2105,15 +2132,6 @@ static void sqffd__kd_select(const double *points, uint32_t *index, size_t begin
     }
 }
 
-/* A node waiting to be built: its point range, depth, tight box, and the
-   node whose high child it is (0 for a low child or the root: those are
-   simply the next node). */
-typedef struct sqffd__kd_pending {
-    size_t begin, end;
-    unsigned depth;
-    uint32_t parent_of_high;
-    double box[2][3];
-} sqffd__kd_pending;
 
 /* Splits index[begin..end) of a node with a positive extent on `axis`: at the
    middle of the box (or the median), moved where needed so both children get
@@ -2151,15 +2169,17 @@ SQFFD_DEF sqffd_result sqffd_kdtree_build(sqffd_kdtree *tree, const double *poin
     sqffd__arena a;
     uint32_t *index;
     sqffd_kdtree_node *nodes;
-    sqffd__kd_pending stack[SQFFD_KDTREE_MAX_DEPTH + 1];
+    sqffd__kd_pending *stack;
+    void *scratch;
     size_t top = 0, node_count = 0, i;
 
     if (tree) memset(tree, 0, sizeof *tree);
     if (!tree || !points || n == 0) return SQFFD_ERROR_INVALID_ARGUMENT;
     if (n > (size_t)UINT32_MAX) return SQFFD_ERROR_TOO_LARGE;
     sqffd__arena_init(&a, workspace, workspace_size);
-    sqffd__kd_layout(&a, n, &index, &nodes);
+    sqffd__kd_layout(&a, n, &index, &nodes, &scratch);
     if (a.overflow) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
+    stack = (sqffd__kd_pending *)scratch;
 
     sqffd__kd_empty_box(stack[0].box);
     for (i = 0; i < n; i++) {
@@ -2218,6 +2238,7 @@ SQFFD_DEF sqffd_result sqffd_kdtree_build(sqffd_kdtree *tree, const double *poin
     tree->index = index;
     tree->nodes = nodes;
     tree->node_count = node_count;
+    tree->scratch = scratch;
     return SQFFD_OK;
 }
 
@@ -2227,9 +2248,10 @@ SQFFD_DEF sqffd_result sqffd_kdtree_build(sqffd_kdtree *tree, const double *poin
    child's on top) suffices. */
 SQFFD_DEF sqffd_result sqffd_kdtree_refit(sqffd_kdtree *tree, const double *points)
 {
-    double stack[SQFFD_KDTREE_MAX_DEPTH + 1][2][3];
+    sqffd__kd_box *stack;
     size_t top = 0, i, k;
-    if (!tree || !tree->nodes || !points) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if (!tree || !tree->nodes || !tree->scratch || !points) return SQFFD_ERROR_INVALID_ARGUMENT;
+    stack = (sqffd__kd_box *)tree->scratch;
     for (i = 0; i < tree->count; i++)
         if (!sqffd__finite3(points + 3 * i)) return SQFFD_ERROR_NON_FINITE;
     for (i = 0; i < tree->node_count; i++) { /* the scan's shortcut for big leaves needs them identical */
@@ -3161,10 +3183,13 @@ typedef struct sqffd__sq_fit {
     int iterations;       /* optimiser iterations so far */
     void *ncg_work;       /* CG optimiser scratch */
     size_t ncg_size;
+    double *lm;           /* LM scratch (SQFFD__SQ_LM_SCRATCH doubles): J^T W J twice and the solve's matrix */
     sqffd_result status;  /* SQFFD_ERROR_CANCELLED once the callback asked */
     sqffd__sq_mixture *estep; /* robust mode: the next sqffd__sq_accumulate starts with this E-step
                                  (cost must be the radial distance, the mixture's own residual) */
 } sqffd__sq_fit;
+
+#define SQFFD__SQ_LM_SCRATCH (2 * SQFFD__SQ_NPAR * SQFFD__SQ_ROW + SQFFD__SQ_NPAR * SQFFD__SQ_NPAR)
 
 /* Weighted cost sum w r^2 over m points (weights NULL = 1); with jtr also
    J^T W r, and with jtj too the first npar rows of J^T W J (the Gauss-Newton
@@ -3381,7 +3406,7 @@ static double sqffd__sq_jtj_at(const double *jtj, int i, int j)
 static int sqffd__sq_solve(const sqffd__sq_fit *fit, sqffd_superquadric *sq, const double *jtj, const double *jtr,
                            double lambda, double ridge, double *delta, double *predicted)
 {
-    double a[SQFFD__SQ_NPAR * SQFFD__SQ_NPAR], lo, hi, *v, jd;
+    double *a = fit->lm + 2 * SQFFD__SQ_NPAR * SQFFD__SQ_ROW, lo, hi, *v, jd;
     int np = fit->npar, fixed[SQFFD__SQ_NPAR], i, j, again = 1;
     for (i = 0; i < SQFFD__SQ_NPAR; i++) {
         fixed[i] = 0;
@@ -3434,8 +3459,7 @@ static int sqffd__sq_solve(const sqffd__sq_fit *fit, sqffd_superquadric *sq, con
 static int sqffd__sq_lm(sqffd__sq_fit *fit, sqffd_superquadric *sq, const double *pts, const double *weights,
                         size_t m, int max_iterations, double *cost)
 {
-    double jtj[SQFFD__SQ_NPAR * SQFFD__SQ_ROW], jtr[SQFFD__SQ_NPAR];
-    double tjtj[SQFFD__SQ_NPAR * SQFFD__SQ_ROW], tjtr[SQFFD__SQ_NPAR];
+    double *jtj = fit->lm, *tjtj = fit->lm + SQFFD__SQ_NPAR * SQFFD__SQ_ROW, jtr[SQFFD__SQ_NPAR], tjtr[SQFFD__SQ_NPAR];
     double delta[SQFFD__SQ_NPAR], lambda = 1e-3, nu = 2.0, step, predicted;
     int np = fit->npar, it, i;
     double c0 = sqffd__sq_accumulate(fit, sq, pts, weights, m, jtj, jtr);
@@ -3461,7 +3485,7 @@ static int sqffd__sq_lm(sqffd__sq_fit *fit, sqffd_superquadric *sq, const double
             double gain = (c0 - c1) / c0, rho = predicted > 0.0 ? (c0 - c1) / predicted : 1.0, t = 2.0 * rho - 1.0;
             *sq = trial;
             if (!last) {
-                memcpy(jtj, tjtj, sizeof jtj);
+                memcpy(jtj, tjtj, SQFFD__SQ_NPAR * SQFFD__SQ_ROW * sizeof(double));
                 memcpy(jtr, tjtr, sizeof jtr);
             }
             c0 = c1;
@@ -3583,7 +3607,7 @@ static int sqffd__sq_cg_minimize(sqffd__sq_fit *fit, sqffd_superquadric *sq, con
     cg.m = m;
     x[0] = x[1] = x[2] = 0.0;
     sqffd__sq_cg_params(fit, sq, x);
-    f0 = sqffd__sq_cg_objective(&cg, x, gradient);
+    *cost = f0 = sqffd__sq_cg_objective(&cg, x, gradient); /* (the cost where the minimiser returns early) */
     r = sqffd_ncg_minimize(fit->npar, sqffd__sq_cg_objective, sqffd__sq_cg_project, &cg, x, max_iterations,
                            fit->opt->tolerance * (f0 > 1.0 ? f0 : 1.0), NULL, cost, sqffd__sq_cg_progress, fit,
                            fit->ncg_work, fit->ncg_size);
@@ -3603,6 +3627,14 @@ static int sqffd__sq_optimize(sqffd__sq_fit *fit, sqffd_superquadric *sq, const 
 }
 
 /* Workspace blocks of one fit. */
+/* Keep the SQFFD__SQ_KEEP cheapest starts, sorted by cost. */
+typedef struct sqffd__sq_shortlist {
+    sqffd_superquadric sq[SQFFD__SQ_KEEP];
+    double cost[SQFFD__SQ_KEEP];
+    int id[SQFFD__SQ_KEEP];
+    int count;
+} sqffd__sq_shortlist;
+
 typedef struct sqffd__sq_work {
     double *points;  /* 3n normalised points */
     double *weights; /* n robust weights (robust mode only) */
@@ -3615,6 +3647,8 @@ typedef struct sqffd__sq_work {
     double *hist;    /* 3 * SQFFD__SQ_HISTOGRAM */
     void *ncg;       /* CG optimiser scratch */
     size_t ncg_size;
+    double *lm;      /* SQFFD__SQ_LM_SCRATCH */
+    sqffd__sq_shortlist *list; /* the starts kept (not on the stack) */
 } sqffd__sq_work;
 
 static void sqffd__sq_fit_layout(sqffd__arena *a, size_t n, const sqffd_sq_fit_options *o, sqffd__sq_work *w)
@@ -3631,6 +3665,8 @@ static void sqffd__sq_fit_layout(sqffd__arena *a, size_t n, const sqffd_sq_fit_o
     w->hist = (double *)sqffd__arena_take(a, 3 * SQFFD__SQ_HISTOGRAM, sizeof(double));
     w->ncg_size = o->optimizer == SQFFD_SQ_OPTIMIZER_CG ? sqffd_ncg_workspace_size(SQFFD__SQ_NPAR) : 0;
     w->ncg = w->ncg_size ? sqffd__arena_take(a, w->ncg_size, 1) : NULL;
+    w->lm = (double *)sqffd__arena_take(a, SQFFD__SQ_LM_SCRATCH, sizeof(double));
+    w->list = (sqffd__sq_shortlist *)sqffd__arena_take(a, 1, sizeof(sqffd__sq_shortlist));
 }
 
 SQFFD_DEF sqffd_sq_fit_options sqffd_sq_fit_options_default(void)
@@ -3828,7 +3864,7 @@ static size_t sqffd__sq_dense_points(const double *pts, size_t m, double *out, d
     if (sqffd_kdtree_build(&tree, pts, m, tree_work, tree_size) != SQFFD_OK) return 0;
     for (i = 0; i < half; i++) { /* the point itself is the first of the k + 1 nearest */
         size_t found = sqffd_kdtree_knn(&tree, pts + 6 * i, SQFFD__SQ_NEIGHBOURS + 1, index, d2);
-        dist[i] = dist[half + i] = d2[found - 1];
+        dist[i] = dist[half + i] = found ? d2[found - 1] : 0.0; /* (found >= 1: the tree holds the point) */
     }
     limit = 1.44 * sqffd__sq_select(dist + half, half, half / 2); /* squared: 1.2 times the median distance */
     for (i = 0; i < half; i++)
@@ -3890,13 +3926,6 @@ static int sqffd__sq_em(sqffd__sq_fit *fit, sqffd_superquadric *sq, const double
     return !sqffd__sq_equal(&at_estep, sq);
 }
 
-/* Keep the SQFFD__SQ_KEEP cheapest starts, sorted by cost. */
-typedef struct sqffd__sq_shortlist {
-    sqffd_superquadric sq[SQFFD__SQ_KEEP];
-    double cost[SQFFD__SQ_KEEP];
-    int id[SQFFD__SQ_KEEP];
-    int count;
-} sqffd__sq_shortlist;
 
 static void sqffd__sq_shortlist_add(sqffd__sq_shortlist *list, const sqffd_superquadric *sq, double cost, int id)
 {
@@ -4022,7 +4051,7 @@ typedef struct sqffd__sq_sets {
 static double sqffd__sq_rank(sqffd__sq_fit *fit, sqffd_superquadric *sq, const sqffd__sq_sets *sets)
 {
     const sqffd_sq_fit_options *o = fit->opt;
-    double cost;
+    double cost = HUGE_VAL;
     if (o->robust) return sqffd__sq_accumulate(fit, sq, sets->start, NULL, sets->m_start, NULL, NULL);
     sqffd__sq_optimize(fit, sq, sets->polish, NULL, sets->m_polish,
                        o->max_iterations < SQFFD__SQ_RANK_ITERATIONS ? o->max_iterations : SQFFD__SQ_RANK_ITERATIONS, &cost);
@@ -4037,7 +4066,7 @@ SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_
     const sqffd_sq_fit_options *o = options ? options : &defaults;
     size_t m_polish = n < SQFFD__SQ_POLISH ? n : SQFFD__SQ_POLISH, m_final = n < SQFFD__SQ_FINAL ? n : SQFFD__SQ_FINAL;
     size_t m_start, m_screen, i;
-    sqffd__sq_shortlist list;
+    sqffd__sq_shortlist *list;
     sqffd__sq_sets sets;
     sqffd__arena arena;
     sqffd__sq_work w;
@@ -4053,6 +4082,7 @@ SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_
     sqffd__arena_init(&arena, workspace, workspace_size);
     sqffd__sq_fit_layout(&arena, n, o, &w);
     if (arena.overflow) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
+    list = w.list;
     for (i = 0; i < n; i++)
         if (!sqffd__finite3(points + 3 * i)) return SQFFD_ERROR_NON_FINITE;
     if (!sqffd__sq_normalize(points, n, w.points, centroid, &scale)) return SQFFD_ERROR_DEGENERATE;
@@ -4068,6 +4098,7 @@ SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_
     fit.size_min = 1e-3;
     fit.ncg_work = w.ncg;
     fit.ncg_size = w.ncg_size;
+    fit.lm = w.lm;
     for (k = 0; k < 3; k++) {
         double lo = w.points[k], hi = w.points[k];
         for (i = 1; i < n; i++) {
@@ -4104,21 +4135,21 @@ SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_
     memcpy(fit.cov, cov, sizeof cov);
     m_screen = m_start < SQFFD__SQ_SCREEN ? m_start : SQFFD__SQ_SCREEN;
     sqffd__subsample(start_pts, m_start, m_screen, w.screen);
-    sqffd__sq_screen(&fit, start_pts, m_start, centre, values, axes, w.screen, m_screen, w.hist, &list);
+    sqffd__sq_screen(&fit, start_pts, m_start, centre, values, axes, w.screen, m_screen, w.hist, list);
 
     sets.polish = w.polish;
     sets.m_polish = m_polish;
     sets.start = start_pts;
     sets.m_start = m_start;
-    for (k = 0; k < list.count && fit.status == SQFFD_OK; k++) {
+    for (k = 0; k < list->count && fit.status == SQFFD_OK; k++) {
         double cost;
-        if (k > 0 && (list.cost[0] < SQFFD__SQ_CLEAR_WIN * list.cost[k] || best_cost < SQFFD__SQ_EXACT * (double)m_polish))
+        if (k > 0 && (list->cost[0] < SQFFD__SQ_CLEAR_WIN * list->cost[k] || best_cost < SQFFD__SQ_EXACT * (double)m_polish))
             break; /* the rest are far behind, or the best is exact */
-        cost = sqffd__sq_rank(&fit, &list.sq[k], &sets);
+        cost = sqffd__sq_rank(&fit, &list->sq[k], &sets);
         if (k == 0 || cost < best_cost) {
-            best = list.sq[k];
+            best = list->sq[k];
             best_cost = cost;
-            best_start = list.id[k];
+            best_start = list->id[k];
         }
     }
     if (fit.status == SQFFD_OK && sqffd__sq_twin(&fit, &best, &twin)) {
@@ -4250,64 +4281,81 @@ static int sqffd__ffd_dims_valid(const int dims[3])
     return 1;
 }
 
-/* The box's determinant test of sqffd_ffd_init and sqffd_ffd_validate:
-   S . (T x U) against |S| |T| |U|. */
-static int sqffd__ffd_box_flat(const double edges[9], double *det)
+/* The box's inverse, 0 for a flat box (|S . (T x U)| <= 1e-12 |S| |T| |U|). */
+static int sqffd__ffd_box_inverse(const double edges[9], double inverse[9])
 {
-    double cross[3], scale;
-    sqffd__cross3(edges + 3, edges + 6, cross);
-    *det = sqffd__dot3(edges, cross);
+    double det, scale;
+    int a;
+    /* Sederberg & Parry's local coordinates: s = (T x U).(X - X0) / (T x U).S
+       and cyclically, so the rows of the inverse are T x U, U x S, S x T over
+       the determinant S.(T x U). */
+    sqffd__cross3(edges + 3, edges + 6, inverse);
+    sqffd__cross3(edges + 6, edges, inverse + 3);
+    sqffd__cross3(edges, edges + 3, inverse + 6);
+    det = sqffd__dot3(edges, inverse);
     scale = sqrt(sqffd__dot3(edges, edges) * sqffd__dot3(edges + 3, edges + 3) * sqffd__dot3(edges + 6, edges + 6));
-    return !(fabs(*det) > 1e-12 * scale) || !isfinite(*det);
+    if (!(fabs(det) > 1e-12 * scale) || !isfinite(det)) return 0;
+    for (a = 0; a < 9; ++a) inverse[a] /= det;
+    return 1;
 }
 
-SQFFD_DEF sqffd_result sqffd_ffd_init(sqffd_ffd *ffd, const int dims[3], const double origin[3], const double edges[9])
+/* A stored inverse is the box's: inverse times the edge matrix (columns S,
+   T, U) is the identity within 1e-9. */
+static int sqffd__ffd_inverse_holds(const double edges[9], const double inverse[9])
 {
-    double det;
-    int a, i, j, k;
-    if (!ffd || !dims || !origin || !edges || !sqffd__ffd_dims_valid(dims)) return SQFFD_ERROR_INVALID_ARGUMENT;
-    if (!sqffd__finite3(origin) || !sqffd__finite3(edges) || !sqffd__finite3(edges + 3) || !sqffd__finite3(edges + 6))
-        return SQFFD_ERROR_NON_FINITE;
-    if (sqffd__ffd_box_flat(edges, &det)) return SQFFD_ERROR_DEGENERATE;
-    memset(ffd, 0, sizeof *ffd);
-    /* Sederberg & Parry's local coordinates: s = (T x U).(X - X0) / (T x U).S
-       and cyclically, so the rows of `inverse` are T x U, U x S, S x T over
-       the determinant S.(T x U). */
-    sqffd__cross3(edges + 3, edges + 6, ffd->inverse);
-    sqffd__cross3(edges + 6, edges, ffd->inverse + 3);
-    sqffd__cross3(edges, edges + 3, ffd->inverse + 6);
-    for (a = 0; a < 9; ++a) ffd->inverse[a] /= det;
-    for (a = 0; a < 3; ++a) ffd->dims[a] = dims[a];
-    memcpy(ffd->origin, origin, sizeof ffd->origin);
-    memcpy(ffd->edges, edges, sizeof ffd->edges);
+    int i, j;
+    for (i = 0; i < 3; ++i)
+        for (j = 0; j < 3; ++j) {
+            double e = inverse[3 * i] * edges[3 * j] + inverse[3 * i + 1] * edges[3 * j + 1] +
+                       inverse[3 * i + 2] * edges[3 * j + 2];
+            if (!(fabs(e - (i == j ? 1.0 : 0.0)) <= 1e-9)) return 0;
+        }
+    return 1;
+}
+
+/* The regular lattice P0 (3 doubles a control point, sqffd_ffd's order). */
+static void sqffd__ffd_regular(const int dims[3], const double origin[3], const double edges[9], double *control)
+{
+    int i, j, k, a;
     for (i = 0; i < dims[0]; ++i)
         for (j = 0; j < dims[1]; ++j)
             for (k = 0; k < dims[2]; ++k) {
                 double s = (double)i / (double)(dims[0] - 1);
                 double t = (double)j / (double)(dims[1] - 1);
                 double u = (double)k / (double)(dims[2] - 1);
-                double *p = ffd->control[(i * dims[1] + j) * dims[2] + k];
+                double *p = control + 3 * ((i * dims[1] + j) * dims[2] + k);
                 for (a = 0; a < 3; ++a) p[a] = origin[a] + s * edges[a] + t * edges[3 + a] + u * edges[6 + a];
             }
+}
+
+SQFFD_DEF sqffd_result sqffd_ffd_init(sqffd_ffd *ffd, const int dims[3], const double origin[3], const double edges[9])
+{
+    double inverse[9];
+    int a;
+    if (!ffd || !dims || !origin || !edges || !sqffd__ffd_dims_valid(dims)) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if (!sqffd__finite3(origin) || !sqffd__finite3(edges) || !sqffd__finite3(edges + 3) || !sqffd__finite3(edges + 6))
+        return SQFFD_ERROR_NON_FINITE;
+    if (!sqffd__ffd_box_inverse(edges, inverse)) return SQFFD_ERROR_DEGENERATE;
+    memset(ffd, 0, sizeof *ffd);
+    memcpy(ffd->inverse, inverse, sizeof inverse);
+    for (a = 0; a < 3; ++a) ffd->dims[a] = dims[a];
+    memcpy(ffd->origin, origin, sizeof ffd->origin);
+    memcpy(ffd->edges, edges, sizeof ffd->edges);
+    sqffd__ffd_regular(dims, origin, edges, &ffd->control[0][0]);
     return SQFFD_OK;
 }
 
 SQFFD_DEF sqffd_result sqffd_ffd_validate(const sqffd_ffd *ffd)
 {
-    double det;
+    double inverse[9];
     size_t k, used;
-    int i, j;
+    int i;
     if (!ffd) return SQFFD_ERROR_INVALID_ARGUMENT;
-    if (!sqffd__ffd_dims_valid(ffd->dims)) return SQFFD_ERROR_INVALID_MODEL;
+    if (!sqffd__ffd_dims_valid(ffd->dims) || !sqffd__bounded3(ffd->origin)) return SQFFD_ERROR_INVALID_MODEL;
     for (i = 0; i < 3; ++i)
-        if (!sqffd__bounded3(ffd->edges + 3 * i) || !sqffd__finite3(ffd->inverse + 3 * i)) return SQFFD_ERROR_INVALID_MODEL;
-    if (!sqffd__bounded3(ffd->origin) || sqffd__ffd_box_flat(ffd->edges, &det)) return SQFFD_ERROR_INVALID_MODEL;
-    for (i = 0; i < 3; ++i) /* inverse times the edge matrix (columns S, T, U) is the identity */
-        for (j = 0; j < 3; ++j) {
-            double e = ffd->inverse[3 * i] * ffd->edges[3 * j] + ffd->inverse[3 * i + 1] * ffd->edges[3 * j + 1] +
-                       ffd->inverse[3 * i + 2] * ffd->edges[3 * j + 2];
-            if (!(fabs(e - (i == j ? 1.0 : 0.0)) <= 1e-9)) return SQFFD_ERROR_INVALID_MODEL;
-        }
+        if (!sqffd__bounded3(ffd->edges + 3 * i)) return SQFFD_ERROR_INVALID_MODEL;
+    if (!sqffd__ffd_box_inverse(ffd->edges, inverse) || !sqffd__ffd_inverse_holds(ffd->edges, ffd->inverse))
+        return SQFFD_ERROR_INVALID_MODEL; /* (NaN fails the comparisons) */
     used = (size_t)ffd->dims[0] * (size_t)ffd->dims[1] * (size_t)ffd->dims[2];
     for (k = 0; k < used; ++k)
         if (!sqffd__bounded3(ffd->control[k])) return SQFFD_ERROR_INVALID_MODEL;
@@ -4322,13 +4370,27 @@ static void sqffd__ffd_local(const sqffd_ffd *ffd, const double point[3], double
     sqffd__mat3_vec(ffd->inverse, d, stu);
 }
 
+/* One point: sum_i ws_i sum_j wt_j (sum_k wu_k P_ijk), each inner sum made
+   where it is used (sqffd__ffd_sum_u and _st keep them for a run of points). */
 static void sqffd__ffd_eval(const sqffd_ffd *ffd, const double stu[3], double out[3])
 {
-    double w[3 * SQFFD_MAX_LATTICE], q[SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE][4];
+    double w[3 * SQFFD_MAX_LATTICE], sum[3] = {0.0, 0.0, 0.0};
     const int *d = ffd->dims;
+    const double *ws = w, *wt = w + d[0], *wu = w + d[0] + d[1];
+    int i, j, k, c;
     sqffd__ffd_axis_weights(d, stu, w);
-    sqffd__ffd_sum_u(d, (const double (*)[3])ffd->control, w + d[0] + d[1], q);
-    sqffd__ffd_sum_st(d, (const double (*)[4])q, w, w + d[0], out);
+    for (i = 0; i < d[0]; ++i) {
+        double row[3] = {0.0, 0.0, 0.0};
+        for (j = 0; j < d[1]; ++j) {
+            const double (*p)[3] = (const double (*)[3])ffd->control + (size_t)(i * d[1] + j) * (size_t)d[2];
+            double q[3] = {0.0, 0.0, 0.0};
+            for (k = 0; k < d[2]; ++k)
+                for (c = 0; c < 3; ++c) q[c] += wu[k] * p[k][c];
+            for (c = 0; c < 3; ++c) row[c] += wt[j] * q[c];
+        }
+        for (c = 0; c < 3; ++c) sum[c] += ws[i] * row[c];
+    }
+    out[0] = sum[0]; out[1] = sum[1]; out[2] = sum[2];
 }
 
 static void sqffd__ffd_deform(const sqffd_ffd *ffd, const double point[3], double out[3])
@@ -5240,7 +5302,7 @@ typedef struct sqffd__fit_step1 {
    the searches of a batch first, then their sums (measured: each loop short
    enough for the processor to overlap one point's search with the next:
    20.8 -> 19.9 ms on the 6,000-point fit). */
-#define SQFFD__FIT_BATCH 16
+#define SQFFD__FIT_BATCH 8
 
 static sqffd_result sqffd__fit_pass(const double *points, size_t n, sqffd__fit_search *search, double diagonal,
                                     double *per_point, sqffd__fit_step1 *step1, sqffd_distance_stats *stats)
@@ -5448,42 +5510,50 @@ SQFFD_DEF sqffd_result sqffd_model_save(const sqffd_model *model, void *bytes, s
 SQFFD_DEF sqffd_result sqffd_model_load(sqffd_model *model, const void *bytes, size_t size)
 {
     const unsigned char *in = (const unsigned char *)bytes, *p;
-    sqffd_model m;
-    uint32_t dims[3], grid[2];
-    int lattice[3], i, magic = 1;
-    double box[12];
-    sqffd_result r;
+    sqffd_superquadric sq;
+    uint32_t dims[3];
+    int grid[2], i, magic = 1;
+    double box[12], inverse[9], v;
+    size_t values, k;
     if (!model || !bytes) return SQFFD_ERROR_INVALID_ARGUMENT;
     for (i = 0; i < 8 && (size_t)i < size; ++i) magic &= in[i] == sqffd__save_magic[i];
-    if (size < SQFFD__SAVE_HEADER + 4u || !magic ||
-        sqffd__get_u32(in + 8) != SQFFD__SAVE_VERSION || sqffd__get_u32(in + 12) != size ||
-        sqffd__get_u32(in + size - 4u) != sqffd__crc32(in, size - 4u))
+    if (size < SQFFD__SAVE_HEADER + 4u || !magic || sqffd__get_u32(in + 8) != SQFFD__SAVE_VERSION ||
+        sqffd__get_u32(in + 12) != size || sqffd__get_u32(in + size - 4u) != sqffd__crc32(in, size - 4u))
         return SQFFD_ERROR_BAD_FORMAT;
-    for (i = 0; i < 3; ++i) dims[i] = sqffd__get_u32(in + 168 + 4 * i);
-    for (i = 0; i < 2; ++i) grid[i] = sqffd__get_u32(in + 276 + 4 * i);
     for (i = 0; i < 3; ++i) /* the length must match the lattice it claims */
-        if (dims[i] < 2 || dims[i] > 0xFFFFu) return SQFFD_ERROR_BAD_FORMAT;
-    if (size != SQFFD__SAVE_HEADER + 24u * (size_t)dims[0] * (size_t)dims[1] * (size_t)dims[2] + 4u)
-        return SQFFD_ERROR_BAD_FORMAT;
+        if ((dims[i] = sqffd__get_u32(in + 168 + 4 * i)) < 2 || dims[i] > 0xFFFFu) return SQFFD_ERROR_BAD_FORMAT;
+    values = 3u * (size_t)dims[0] * (size_t)dims[1] * (size_t)dims[2];
+    if (size != SQFFD__SAVE_HEADER + 8u * values + 4u) return SQFFD_ERROR_BAD_FORMAT;
     for (i = 0; i < 3; ++i)
         if (dims[i] > SQFFD_MAX_LATTICE) return SQFFD_ERROR_TOO_LARGE;
-    for (i = 0; i < 2; ++i)
-        if (grid[i] > SQFFD__FIT_MAX_GRID) return SQFFD_ERROR_INVALID_MODEL;
-    memset(&m, 0, sizeof m);
-    p = sqffd__get_f64s(in + 16, m.sq.size, 3);
-    p = sqffd__get_f64s(p, m.sq.shape, 2);
-    p = sqffd__get_f64s(p, m.sq.taper, 2);
-    p = sqffd__get_f64s(p, m.sq.rotation, 9);
-    sqffd__get_f64s(p, m.sq.center, 3);
-    for (i = 0; i < 2; ++i) m.grid[i] = (int)grid[i];
-    for (i = 0; i < 3; ++i) lattice[i] = (int)dims[i];
+    /* everything is checked before *model is written (no model-sized copy on the stack) */
+    p = sqffd__get_f64s(in + 16, sq.size, 3);
+    p = sqffd__get_f64s(p, sq.shape, 2);
+    p = sqffd__get_f64s(p, sq.taper, 2);
+    p = sqffd__get_f64s(p, sq.rotation, 9);
+    sqffd__get_f64s(p, sq.center, 3);
     sqffd__get_f64s(in + 180, box, 12);
-    r = sqffd_ffd_init(&m.ffd, lattice, box, box + 3); /* (the inverse) */
-    if (r != SQFFD_OK) return SQFFD_ERROR_INVALID_MODEL;
-    sqffd__get_f64s(in + SQFFD__SAVE_HEADER, &m.ffd.control[0][0], (size - SQFFD__SAVE_HEADER - 4u) / 8u);
-    r = sqffd_model_validate(&m);
-    if (r != SQFFD_OK) return r;
-    *model = m;
+    for (i = 0; i < 2; ++i) {
+        uint32_t g = sqffd__get_u32(in + 276 + 4 * i);
+        grid[i] = g > SQFFD__FIT_MAX_GRID ? 0 : (int)g;
+    }
+    if (sqffd_sq_validate(&sq) != SQFFD_OK || sqffd__fit_grid_check(grid) != SQFFD_OK || !sqffd__bounded3(box) ||
+        !sqffd__bounded3(box + 3) || !sqffd__bounded3(box + 6) || !sqffd__bounded3(box + 9) ||
+        !sqffd__ffd_box_inverse(box + 3, inverse) || !sqffd__ffd_inverse_holds(box + 3, inverse))
+        return SQFFD_ERROR_INVALID_MODEL;
+    for (k = 0, p = in + SQFFD__SAVE_HEADER; k < values; ++k) {
+        p = sqffd__get_f64s(p, &v, 1);
+        if (!(fabs(v) <= SQFFD__MAX_MAGNITUDE)) return SQFFD_ERROR_INVALID_MODEL;
+    }
+    memset(model, 0, sizeof *model);
+    model->sq = sq;
+    for (i = 0; i < 3; ++i) model->ffd.dims[i] = (int)dims[i];
+    memcpy(model->ffd.origin, box, sizeof model->ffd.origin);
+    memcpy(model->ffd.edges, box + 3, sizeof model->ffd.edges);
+    memcpy(model->ffd.inverse, inverse, sizeof inverse);
+    sqffd__get_f64s(in + SQFFD__SAVE_HEADER, &model->ffd.control[0][0], values);
+    model->grid[0] = grid[0];
+    model->grid[1] = grid[1];
     return SQFFD_OK;
 }
 
@@ -5758,6 +5828,7 @@ typedef struct sqffd__fit_system {
     double *fixed;       /* L x L, lower triangle: spring D^T D + tether B^T B */
     double *rhs0;        /* 3 x L: the fixed part's pull toward P0 */
     double *pairs;       /* (l m)^2: the tether's B^T B while preparing */
+    double (*block)[SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE]; /* 4 x (l m) scratch while preparing */
 } sqffd__fit_system;
 
 /* Over-relaxation of the steps (Salakhutdinov & Roweis, "Adaptive
@@ -5787,6 +5858,7 @@ typedef struct sqffd__fit_work {
     double *accepted;    /* L x 3 (as sqffd_ffd's): the last accepted control points */
     double *plain;       /* L x 3: the plain step from them */
     double *pairs;       /* (l m)^2: a run's sum of (a (x) b)(a (x) b)^T */
+    double (*block)[SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE]; /* 4 x (l m) scratch of the B products (not on the stack: 2 KB) */
     double *distance;    /* robust: per data point, for the scale (NULL otherwise) */
     void *tree_ws;       /* tree over the model points */
     size_t tree_size;
@@ -5858,6 +5930,7 @@ static void sqffd__fit_system_layout(sqffd__arena *a, const int dims[3], const i
     s->fixed = (double *)sqffd__arena_take(a, l * l, sizeof(double));
     s->rhs0 = (double *)sqffd__arena_take(a, 3 * l, sizeof(double));
     s->pairs = (double *)sqffd__arena_take(a, (size_t)(dims[0] * dims[1] * dims[0] * dims[1]), sizeof(double));
+    s->block = (double (*)[SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE])sqffd__arena_take(a, 4, sizeof *s->block);
 }
 
 /* The iteration's scratch for n data points against a system of that lattice and grid. */
@@ -5884,6 +5957,7 @@ static void sqffd__fit_work_layout(sqffd__arena *a, size_t n, const int dims[3],
     w->accepted = (double *)sqffd__arena_take(a, 3 * l, sizeof(double));
     w->plain = (double *)sqffd__arena_take(a, 3 * l, sizeof(double));
     w->pairs = (double *)sqffd__arena_take(a, (size_t)(dims[0] * dims[1] * dims[0] * dims[1]), sizeof(double));
+    w->block = (double (*)[SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE])sqffd__arena_take(a, 4, sizeof *w->block);
     w->tree_size = sqffd_kdtree_workspace_size(m);
     w->tree_ws = sqffd__arena_take(a, w->tree_size, 1);
     w->sample_count = sqffd__fit_cap(n, o->ffd_max_points);
@@ -5917,7 +5991,9 @@ static void sqffd__fit_work_layout(sqffd__arena *a, size_t n, const int dims[3],
 }
 
 /* matrix (L x L, lower triangle) += B^T diag(scale w) B, run by run (w NULL: all 1). */
-static void sqffd__fit_gram(const sqffd__fit_system *s, const double *w, double scale, double *pairs, double *matrix)
+static void sqffd__fit_gram(const sqffd__fit_system *s, const double *w, double scale, double *SQFFD__RESTRICT pairs,
+                            double (*SQFFD__RESTRICT ab)[SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE],
+                            double *SQFFD__RESTRICT matrix)
 {
     const int *d = s->dims;
     size_t l = s->lattice, lm = (size_t)(d[0] * d[1]), n = (size_t)d[2], r, v, e, f, k, h;
@@ -5925,8 +6001,7 @@ static void sqffd__fit_gram(const sqffd__fit_system *s, const double *w, double 
         const double *c = s->weights + (size_t)s->run[r] * s->stride + d[0] + d[1];
         memset(pairs, 0, lm * lm * sizeof(double));
         for (v = s->run[r]; v < s->run[r + 1]; v += 4) { /* pairs += W_v (a (x) b)(a (x) b)^T, lower triangle, */
-            double ab[4][SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE];       /* four vertices at a time (a quarter of the stores) */
-            for (k = 0; k < 4; ++k) {
+            for (k = 0; k < 4; ++k) {                                  /* four vertices at a time (a quarter of the stores) */
                 int inside = v + k < s->run[r + 1];
                 const double *a = s->weights + (inside ? v + k : v) * s->stride, *b = a + d[0];
                 double root = inside ? sqrt(scale * (w ? w[v + k] : 1.0)) : 0.0; /* (past the run: zeros) */
@@ -5948,15 +6023,15 @@ static void sqffd__fit_gram(const sqffd__fit_system *s, const double *w, double 
 }
 
 /* rhs (3 x L) = B^T y + rhs0, run by run. */
-static void sqffd__fit_project(const sqffd__fit_system *s, const double *y, double *rhs)
+static void sqffd__fit_project(const sqffd__fit_system *s, const double *y, double (*SQFFD__RESTRICT sum)[3],
+                               double *SQFFD__RESTRICT rhs)
 {
     const int *d = s->dims;
     size_t l = s->lattice, lm = (size_t)(d[0] * d[1]), n = (size_t)d[2], r, v, e, k, i, j;
     memcpy(rhs, s->rhs0, 3 * l * sizeof(double));
     for (r = 0; r < s->runs; ++r) {
         const double *c = s->weights + (size_t)s->run[r] * s->stride + d[0] + d[1];
-        double sum[SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE][3];
-        memset(sum, 0, sizeof sum);
+        memset(sum, 0, lm * sizeof *sum);
         for (v = s->run[r]; v < s->run[r + 1]; ++v) { /* sum += (a (x) b) y_v */
             const double *a = s->weights + v * s->stride, *b = a + d[0], *yv = y + 3 * v;
             for (i = 0; i < (size_t)d[0]; ++i) {
@@ -5978,9 +6053,9 @@ static void sqffd__fit_project(const sqffd__fit_system *s, const double *y, doub
 }
 
 /* x = B P for every model point, run by run (P in sqffd_ffd's layout). */
-static void sqffd__fit_evaluate(const sqffd__fit_system *s, const double (*control)[3], double *x)
+static void sqffd__fit_evaluate(const sqffd__fit_system *s, const double (*control)[3], double (*SQFFD__RESTRICT q)[4],
+                                double *SQFFD__RESTRICT x)
 {
-    double q[SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE][4];
     size_t r, v;
     for (r = 0; r < s->runs; ++r) {
         const double *c = s->weights + (size_t)s->run[r] * s->stride + s->dims[0] + s->dims[1];
@@ -6017,12 +6092,9 @@ static double sqffd__fit_prior(const sqffd__fit_system *s, const double *control
 static sqffd_result sqffd__fit_prepare(const sqffd_model *model, double alpha, double tether,
                                        sqffd_regularization regularization, sqffd__fit_system *s)
 {
-    sqffd_ffd regular; /* P0 */
     double run_u = 0.0;
     size_t l = s->lattice, m = s->count, v, p, q, c;
     int axis;
-    sqffd_result res = sqffd_ffd_init(&regular, model->ffd.dims, model->ffd.origin, model->ffd.edges);
-    if (res != SQFFD_OK) return res;
     /* alpha weighs the mean spring energy per control point against the mean
        squared residual per data point, whatever the grid and the lattice */
     s->spring = alpha * (double)m / (double)l;
@@ -6041,12 +6113,11 @@ static sqffd_result sqffd__fit_prepare(const sqffd_model *model, double alpha, d
         sqffd__ffd_axis_weights(s->dims, stu, s->weights + v * s->stride);
     }
     s->run[s->runs] = (uint32_t)m;
-    for (p = 0; p < l; ++p)
-        for (c = 0; c < 3; ++c) s->rest_control[3 * p + c] = regular.control[p][c];
+    sqffd__ffd_regular(model->ffd.dims, model->ffd.origin, model->ffd.edges, s->rest_control); /* P0 */
     /* fixed = spring D^T D (the springs' graph Laplacian) + tether B^T B;
        rhs0 = fixed P0, less the springs' part for the paper's ||D P||^2 */
     memset(s->fixed, 0, l * l * sizeof(double));
-    if (s->tether > 0.0) sqffd__fit_gram(s, NULL, s->tether, s->pairs, s->fixed);
+    if (s->tether > 0.0) sqffd__fit_gram(s, NULL, s->tether, s->pairs, s->block, s->fixed);
     memset(s->rhs0, 0, 3 * l * sizeof(double));
     for (p = 0; p < l; ++p)
         for (q = 0; q <= p; ++q) {
@@ -6084,7 +6155,7 @@ static sqffd_result sqffd__fit_solve(const sqffd__fit_system *s, sqffd__fit_work
     double *rhs = w->rhs, *scratch = w->scratch;
     sqffd_result res = SQFFD_ERROR_NOT_POSITIVE_DEFINITE;
     memcpy(w->matrix, s->fixed, l * l * sizeof(double));
-    sqffd__fit_gram(s, w->weights, 1.0, w->pairs, w->matrix);
+    sqffd__fit_gram(s, w->weights, 1.0, w->pairs, w->block, w->matrix);
     if (w->solver == SQFFD_SOLVER_CHOLESKY) res = sqffd_cholesky_factor(w->matrix, (int)l);
     if (res == SQFFD_OK) {
         for (c = 0; c < 3; ++c) sqffd_cholesky_solve(w->matrix, (int)l, rhs + c * l);
@@ -6092,7 +6163,7 @@ static sqffd_result sqffd__fit_solve(const sqffd__fit_system *s, sqffd__fit_work
     }
     if (res != SQFFD_ERROR_NOT_POSITIVE_DEFINITE || !w->v) return res;
     memcpy(w->matrix, s->fixed, l * l * sizeof(double)); /* the factor overwrote it */
-    sqffd__fit_gram(s, w->weights, 1.0, w->pairs, w->matrix);
+    sqffd__fit_gram(s, w->weights, 1.0, w->pairs, w->block, w->matrix);
     for (r = 0; r < l; ++r) /* the whole symmetric matrix */
         for (k = r + 1; k < l; ++k) w->matrix[r * l + k] = w->matrix[k * l + r];
     res = sqffd_svd(w->matrix, (int)l, (int)l, NULL, w->singular, w->v, w->svd_ws, w->svd_size);
@@ -6195,7 +6266,8 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
     sqffd__fit_search search;
     sqffd__fit_step1 step1;
     int it = 0, extrapolated = 0, stop = 0, scaled = !w->distance, scaled_now = 0;
-    sqffd__fit_evaluate(s, (const double (*)[3])model->ffd.control, x);
+    SQFFD_ASSERT(t && x && next); /* (the arena's: never NULL here) */
+    sqffd__fit_evaluate(s, (const double (*)[3])model->ffd.control, (double (*)[4])w->block, x);
     sqffd__fit_search_init(&search, x, s->grid, s->rings, w->tree_ws, w->tree_size, &w->bvh);
     search.triangle = w->triangle;
     search.anchor = w->anchor;
@@ -6262,7 +6334,7 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
             memcpy(w->matched, w->matched_accepted, n * sizeof *w->matched); /* (the plain step's bound is theirs) */
             stop = !extrapolated;
             extrapolated = 0;
-            sqffd__fit_evaluate(s, (const double (*)[3])model->ffd.control, next);
+            sqffd__fit_evaluate(s, (const double (*)[3])model->ffd.control, (double (*)[4])w->block, next);
             sqffd__fit_moves(&search, x, next);
             swap = x; x = next; next = swap;
             continue;
@@ -6296,7 +6368,7 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
             w->weights[v] = wv;
         }
         /* step 2: the weighted problem's minimiser, the plain step G(P) */
-        sqffd__fit_project(s, t, w->rhs);
+        sqffd__fit_project(s, t, (double (*)[3])w->block, w->rhs);
         res = sqffd__fit_solve(s, w);
         if (res != SQFFD_OK) return res;
         for (p = 0; p < l; ++p)
@@ -6308,7 +6380,7 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
         /* the plain step's move B (G(P) - P) decides convergence; once it is within the
            tolerance the plain step itself is taken (an extrapolation would only overshoot) */
         for (i = 0; i < size; ++i) w->rhs[i] = w->plain[i] - control[i];
-        sqffd__fit_evaluate(s, (const double (*)[3])w->rhs, next);
+        sqffd__fit_evaluate(s, (const double (*)[3])w->rhs, (double (*)[4])w->block, next);
         rep->step = sqrt(sqffd__la_dot(next, next, 3 * m) / (double)m) / diagonal;
         rep->iterations = ++it;
         rep->converged = rep->step <= o->tolerance;
@@ -6318,7 +6390,7 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
                              : SQFFD__FIT_RELAX;
         extrapolated = !rep->converged;
         for (i = 0; i < size; ++i) control[i] += (extrapolated ? omega : 1.0) * w->rhs[i];
-        sqffd__fit_evaluate(s, (const double (*)[3])model->ffd.control, next);
+        sqffd__fit_evaluate(s, (const double (*)[3])model->ffd.control, (double (*)[4])w->block, next);
         sqffd__fit_moves(&search, x, next);
         swap = x; x = next; next = swap;
     }
@@ -6333,6 +6405,7 @@ typedef struct sqffd__fit_frame {
     double *sample;      /* stage 1's subsample (NULL: all points) */
     void *sq_ws;
     size_t sq_size;
+    sqffd_fit_report *report; /* where the report goes when the caller passes none (not on the stack: 1.4 KB) */
     sqffd__fit_work w;
 } sqffd__fit_frame;
 
@@ -6349,6 +6422,7 @@ static void sqffd__fit_frame_layout(sqffd__arena *a, size_t n, const int dims[3]
         if (f->sq_size == 0) a->overflow = 1;
         f->sq_ws = sqffd__arena_take(a, f->sq_size, 1);
     }
+    f->report = (sqffd_fit_report *)sqffd__arena_take(a, 1, sizeof(sqffd_fit_report));
     sqffd__fit_work_layout(a, n, dims, grid, o, &f->w);
 }
 
@@ -6415,7 +6489,7 @@ static sqffd_result sqffd__fit_error(const double *points, size_t n, double diag
                                      sqffd__fit_work *w, const sqffd_model *model, sqffd_distance_stats *stats)
 {
     sqffd__fit_search search;
-    sqffd__fit_evaluate(s, model->ffd.control, w->x);
+    sqffd__fit_evaluate(s, model->ffd.control, (double (*)[4])w->block, w->x);
     sqffd__fit_search_init(&search, w->x, s->grid, s->rings, w->tree_ws, w->tree_size, &w->bvh);
     return sqffd__fit_pass(points, n, &search, diagonal, NULL, NULL, stats);
 }
@@ -6456,7 +6530,7 @@ SQFFD_DEF sqffd_result sqffd_fit_ffd(const double *points, size_t n, const sqffd
     sqffd__arena a;
     sqffd__fit_system s;
     sqffd__fit_frame f;
-    sqffd_fit_report local;
+    sqffd_fit_report *rep;
     double diagonal = 0.0;
     sqffd_result res;
     if (!points || !options || !model) return SQFFD_ERROR_INVALID_ARGUMENT;
@@ -6468,11 +6542,10 @@ SQFFD_DEF sqffd_result sqffd_fit_ffd(const double *points, size_t n, const sqffd
     sqffd__fit_system_layout(&a, model->ffd.dims, model->grid, &s);
     sqffd__fit_frame_layout(&a, n, model->ffd.dims, model->grid, options, 0, &f);
     if (a.overflow) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
-    memset(&local, 0, sizeof local);
+    rep = report ? report : f.report;
+    memset(rep, 0, sizeof *rep);
     res = sqffd__fit_prepare(model, options->alpha, options->tether, options->regularization, &s);
-    if (res == SQFFD_OK) res = sqffd__fit_run(points, n, diagonal, options, &s, &f.w, 1, model, &local);
-    if (report) *report = local;
-    return res;
+    return res == SQFFD_OK ? sqffd__fit_run(points, n, diagonal, options, &s, &f.w, 1, model, rep) : res;
 }
 
 /* Stage 1's guard by the error itself: the superquadric's error (its grid
@@ -6548,7 +6621,7 @@ SQFFD_DEF sqffd_result sqffd_fit(const double *points, size_t n, const sqffd_fit
     sqffd__arena a;
     sqffd__fit_system s;
     sqffd__fit_frame f;
-    sqffd_fit_report local;
+    sqffd_fit_report *rep;
     double diagonal = 0.0;
     sqffd_result res;
     if (!points || !options || !model) return SQFFD_ERROR_INVALID_ARGUMENT;
@@ -6559,10 +6632,9 @@ SQFFD_DEF sqffd_result sqffd_fit(const double *points, size_t n, const sqffd_fit
     sqffd__fit_system_layout(&a, options->lattice, options->grid, &s);
     sqffd__fit_frame_layout(&a, n, options->lattice, options->grid, options, 1, &f);
     if (a.overflow) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
-    memset(&local, 0, sizeof local);
-    res = sqffd__fit_whole(points, n, diagonal, options, &s, &f, model, &local);
-    if (report) *report = local;
-    return res;
+    rep = report ? report : f.report;
+    memset(rep, 0, sizeof *rep);
+    return sqffd__fit_whole(points, n, diagonal, options, &s, &f, model, rep);
 }
 
 /* ======================================================================
@@ -6665,7 +6737,7 @@ SQFFD_DEF sqffd_result sqffd_fit_prepared(const sqffd_ffd_system *system, const 
     sqffd__arena a;
     sqffd__fit_frame f;
     sqffd_fit_options o;
-    sqffd_fit_report local;
+    sqffd_fit_report *rep;
     double diagonal = 0.0;
     sqffd_result res;
     if (!system || !system->state || !model ||
@@ -6678,10 +6750,9 @@ SQFFD_DEF sqffd_result sqffd_fit_prepared(const sqffd_ffd_system *system, const 
     sqffd__arena_init(&a, workspace, workspace_size);
     sqffd__fit_frame_layout(&a, n, system->dims, system->grid, &o, 0, &f);
     if (a.overflow) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
-    memset(&local, 0, sizeof local);
-    res = sqffd__fit_run(points, n, diagonal, &o, (const sqffd__fit_system *)system->state, &f.w, 1, model, &local);
-    if (report) *report = local;
-    return res;
+    rep = report ? report : f.report;
+    memset(rep, 0, sizeof *rep);
+    return sqffd__fit_run(points, n, diagonal, &o, (const sqffd__fit_system *)system->state, &f.w, 1, model, rep);
 }
 
 /* ---- tracking ------------------------------------------------------------ */
@@ -6746,7 +6817,7 @@ SQFFD_DEF sqffd_result sqffd_track(const double *const *frames, const size_t *co
     sqffd__fit_state_layout(&a, o.lattice, o.grid, &state);
     if (!state) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
     for (t = 0; t < frame_count; ++t) {
-        sqffd_fit_report local;
+        sqffd_fit_report *rep;
         double diagonal = 0.0;
         if (opt->progress && opt->progress(opt->progress_user, SQFFD_STAGE_FRAME, (int)(t < INT32_MAX ? t : INT32_MAX), previous)) {
             res = SQFFD_ERROR_CANCELLED;
@@ -6758,15 +6829,15 @@ SQFFD_DEF sqffd_result sqffd_track(const double *const *frames, const size_t *co
         o.max_iterations = t == 0 ? opt->fit.max_iterations : opt->frame_iterations;
         sqffd__fit_frame_layout(&frame, counts[t], o.lattice, o.grid, &o, t == 0, &f);
         if (frame.overflow) { res = SQFFD_ERROR_WORKSPACE_TOO_SMALL; break; }
-        memset(&local, 0, sizeof local);
-        if (t == 0) res = sqffd__fit_whole(frames[t], counts[t], diagonal, &o, state, &f, models, &local);
+        rep = reports ? reports + t : f.report;
+        memset(rep, 0, sizeof *rep);
+        if (t == 0) res = sqffd__fit_whole(frames[t], counts[t], diagonal, &o, state, &f, models, rep);
         else {
             models[t] = models[t - 1];
-            res = sqffd__fit_run(frames[t], counts[t], diagonal, &o, state, &f.w, 0, models + t, &local);
+            res = sqffd__fit_run(frames[t], counts[t], diagonal, &o, state, &f.w, 0, models + t, rep);
         }
         if (res != SQFFD_OK) break;
-        if (reports) reports[t] = local;
-        previous = local.error.rms_relative;
+        previous = rep->error.rms_relative;
     }
     if (frames_done) *frames_done = t;
     return res;
@@ -6813,6 +6884,7 @@ typedef struct sqffd__motion_work {
     double *inward;          /* M: the excursion */
     double *scratch;         /* M: medians */
     unsigned char *segment;  /* M */
+    sqffd_motion_report *report; /* built here, copied out on success (not on the stack: 0.8 KB) */
 } sqffd__motion_work;
 
 static void sqffd__motion_layout(sqffd__arena *a, size_t m, sqffd__motion_work *w)
@@ -6827,6 +6899,7 @@ static void sqffd__motion_layout(sqffd__arena *a, size_t m, sqffd__motion_work *
     w->inward = (double *)sqffd__arena_take(a, m, sizeof(double));
     w->scratch = (double *)sqffd__arena_take(a, m, sizeof(double));
     w->segment = (unsigned char *)sqffd__arena_take(a, m, 1);
+    w->report = (sqffd_motion_report *)sqffd__arena_take(a, 1, sizeof(sqffd_motion_report));
 }
 
 SQFFD_DEF size_t sqffd_motion_workspace_size(const sqffd_model *models, size_t frame_count)
@@ -6928,7 +7001,7 @@ SQFFD_DEF sqffd_result sqffd_motion(const sqffd_model *models, size_t frame_coun
     const sqffd_motion_outputs *out;
     sqffd_motion_options defaults = sqffd_motion_options_default();
     const sqffd_motion_options *o = options ? options : &defaults;
-    sqffd_motion_report rep;
+    sqffd_motion_report *rep;
     sqffd__motion_work w;
     sqffd__arena a;
     const sqffd_model *ed;
@@ -6954,7 +7027,8 @@ SQFFD_DEF sqffd_result sqffd_motion(const sqffd_model *models, size_t frame_coun
     sqffd__arena_init(&a, workspace, workspace_size);
     sqffd__motion_layout(&a, m, &w);
     if (a.overflow) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
-    memset(&rep, 0, sizeof rep);
+    rep = w.report;
+    memset(rep, 0, sizeof *rep);
     /* every frame's mesh and volume; ES is the least */
     for (t = 0; t < frame_count; ++t) {
         double volume;
@@ -6967,16 +7041,16 @@ SQFFD_DEF sqffd_result sqffd_motion(const sqffd_model *models, size_t frame_coun
         if (t == o->ed_frame) memcpy(w.ed, w.x, 3 * m * sizeof(double));
         if (volume < least) {
             least = volume;
-            rep.es_frame = t;
+            rep->es_frame = t;
             memcpy(w.es, w.x, 3 * m * sizeof(double));
         }
     }
     ed = models + o->ed_frame;
-    rep.ed_frame = o->ed_frame;
-    rep.edv = sqffd__fit_volume(models->grid, w.ed);
-    rep.esv = least;
-    if (!(rep.edv > 0.0)) return SQFFD_ERROR_DEGENERATE;
-    rep.ejection_fraction = (rep.edv - rep.esv) / rep.edv;
+    rep->ed_frame = o->ed_frame;
+    rep->edv = sqffd__fit_volume(models->grid, w.ed);
+    rep->esv = least;
+    if (!(rep->edv > 0.0)) return SQFFD_ERROR_DEGENERATE;
+    rep->ejection_fraction = (rep->edv - rep->esv) / rep->edv;
     /* the ED geometry: areas, normals, the centre, the axis and the levels */
     sqffd__motion_areas(models->grid, w.ed, w.area, w.normal);
     for (v = 0; v < m; ++v) {
@@ -6986,55 +7060,55 @@ SQFFD_DEF sqffd_result sqffd_motion(const sqffd_model *models, size_t frame_coun
     if (!(total > 0.0)) return SQFFD_ERROR_DEGENERATE;
     for (k = 0; k < 3; ++k) centre[k] /= total;
     scale = sqrt(total);
-    if (!sqffd__motion_axis(ed, o, &w, m, centre, scale, rep.axis))
+    if (!sqffd__motion_axis(ed, o, &w, m, centre, scale, rep->axis))
         return o->apex_direction[0] != 0.0 || o->apex_direction[1] != 0.0 || o->apex_direction[2] != 0.0
                    ? SQFFD_ERROR_INVALID_ARGUMENT : SQFFD_ERROR_DEGENERATE;
     for (v = 0; v < m; ++v) {
-        double t2 = sqffd__dot3(w.ed + 3 * v, rep.axis);
-        if (t2 > top) { top = t2; memcpy(rep.apex, w.ed + 3 * v, sizeof rep.apex); }
+        double t2 = sqffd__dot3(w.ed + 3 * v, rep->axis);
+        if (t2 > top) { top = t2; memcpy(rep->apex, w.ed + 3 * v, sizeof rep->apex); }
         bottom = t2 < bottom ? t2 : bottom;
     }
-    rep.length = top - bottom;
-    if (!(rep.length > 1e-9 * scale)) return SQFFD_ERROR_DEGENERATE;
+    rep->length = top - bottom;
+    if (!(rep->length > 1e-9 * scale)) return SQFFD_ERROR_DEGENERATE;
     /* the septum, across the axis, and anterior = septum x axis */
     if (o->septum_direction[0] != 0.0 || o->septum_direction[1] != 0.0 || o->septum_direction[2] != 0.0)
         memcpy(septum, o->septum_direction, sizeof septum);
     else { /* the superquadric's first local axis other than the one nearest the long axis */
         int along = 0, first;
         for (k = 1; k < 3; ++k)
-            if (fabs(ed->sq.rotation[3 * 0 + k] * rep.axis[0] + ed->sq.rotation[3 * 1 + k] * rep.axis[1] +
-                     ed->sq.rotation[3 * 2 + k] * rep.axis[2]) >
-                fabs(ed->sq.rotation[3 * 0 + along] * rep.axis[0] + ed->sq.rotation[3 * 1 + along] * rep.axis[1] +
-                     ed->sq.rotation[3 * 2 + along] * rep.axis[2]))
+            if (fabs(ed->sq.rotation[3 * 0 + k] * rep->axis[0] + ed->sq.rotation[3 * 1 + k] * rep->axis[1] +
+                     ed->sq.rotation[3 * 2 + k] * rep->axis[2]) >
+                fabs(ed->sq.rotation[3 * 0 + along] * rep->axis[0] + ed->sq.rotation[3 * 1 + along] * rep->axis[1] +
+                     ed->sq.rotation[3 * 2 + along] * rep->axis[2]))
                 along = k;
         first = along == 0 ? 1 : 0;
         for (k = 0; k < 3; ++k) septum[k] = ed->sq.rotation[3 * k + first];
     }
     {
-        double along = sqffd__dot3(septum, rep.axis), across[3], length = sqrt(sqffd__dot3(septum, septum));
-        for (k = 0; k < 3; ++k) across[k] = septum[k] - along * rep.axis[k];
-        if (!isfinite(length) || !sqffd__unit3(across, length * 1e3, rep.septum)) return SQFFD_ERROR_INVALID_ARGUMENT;
+        double along = sqffd__dot3(septum, rep->axis), across[3], length = sqrt(sqffd__dot3(septum, septum));
+        for (k = 0; k < 3; ++k) across[k] = septum[k] - along * rep->axis[k];
+        if (!isfinite(length) || !sqffd__unit3(across, length * 1e3, rep->septum)) return SQFFD_ERROR_INVALID_ARGUMENT;
     }
-    sqffd__cross3(rep.septum, rep.axis, rep.anterior);
+    sqffd__cross3(rep->septum, rep->axis, rep->anterior);
     /* per vertex: level, segment (0: valve plane), displacement */
     for (v = 0; v < m; ++v) {
-        double d[3], n[3], phi, f = (top - sqffd__dot3(w.ed + 3 * v, rep.axis)) / rep.length;
+        double d[3], n[3], phi, f = (top - sqffd__dot3(w.ed + 3 * v, rep->axis)) / rep->length;
         int facing;
         w.level[v] = f < 0.0 ? 0.0 : f > 1.0 ? 1.0 : f;
         sqffd__sub3(w.es + 3 * v, w.ed + 3 * v, d);
         w.moved[v] = sqrt(sqffd__dot3(d, d));
         if (!sqffd__unit3(w.normal + 3 * v, 0.0, n)) n[0] = n[1] = n[2] = 0.0;
         w.inward[v] = -sqffd__dot3(d, n);
-        facing = -sqffd__dot3(n, rep.axis) > SQFFD__MOTION_VALVE;
+        facing = -sqffd__dot3(n, rep->axis) > SQFFD__MOTION_VALVE;
         if (w.level[v] > 0.5 && facing) { w.segment[v] = 0; continue; }
         sqffd__sub3(w.ed + 3 * v, centre, d);
-        phi = atan2(sqffd__dot3(d, rep.septum), sqffd__dot3(d, rep.anterior));
+        phi = atan2(sqffd__dot3(d, rep->septum), sqffd__dot3(d, rep->anterior));
         if (phi < 0.0) phi += 2.0 * SQFFD__FIT_PI;
         w.segment[v] = sqffd__motion_segment(w.level[v], phi, o->apex_fraction);
         w.scratch[wall++] = w.inward[v];
     }
     if (wall == 0) return SQFFD_ERROR_DEGENERATE;
-    rep.median_excursion = sqffd__sq_select(w.scratch, wall, wall / 2);
+    rep->median_excursion = sqffd__sq_select(w.scratch, wall, wall / 2);
     for (b = 0; b < SQFFD__MOTION_BANDS; ++b) { /* the wall's median excursion at each level */
         size_t count = 0;
         for (v = 0; v < m; ++v)
@@ -7058,7 +7132,7 @@ SQFFD_DEF sqffd_result sqffd_motion(const sqffd_model *models, size_t frame_coun
         if (slow) low[k] += w.area[v];
     }
     for (k = 0; k < SQFFD_SEGMENTS; ++k) {
-        sqffd_segment_motion *sg = rep.segments + k;
+        sqffd_segment_motion *sg = rep->segments + k;
         sg->area = wall_area[k];
         sg->mean_displacement = wall_area[k] > 0.0 ? sum[k] / wall_area[k] : 0.0;
         sg->mean_excursion = wall_area[k] > 0.0 ? inward[k] / wall_area[k] : 0.0;
@@ -7068,7 +7142,7 @@ SQFFD_DEF sqffd_result sqffd_motion(const sqffd_model *models, size_t frame_coun
     if (out->displacement) memcpy(out->displacement, w.moved, m * sizeof(double));
     if (out->excursion) memcpy(out->excursion, w.inward, m * sizeof(double));
     if (out->segment) memcpy(out->segment, w.segment, m);
-    if (report) *report = rep;
+    if (report) *report = *rep;
     return SQFFD_OK;
 }
 
@@ -7139,7 +7213,7 @@ static void sqffd__vol_slice(const sqffd_volume *v, size_t k, double *out)
 
 /* Runs body with `value` bound to each voxel's scaled value, a chunk of a
    row at a time (the range and the histogram need no workspace). */
-#define SQFFD__VOL_CHUNK 128
+#define SQFFD__VOL_CHUNK 64
 #define SQFFD__VOL_EACH(v, value, body)                                                              \
     do {                                                                                             \
         double chunk_[SQFFD__VOL_CHUNK];                                                             \

@@ -44,5 +44,6 @@ void suite_volume_io(void);
 void suite_export(void);
 void suite_volume(void);
 void suite_model(void);
+void suite_memory(void);
 
 #endif

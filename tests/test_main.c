@@ -51,6 +51,7 @@ int main(int argc, char **argv)
     suite_export();
     suite_volume();
     suite_model();
+    suite_memory();
     printf("%d passed, %d failed\n", passed, failed);
     return failed ? 1 : 0;
 }
