@@ -88,7 +88,7 @@ unit-asan: $(BUILD)/sqffd_tests_asan
 	@./$(BUILD)/sqffd_tests_asan
 
 # Every fuzz target replays its seed corpus under the sanitizers (gcc, no libFuzzer).
-$(BUILD)/replay_%: fuzz/%.c fuzz/replay.c $(TEST_DEP) | $(BUILD)
+$(BUILD)/replay_%: fuzz/%.c fuzz/replay.c $(TEST_DEP) $(wildcard fuzz/*.h) | $(BUILD)
 	$(CC) $(SAN) -std=c99 -Wall -Wextra -o $@ $< fuzz/replay.c -lm
 
 fuzz-replay: $(addprefix $(BUILD)/replay_,$(FUZZ_TARGETS))
@@ -178,7 +178,7 @@ fuzz: | $(BUILD)
 	clang -fsanitize=fuzzer $(BUILD)/fuzz_probe.c -o $(BUILD)/fuzz_probe 2>/dev/null \
 	  || { echo "fuzz: clang has no libFuzzer runtime (Debian: libclang-rt-dev), skipped"; exit 0; }; \
 	for t in $(FUZZ_TARGETS); do \
-	  clang -g -O1 -fsanitize=fuzzer,address,undefined -o $(BUILD)/libfuzzer_$$t fuzz/$$t.c -lm || exit 1; \
+	  clang -g -O1 -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined -o $(BUILD)/libfuzzer_$$t fuzz/$$t.c -lm || exit 1; \
 	  mkdir -p $(BUILD)/corpus_$$t; \
 	  ./$(BUILD)/libfuzzer_$$t -max_total_time=$(FUZZ_SECONDS) -max_len=65536 $$(test -f fuzz/$$t.dict && echo -dict=fuzz/$$t.dict) $(FUZZ_FLAGS) $(BUILD)/corpus_$$t fuzz/corpus/$$t || exit 1; \
 	done

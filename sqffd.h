@@ -1,4 +1,4 @@
-/* sqffd.h - v0.4.0 - superquadric + free-form deformation shape fitting
+/* sqffd.h - v0.5.0 - superquadric + free-form deformation shape fitting
    Public domain or MIT, your choice (see the end of this file).
 
    Turns 3-D points into a compact global shape model: a superquadric with
@@ -27,11 +27,16 @@
    MEMORY
        The library never allocates. Every operation that needs scratch memory
        comes as a pair:
-           size_t       sqffd_X_workspace_size(...);
+           sqffd_result sqffd_X_workspace_size(..., size_t *size);
            sqffd_result sqffd_X(..., void *workspace, size_t workspace_size);
-       Hand in at least the reported size, at any alignment (0 from a
-       _workspace_size call means the request is too large to represent).
-       Less is SQFFD_ERROR_WORKSPACE_TOO_SMALL; nothing is ever written past
+       The size call takes the operation's arguments that decide the size
+       and checks them as the operation would: INVALID_ARGUMENT (or
+       INVALID_MODEL) for arguments the operation refuses, TOO_LARGE when
+       the size cannot be represented in a size_t; *size is 0 then. Hand in
+       at least *size bytes, at any alignment: exactly *size always works,
+       one byte less is SQFFD_ERROR_WORKSPACE_TOO_SMALL (and an operation
+       whose sizes cannot be represented is TOO_LARGE, whatever the block).
+       Nothing is ever written past
        the block or past an output array's documented size. Results (the
        superquadric, the lattice, the model) are plain structs you can keep on
        the stack, copy or store.
@@ -40,9 +45,33 @@
        Every fallible call returns sqffd_result: SQFFD_OK (0) or an error,
        named by sqffd_result_string(): INVALID_ARGUMENT, NON_FINITE,
        TOO_FEW_POINTS, DEGENERATE, TOO_LARGE, WORKSPACE_TOO_SMALL,
-       NOT_POSITIVE_DEFINITE, NO_CONVERGENCE, CANCELLED. Options structs come
-       from sqffd_X_options_default(); change the fields you care about. Long
-       operations take a progress callback that may cancel.
+       NOT_POSITIVE_DEFINITE, NO_CONVERGENCE, CANCELLED, INVALID_MODEL,
+       BAD_FORMAT, OUTPUT_TOO_SMALL. Values come back through pointers, never
+       as sentinels. Options structs come from sqffd_X_options_default();
+       change the fields you care about; a NULL options pointer means the
+       defaults, everywhere. Counts and sizes are size_t. Long operations
+       take a progress callback that may cancel. Stored data is data: a
+       superquadric, lattice or model handed in is checked at run time
+       (INVALID_MODEL), never by assert.
+
+   WHAT OUTPUTS HOLD AFTER AN ERROR
+       1. Errors found before the work starts (INVALID_ARGUMENT,
+          INVALID_MODEL, BAD_FORMAT, TOO_LARGE, WORKSPACE_TOO_SMALL,
+          OUTPUT_TOO_SMALL, and NON_FINITE, TOO_FEW_POINTS or DEGENERATE
+          found in the input itself): every output is as it was, except
+          that a workspace-size call sets *size to 0, sqffd_kdtree_build
+          zeroes the tree, sqffd_ffd_system_init zeroes the system and
+          sqffd_track sets *frames_done.
+       2. Errors during the work (NON_FINITE, DEGENERATE, NOT_POSITIVE_DEFINITE
+          or NO_CONVERGENCE met midway, CANCELLED): arrays and counts hold
+          unspecified values within their documented sizes; a model being
+          fitted (sqffd_fit, sqffd_fit_ffd, sqffd_fit_prepared, the frame
+          sqffd_track was on) is as it was or a later valid model (the last
+          accepted iterate: sqffd_model_validate passes); a report holds what
+          was measured up to the error (iterations, history). sqffd_sq_fit,
+          sqffd_motion and sqffd_model_load write their results only on
+          success.
+       Nothing is ever written past a documented size, whatever the error.
 
    QUICK START
        sqffd_fit_options opt = sqffd_fit_options_default();
@@ -60,16 +89,17 @@
        sqffd_sym3_eigen                symmetric 3x3 eigen-decomposition (Jacobi)
        sqffd_cholesky_factor/_solve    Cholesky of an SPD matrix, and solve
        sqffd_svd(_workspace_size)      one-sided Jacobi SVD (QR-preconditioned)
-       sqffd_svd_solve                 least squares / pseudo-inverse solve
+       sqffd_svd_solve(_workspace_size) least squares / pseudo-inverse solve
        sqffd_cg_solve(_workspace_size), sqffd_cg_options_default
                                        conjugate gradient for SPD systems
-       sqffd_ncg_minimize(_workspace_size)
+       sqffd_ncg_minimize(_workspace_size), sqffd_ncg_options_default
                                        nonlinear conjugate gradient with bounds
    2. kd-tree
        sqffd_kdtree_build(_workspace_size)   static 3-D tree over your points
        sqffd_kdtree_refit              the same tree over moved points, O(n)
        sqffd_kdtree_nearest / _knn / _radius queries
    3. Superquadric
+       sqffd_sq_validate               a stored superquadric's check
        sqffd_sq_inside_outside         inside-outside function F
        sqffd_sq_radial_distance        radial (Euclidean-approximating) distance
        sqffd_sq_point                  surface point and normal at (eta, omega)
@@ -80,6 +110,7 @@
                                        the fit (LM or the paper's CG, robust mode)
    4. Free-form deformation
        sqffd_ffd_init                  regular lattice in a box
+       sqffd_ffd_validate              a stored lattice's check
        sqffd_ffd_local / _eval / _deform / _weights
                                        local coordinates, Bernstein evaluation
    5. Model fit
@@ -89,6 +120,8 @@
                                        FFD stage alone from a given model
        sqffd_model_point, sqffd_model_mesh(_size)
                                        model surface point, triangle mesh
+       sqffd_model_validate, sqffd_model_save(_size), sqffd_model_load
+                                       a stored model's check; the byte form
        sqffd_model_distances(_workspace_size)
                                        data-to-model distances ("the error")
        sqffd_model_reverse_distances(_workspace_size)
@@ -108,7 +141,36 @@
                                        iso-surface crossing points (largest component)
        sqffd_points_subsample          an even subsample of points
 
-   VERSION
+   CHANGES
+       0.5.0 (2026-11)  toward the 1.0 contract (breaking):
+                        - every _workspace_size returns sqffd_result and the
+                          size through a last size_t *size (was: size_t, 0
+                          for any problem); operations tell TOO_LARGE from
+                          WORKSPACE_TOO_SMALL everywhere;
+                        - stored data is data: sqffd_sq_validate,
+                          sqffd_ffd_validate, sqffd_model_validate; new codes
+                          INVALID_MODEL, BAD_FORMAT, OUTPUT_TOO_SMALL;
+                          sqffd_sq_inside_outside, _radial_distance, _point,
+                          _volume, _iou, _sample_uniform, sqffd_ffd_local,
+                          _eval, _deform, _weights, sqffd_model_point and
+                          sqffd_points_subsample return sqffd_result (values
+                          through pointers; sq_iou's -1 is gone);
+                        - sqffd_model_save_size/_save/_load (versioned,
+                          little-endian byte form with a CRC-32);
+                        - kd-tree queries return sqffd_result (nearest's NaN
+                          and knn/radius counts move to pointers);
+                        - layer 1 counts are size_t; sqffd_svd_solve takes a
+                          workspace (sqffd_svd_solve_workspace_size) and
+                          returns the rank through a pointer;
+                          sqffd_ncg_minimize takes sqffd_ncg_options;
+                        - NULL options mean defaults in sqffd_fit and
+                          sqffd_fit_ffd too;
+                        - SQFFD_MAX_LATTICE other than 8 renames the
+                          functions taking lattices (mismatches fail to
+                          link); SQFFD_KDTREE_MAX_DEPTH 40; sqffd_kdtree has
+                          a scratch field (3 KB more workspace);
+                        - no stack frame over 2 KB (scratch moved into the
+                          workspaces).
        0.4.0 (2026-11)  layer 7: volume views, Otsu, iso-surface points,
                         largest component, subsample
        0.3.0 (2026-11)  layer 6: prepared FFD systems, sqffd_track,
@@ -131,9 +193,9 @@
 #include <stdint.h>
 
 #define SQFFD_VERSION_MAJOR 0
-#define SQFFD_VERSION_MINOR 4
+#define SQFFD_VERSION_MINOR 5
 #define SQFFD_VERSION_PATCH 0
-#define SQFFD_VERSION_STRING "0.4.0"
+#define SQFFD_VERSION_STRING "0.5.0"
 
 #ifndef SQFFD_DEF
 #ifdef SQFFD_STATIC
@@ -155,7 +217,7 @@ extern "C" {
 #define SQFFD_RESULT_LIST(X)                                                          \
     X(SQFFD_OK, "success")                                                            \
     X(SQFFD_ERROR_INVALID_ARGUMENT, "invalid argument: null pointer, size out of range or bad option") \
-    X(SQFFD_ERROR_NON_FINITE, "input contains NaN or infinity")                      \
+    X(SQFFD_ERROR_NON_FINITE, "input contains NaN, infinity or a value too large to compute with") \
     X(SQFFD_ERROR_TOO_FEW_POINTS, "too few points for this operation")               \
     X(SQFFD_ERROR_DEGENERATE, "degenerate input: points coincident, collinear or coplanar") \
     X(SQFFD_ERROR_TOO_LARGE, "size beyond what the library can index or a size_t can hold") \
@@ -212,10 +274,10 @@ SQFFD_DEF void sqffd_sym3_eigen(const double a[9], double values[3], double vect
    SQFFD_ERROR_NON_FINITE (NaN/Inf in the lower triangle, nothing written) or
    SQFFD_ERROR_NOT_POSITIVE_DEFINITE (a pivot <= 0; `a` is then partly
    overwritten). */
-SQFFD_DEF sqffd_result sqffd_cholesky_factor(double *a, int n);
+SQFFD_DEF sqffd_result sqffd_cholesky_factor(double *a, size_t n);
 
 /* Solves L L^T x = b in place (b becomes x), L from sqffd_cholesky_factor. */
-SQFFD_DEF void sqffd_cholesky_solve(const double *l, int n, double *b);
+SQFFD_DEF void sqffd_cholesky_solve(const double *l, size_t n, double *b);
 
 /* Singular value decomposition A = U diag(s) V^T of a row-major m x n matrix,
    m >= n >= 1, by Householder QR with column pivoting followed by one-sided
@@ -235,16 +297,20 @@ SQFFD_DEF void sqffd_cholesky_solve(const double *l, int n, double *b);
    sqffd_svd_workspace_size(m, n)), SQFFD_ERROR_NO_CONVERGENCE (80 Jacobi
    sweeps were not enough, never seen in practice; the outputs are still
    filled). */
-SQFFD_DEF size_t sqffd_svd_workspace_size(int m, int n);
-SQFFD_DEF sqffd_result sqffd_svd(const double *a, int m, int n, double *u, double *s, double *v,
+SQFFD_DEF sqffd_result sqffd_svd_workspace_size(size_t m, size_t n, size_t *size);
+SQFFD_DEF sqffd_result sqffd_svd(const double *a, size_t m, size_t n, double *u, double *s, double *v,
                                  void *workspace, size_t workspace_size);
 
 /* Least-squares / pseudo-inverse solve x = V diag(1/s_i) U^T b over the
    singular values s_i > rcond * s_0 (all others are treated as zero), from
-   the output of sqffd_svd (u and v required). b has m entries, x has n,
-   scratch has n doubles. Returns the numerical rank used (0: x = 0). */
-SQFFD_DEF int sqffd_svd_solve(const double *u, const double *s, const double *v, int m, int n,
-                              double rcond, const double *b, double *x, double *scratch);
+   the output of sqffd_svd (u and v required). b has m entries, x has n;
+   *rank (may be NULL) receives the numerical rank used (0: x = 0).
+   INVALID_ARGUMENT (NULL arrays, n < 1, m < n, rcond < 0 or NaN),
+   WORKSPACE_TOO_SMALL. */
+SQFFD_DEF sqffd_result sqffd_svd_solve_workspace_size(size_t n, size_t *size);
+SQFFD_DEF sqffd_result sqffd_svd_solve(const double *u, const double *s, const double *v, size_t m, size_t n,
+                                       double rcond, const double *b, double *x, size_t *rank,
+                                       void *workspace, size_t workspace_size);
 
 /* Linear conjugate gradient for a symmetric positive definite system A x = b,
    A given as a mat-vec callback (y = A x, y never aliases x). */
@@ -255,7 +321,7 @@ typedef struct sqffd_cg_options {
     const double *jacobi_diagonal; /* diagonal of A for the Jacobi preconditioner, NULL = none (default) */
 } sqffd_cg_options;
 SQFFD_DEF sqffd_cg_options sqffd_cg_options_default(void);
-SQFFD_DEF size_t sqffd_cg_workspace_size(int n);
+SQFFD_DEF sqffd_result sqffd_cg_workspace_size(size_t n, size_t *size);
 /* x: in the starting guess, out the solution. options NULL = defaults.
    iterations and relative_residual (true ||b - A x|| / ||b||, one extra
    mat-vec) may be NULL. Results: SQFFD_ERROR_INVALID_ARGUMENT (NULL pointers,
@@ -263,19 +329,21 @@ SQFFD_DEF size_t sqffd_cg_workspace_size(int n);
    SQFFD_ERROR_NOT_POSITIVE_DEFINITE (p^T A p <= 0, or a preconditioner
    diagonal entry <= 0), SQFFD_ERROR_NO_CONVERGENCE (limit reached; x holds
    the last iterate), SQFFD_ERROR_WORKSPACE_TOO_SMALL. */
-SQFFD_DEF sqffd_result sqffd_cg_solve(int n, sqffd_matvec_fn matvec, void *user, const double *b, double *x,
+SQFFD_DEF sqffd_result sqffd_cg_solve(size_t n, sqffd_matvec_fn matvec, void *user, const double *b, double *x,
                                       const sqffd_cg_options *options, int *iterations, double *relative_residual,
                                       void *workspace, size_t workspace_size);
 
 /* Nonlinear conjugate gradient (Polak-Ribiere+, restarted every n steps or
    when the direction stops descending) with a bracketing weak-Wolfe line
    search along the projected path x(t) = project(x + t d).
-   f returns f(x) and writes the gradient. project (may be NULL) clamps x into
-   a feasible set (e.g. a box) in place; it is applied to the start point too.
+   f returns f(x) and writes the gradient. options->project (may be NULL)
+   clamps x into a feasible set (e.g. a box) in place; it is applied to the
+   start point too. options NULL: the defaults.
    Stops with SQFFD_OK when the projected gradient step is small,
    ||project(x - g) - x||_inf <= tolerance * (1 + |f|), or when no step can
    decrease f any more at machine precision; SQFFD_ERROR_NO_CONVERGENCE after
-   max_iterations (x, fx: the last accepted point, usable). progress (may be NULL) is called once per iteration with stage
+   max_iterations (x, fx: the last accepted point, usable). options->progress
+   (may be NULL) is called once per iteration with stage
    SQFFD_STAGE_SUPERQUADRIC and error = f; non-zero cancels
    (SQFFD_ERROR_CANCELLED, x = the last accepted point). iterations and fx may be NULL.
    Other results: SQFFD_ERROR_INVALID_ARGUMENT (NULL f/x, n < 1,
@@ -283,10 +351,17 @@ SQFFD_DEF sqffd_result sqffd_cg_solve(int n, sqffd_matvec_fn matvec, void *user,
    at the start point), SQFFD_ERROR_WORKSPACE_TOO_SMALL. */
 typedef double (*sqffd_objective_fn)(void *user, const double *x, double *gradient);
 typedef void (*sqffd_project_fn)(void *user, double *x);
-SQFFD_DEF size_t sqffd_ncg_workspace_size(int n);
-SQFFD_DEF sqffd_result sqffd_ncg_minimize(int n, sqffd_objective_fn f, sqffd_project_fn project, void *user, double *x,
-                                          int max_iterations, double tolerance, int *iterations, double *fx,
-                                          sqffd_progress_fn progress, void *progress_user,
+typedef struct sqffd_ncg_options {
+    int max_iterations;          /* >= 1 (default 100) */
+    double tolerance;            /* >= 0 (default 1e-8) */
+    sqffd_project_fn project;    /* called with f's user; NULL (default): unconstrained */
+    sqffd_progress_fn progress;  /* NULL (default): none */
+    void *progress_user;
+} sqffd_ncg_options;
+SQFFD_DEF sqffd_ncg_options sqffd_ncg_options_default(void);
+SQFFD_DEF sqffd_result sqffd_ncg_workspace_size(size_t n, size_t *size);
+SQFFD_DEF sqffd_result sqffd_ncg_minimize(size_t n, sqffd_objective_fn f, void *user, double *x,
+                                          const sqffd_ncg_options *options, int *iterations, double *fx,
                                           void *workspace, size_t workspace_size);
 /* ======================================================================
    Layer 2: kd-tree
@@ -322,14 +397,12 @@ SQFFD_DEF sqffd_result sqffd_ncg_minimize(int n, sqffd_objective_fn f, sqffd_pro
        void *memory = malloc(size);
        sqffd_kdtree tree;
        if (sqffd_kdtree_build(&tree, points, n, memory, size) == SQFFD_OK)
-           nearest = sqffd_kdtree_nearest(&tree, query, &dist2);
+           sqffd_kdtree_nearest(&tree, query, &nearest, &dist2);
 
    Query contract shared by nearest / knn / radius:
    - distances are squared Euclidean, computed in double (points farther apart
      than ~1e154 overflow to +inf; results stay defined);
-   - a query with a NaN or infinite coordinate (or a NULL or zeroed tree)
-     finds nothing: nearest returns 0 with *dist2 = NaN, knn and radius
-     return 0;
+   - a query with a NaN or infinite coordinate is NON_FINITE;
    - equal distances are ordered arbitrarily but deterministically (the same
      tree and query always give the same answer). */
 
@@ -359,13 +432,15 @@ typedef struct sqffd_kdtree {
 } sqffd_kdtree;
 
 /* Workspace bytes sqffd_kdtree_build() needs for n points (the tree lives in
-   it). 0 if n is 0 or beyond what the tree can index (n > UINT32_MAX). */
-SQFFD_DEF size_t sqffd_kdtree_workspace_size(size_t n);
+   it): INVALID_ARGUMENT for n == 0, TOO_LARGE beyond what the tree can
+   index (n > UINT32_MAX). */
+SQFFD_DEF sqffd_result sqffd_kdtree_workspace_size(size_t n, size_t *size);
 
 /* Builds the tree over points[0 .. 3n) into the workspace (any alignment).
-   Returns SQFFD_ERROR_INVALID_ARGUMENT (tree, points or workspace NULL, or
-   n == 0), SQFFD_ERROR_NON_FINITE (a NaN or infinite coordinate),
-   SQFFD_ERROR_TOO_LARGE (n > UINT32_MAX) or SQFFD_ERROR_WORKSPACE_TOO_SMALL;
+   Returns SQFFD_ERROR_INVALID_ARGUMENT (tree or points NULL, or n == 0),
+   SQFFD_ERROR_NON_FINITE (a NaN or infinite coordinate),
+   SQFFD_ERROR_TOO_LARGE (n > UINT32_MAX) or SQFFD_ERROR_WORKSPACE_TOO_SMALL
+   (a NULL workspace or one smaller than sqffd_kdtree_workspace_size);
    on error *tree is zeroed. Deterministic: the same points give the same tree. */
 SQFFD_DEF sqffd_result sqffd_kdtree_build(sqffd_kdtree *tree, const double *points, size_t n,
                                           void *workspace, size_t workspace_size);
@@ -382,23 +457,25 @@ SQFFD_DEF sqffd_result sqffd_kdtree_build(sqffd_kdtree *tree, const double *poin
    identical: rebuild instead); on error the tree is unchanged. */
 SQFFD_DEF sqffd_result sqffd_kdtree_refit(sqffd_kdtree *tree, const double *points);
 
-/* Index (into the caller's points) of the point nearest to query; its squared
-   distance goes to *dist2 when dist2 is not NULL. */
-SQFFD_DEF size_t sqffd_kdtree_nearest(const sqffd_kdtree *tree, const double query[3], double *dist2);
-
-/* The k nearest points, by increasing distance: writes min(k, n) indices and
-   squared distances (both arrays have room for k) and returns min(k, n);
-   0 if k == 0 or an argument is NULL. */
-SQFFD_DEF size_t sqffd_kdtree_knn(const sqffd_kdtree *tree, const double query[3], size_t k,
-                                  size_t *indices, double *dist2);
-
-/* Points within `radius` of query (distance <= radius): returns how many there
-   are, and writes the min(that, capacity) nearest of them by increasing
-   distance to indices and dist2 (both with room for capacity). capacity 0
-   only counts (the arrays may then be NULL). A negative or NaN radius finds
-   nothing. */
-SQFFD_DEF size_t sqffd_kdtree_radius(const sqffd_kdtree *tree, const double query[3], double radius,
-                                     size_t *indices, double *dist2, size_t capacity);
+/* The queries. Each answers by increasing distance (indices into the
+   caller's points, squared distances), and returns INVALID_ARGUMENT for a
+   NULL or unbuilt tree, a NULL query or count pointer, or NULL arrays where
+   something would be written; NON_FINITE for a query with a NaN or infinite
+   coordinate. On an error the outputs are untouched.
+   nearest: *index of the nearest point, its squared distance to *dist2
+   (may be NULL). */
+SQFFD_DEF sqffd_result sqffd_kdtree_nearest(const sqffd_kdtree *tree, const double query[3], size_t *index,
+                                            double *dist2);
+/* The k nearest points: *found = min(k, n) of them written (both arrays
+   have room for k; k == 0: none). */
+SQFFD_DEF sqffd_result sqffd_kdtree_knn(const sqffd_kdtree *tree, const double query[3], size_t k, size_t *indices,
+                                        double *dist2, size_t *found);
+/* The points within `radius` of query (distance <= radius; INVALID_ARGUMENT
+   for a negative or NaN radius): *count = how many there are; the
+   min(*count, capacity) nearest are written (capacity 0 only counts, the
+   arrays may then be NULL). */
+SQFFD_DEF sqffd_result sqffd_kdtree_radius(const sqffd_kdtree *tree, const double query[3], double radius,
+                                           size_t *indices, double *dist2, size_t capacity, size_t *count);
 /* ======================================================================
    Layer 3: superquadric with global tapering
    ====================================================================== */
@@ -421,7 +498,7 @@ typedef struct sqffd_superquadric {
 } sqffd_superquadric;
 
 /* A valid superquadric (sqffd_sq_validate): sizes positive and at most
-   1e100, 0 < e1, e2 <= 4, |Kx|, |Ky| < 1, a centre within +-1e100 on each
+   1e150, 0 < e1, e2 <= 4, |Kx|, |Ky| < 1, a centre within +-1e150 on each
    axis, and a proper rotation
    (orthonormal within 1e-6, det +1). Every function below checks it and
    returns INVALID_MODEL otherwise (INVALID_ARGUMENT for NULL pointers). */
@@ -510,8 +587,8 @@ typedef struct sqffd_sq_fit_report {
 
 SQFFD_DEF sqffd_sq_fit_options sqffd_sq_fit_options_default(void);
 /* Bytes of workspace a fit of n points needs with these options (NULL =
-   defaults); 0 when that size cannot be represented. */
-SQFFD_DEF size_t sqffd_sq_fit_workspace_size(size_t n, const sqffd_sq_fit_options *options);
+   defaults). */
+SQFFD_DEF sqffd_result sqffd_sq_fit_workspace_size(size_t n, const sqffd_sq_fit_options *options, size_t *size);
 /* Fit a superquadric to n points (x y z each); options NULL = defaults,
    report may be NULL. The data are normalised (centroid, RMS radius); the
    starts come from the moments of inertia (each principal axis as the local
@@ -607,7 +684,7 @@ typedef struct sqffd_ffd {
 SQFFD_DEF sqffd_result sqffd_ffd_init(sqffd_ffd *ffd, const int dims[3], const double origin[3], const double edges[9]);
 /* A valid lattice: dims in 2..SQFFD_MAX_LATTICE, a box that is not flat,
    `inverse` its inverse (within 1e-9), and the box and the l*m*n control
-   points used within +-1e100 on each axis. INVALID_MODEL otherwise. The per-point functions below check the
+   points used within +-1e150 on each axis. INVALID_MODEL otherwise. The per-point functions below check the
    dims only (so a stored lattice can never make them index out of bounds)
    and report a non-finite result as NON_FINITE; call sqffd_ffd_validate
    once on a lattice you did not make yourself. */
@@ -699,7 +776,7 @@ typedef struct sqffd_fit_report {
 } sqffd_fit_report;
 
 SQFFD_DEF sqffd_fit_options sqffd_fit_options_default(void);
-SQFFD_DEF size_t sqffd_fit_workspace_size(size_t n, const sqffd_fit_options *options);
+SQFFD_DEF sqffd_result sqffd_fit_workspace_size(size_t n, const sqffd_fit_options *options, size_t *size);
 /* Fit the model to n points (x y z each): the superquadric fit, a box around
    it with the regular lattice P0, model points X0 = B P0 on the grid, then the
    two-step iteration that minimises THE ENERGY (see "the least-squares
@@ -715,9 +792,11 @@ SQFFD_DEF size_t sqffd_fit_workspace_size(size_t n, const sqffd_fit_options *opt
    bound of E; (2) the control points minimising that bound (it cannot raise
    E); the steps are over-relaxed (adaptively), and one that raised E
    is replaced by the plain step: report->energy_history never rises.
-   report may be NULL. Results: INVALID_ARGUMENT (NULL, lattice out of range,
+   options NULL: the defaults; report may be NULL. Results: INVALID_ARGUMENT
+   (NULL points or model, lattice out of range,
    grid too coarse to mesh, alpha, tether or model_to_data < 0 or NaN, bad
-   options), TOO_LARGE (grid), NON_FINITE, TOO_FEW_POINTS, DEGENERATE,
+   options), TOO_LARGE (grid), NON_FINITE (a NaN or infinite coordinate, or
+   one beyond +-1e100), TOO_FEW_POINTS, DEGENERATE,
    WORKSPACE_TOO_SMALL, CANCELLED, and whatever sqffd_sq_fit rejects.
    Stage 1 is guarded: where the superquadric's error is above its best
    start's (report->sq.best_start) on up to 512 of the stage's points (the
@@ -735,7 +814,8 @@ SQFFD_DEF sqffd_result sqffd_model_init(sqffd_model *model, const sqffd_superqua
    superquadric, box, grid and current control points; the springs' rest
    state P0 is its box's regular lattice). options' lattice, grid, box_margin
    and sq are not used. report->sq_error is the starting model's error. */
-SQFFD_DEF size_t sqffd_fit_ffd_workspace_size(size_t n, const sqffd_model *model, const sqffd_fit_options *options);
+SQFFD_DEF sqffd_result sqffd_fit_ffd_workspace_size(size_t n, const sqffd_model *model, const sqffd_fit_options *options,
+                                                    size_t *size);
 SQFFD_DEF sqffd_result sqffd_fit_ffd(const double *points, size_t n, const sqffd_fit_options *options, sqffd_model *model,
                                      sqffd_fit_report *report, void *workspace, size_t workspace_size);
 
@@ -780,7 +860,7 @@ SQFFD_DEF sqffd_result sqffd_model_mesh_size(int n_eta, int n_omega, size_t *ver
 SQFFD_DEF sqffd_result sqffd_model_mesh(const sqffd_model *model, int n_eta, int n_omega, double *vertices, uint32_t *triangles);
 /* Data-to-model distance of each point ("the error"; per_point may be NULL)
    and statistics, on the model's grid mesh. */
-SQFFD_DEF size_t sqffd_model_distances_workspace_size(size_t n, const sqffd_model *model);
+SQFFD_DEF sqffd_result sqffd_model_distances_workspace_size(size_t n, const sqffd_model *model, size_t *size);
 SQFFD_DEF sqffd_result sqffd_model_distances(const sqffd_model *model, const double *points, size_t n,
                                              double *per_point, sqffd_distance_stats *stats,
                                              void *workspace, size_t workspace_size);
@@ -790,7 +870,7 @@ SQFFD_DEF sqffd_result sqffd_model_distances(const sqffd_model *model, const dou
    Shows whether parts of the model wander off where there is no data. The
    workspace holds a tree over the data. Both distance functions measure on
    model->grid: to measure on another mesh, set grid on a copy of the model. */
-SQFFD_DEF size_t sqffd_model_reverse_distances_workspace_size(size_t n, const sqffd_model *model);
+SQFFD_DEF sqffd_result sqffd_model_reverse_distances_workspace_size(size_t n, const sqffd_model *model, size_t *size);
 SQFFD_DEF sqffd_result sqffd_model_reverse_distances(const sqffd_model *model, const double *points, size_t n,
                                                      double *per_vertex, sqffd_distance_stats *stats,
                                                      void *workspace, size_t workspace_size);
@@ -819,9 +899,8 @@ typedef struct sqffd_ffd_system {
     void *state;             /* private */
 } sqffd_ffd_system;
 
-/* Memory bytes for a system prepared for this model (its lattice and grid);
-   0 for a NULL or invalid model. */
-SQFFD_DEF size_t sqffd_ffd_system_size(const sqffd_model *model);
+/* Memory bytes for a system prepared for this model (its lattice and grid). */
+SQFFD_DEF sqffd_result sqffd_ffd_system_size(const sqffd_model *model, size_t *size);
 /* Prepares the system for the model's superquadric, box (ffd.dims, origin,
    edges) and grid, and the options' alpha, tether and regularization
    (options NULL: the defaults); the control points are not read. Results:
@@ -836,8 +915,8 @@ SQFFD_DEF sqffd_result sqffd_ffd_system_init(sqffd_ffd_system *system, const sqf
    INVALID_ARGUMENT); ffd.control is the start, and receives the result. The
    options' alpha, tether and regularization are the system's (those fields
    are not read); options NULL: the defaults. Other results as sqffd_fit_ffd. */
-SQFFD_DEF size_t sqffd_fit_prepared_workspace_size(size_t n, const sqffd_ffd_system *system,
-                                                   const sqffd_fit_options *options);
+SQFFD_DEF sqffd_result sqffd_fit_prepared_workspace_size(size_t n, const sqffd_ffd_system *system,
+                                                         const sqffd_fit_options *options, size_t *size);
 SQFFD_DEF sqffd_result sqffd_fit_prepared(const sqffd_ffd_system *system, const double *points, size_t n,
                                           const sqffd_fit_options *options, sqffd_model *model,
                                           sqffd_fit_report *report, void *workspace, size_t workspace_size);
@@ -861,9 +940,9 @@ typedef struct sqffd_track_options {
 
 SQFFD_DEF sqffd_track_options sqffd_track_options_default(void);
 /* Workspace for the whole sequence (one block, reused by every frame):
-   counts[0 .. frame_count) are the frames' point counts. 0 for bad
-   arguments or a size that cannot be represented. */
-SQFFD_DEF size_t sqffd_track_workspace_size(const size_t *counts, size_t frame_count, const sqffd_track_options *options);
+   counts[0 .. frame_count) are the frames' point counts. */
+SQFFD_DEF sqffd_result sqffd_track_workspace_size(const size_t *counts, size_t frame_count,
+                                                  const sqffd_track_options *options, size_t *size);
 /* Tracks frames[t] (counts[t] points each, x y z) into models[t]; reports
    (may be NULL) gets frame_count reports (frames after the first: sq is
    zero, sq_error is the previous model's error on this frame's points).
@@ -963,7 +1042,7 @@ typedef struct sqffd_motion_report {
 } sqffd_motion_report;
 
 SQFFD_DEF sqffd_motion_options sqffd_motion_options_default(void);
-SQFFD_DEF size_t sqffd_motion_workspace_size(const sqffd_model *models, size_t frame_count);
+SQFFD_DEF sqffd_result sqffd_motion_workspace_size(const sqffd_model *models, size_t frame_count, size_t *size);
 SQFFD_DEF sqffd_result sqffd_motion(const sqffd_model *models, size_t frame_count, const sqffd_motion_options *options,
                                     const sqffd_motion_outputs *outputs, sqffd_motion_report *report,
                                     void *workspace, size_t workspace_size);
@@ -1016,9 +1095,9 @@ typedef struct sqffd_iso_options {
 
 SQFFD_DEF sqffd_iso_options sqffd_iso_options_default(void);
 /* Workspace for sqffd_iso_points: two slices of doubles, plus 4 bytes a
-   voxel with largest_component; 0 for a bad view or beyond size_t
-   (largest_component: beyond 2^31 - 1 voxels). */
-SQFFD_DEF size_t sqffd_iso_workspace_size(const sqffd_volume *volume, const sqffd_iso_options *options);
+   voxel with largest_component (TOO_LARGE beyond 2^31 - 1 voxels then). */
+SQFFD_DEF sqffd_result sqffd_iso_workspace_size(const sqffd_volume *volume, const sqffd_iso_options *options,
+                                                size_t *size);
 /* Iso-surface points: one per grid edge between neighbouring voxels (along
    i, j or k) where one is inside and the other not (each crossing once; an
    edge with a non-finite value has none), at the linear interpolation of
@@ -1032,9 +1111,9 @@ SQFFD_DEF size_t sqffd_iso_workspace_size(const sqffd_volume *volume, const sqff
 SQFFD_DEF sqffd_result sqffd_iso_points(const sqffd_volume *volume, const sqffd_iso_options *options, double *points,
                                         double *normals, size_t capacity, size_t *count,
                                         void *workspace, size_t workspace_size);
-/* An even, deterministic subsample of k of n points (k <= n; 3 doubles
-   each): point floor(i n / k) for i < k. */
-SQFFD_DEF void sqffd_points_subsample(const double *points, size_t n, size_t k, double *out);
+/* An even, deterministic subsample of k of n points (3 doubles each): point
+   floor(i n / k) for i < k. INVALID_ARGUMENT for k > n or NULL arrays. */
+SQFFD_DEF sqffd_result sqffd_points_subsample(const double *points, size_t n, size_t k, double *out);
 
 #ifdef __cplusplus
 }
@@ -1092,6 +1171,7 @@ typedef struct sqffd__arena {
     size_t size;         /* usable bytes from base */
     size_t used;
     int overflow;        /* a request did not fit, or its size overflowed */
+    int too_large;       /* the latter: the layout's size cannot be represented */
 } sqffd__arena;
 
 static void sqffd__arena_measure(sqffd__arena *a)
@@ -1100,6 +1180,7 @@ static void sqffd__arena_measure(sqffd__arena *a)
     a->size = 0;
     a->used = 0;
     a->overflow = 0;
+    a->too_large = 0;
 }
 
 /* The caller's block loses up to 15 bytes to alignment; exactly SQFFD__ALIGN
@@ -1114,25 +1195,39 @@ static void sqffd__arena_init(sqffd__arena *a, void *memory, size_t size)
     a->size = size - SQFFD__ALIGN;
 }
 
-/* count * elem bytes, aligned; NULL while measuring or when out of room. */
+static void sqffd__arena_too_large(sqffd__arena *a)
+{
+    a->overflow = a->too_large = 1;
+}
+
+/* count * elem bytes, aligned; NULL while measuring or when out of room.
+   After a request that did not fit, the sizes are still added up, so that a
+   later one whose size cannot be represented is still told apart. */
 static void *sqffd__arena_take(sqffd__arena *a, size_t count, size_t elem)
 {
-    size_t bytes, start;
-    if (a->overflow) return NULL;
-    if (elem && count > ((size_t)-1 - SQFFD__ALIGN) / elem) { a->overflow = 1; return NULL; }
+    size_t bytes, start = a->used;
+    if (a->too_large) return NULL;
+    if (elem && count > ((size_t)-1 - SQFFD__ALIGN) / elem) { sqffd__arena_too_large(a); return NULL; }
     bytes = (count * elem + SQFFD__ALIGN - 1) & ~(size_t)(SQFFD__ALIGN - 1);
-    start = a->used;
-    if (bytes > (size_t)-1 - start - SQFFD__ALIGN) { a->overflow = 1; return NULL; }
-    if (a->base && bytes > a->size - start) { a->overflow = 1; return NULL; }
+    if (bytes > (size_t)-1 - start - SQFFD__ALIGN) { sqffd__arena_too_large(a); return NULL; }
     a->used = start + bytes;
-    return a->base ? (void *)(a->base + start) : NULL;
+    if (!a->base || a->overflow) return NULL;
+    if (bytes > a->size - start) { a->overflow = 1; return NULL; }
+    return a->base + start;
+}
+
+/* The error of a layout that did not fit the caller's block. */
+static sqffd_result sqffd__arena_error(const sqffd__arena *a)
+{
+    return a->too_large ? SQFFD_ERROR_TOO_LARGE : SQFFD_ERROR_WORKSPACE_TOO_SMALL;
 }
 
 /* What a measured layout needs from the caller: room for an unaligned base
-   too. 0 means the request cannot be represented (absurd sizes). */
-static size_t sqffd__arena_required(const sqffd__arena *a)
+   too. TOO_LARGE (and 0) when the request cannot be represented. */
+static sqffd_result sqffd__arena_size(const sqffd__arena *a, size_t *size)
 {
-    return a->overflow ? 0 : a->used + SQFFD__ALIGN;
+    *size = a->too_large ? 0 : a->used + SQFFD__ALIGN;
+    return a->too_large ? SQFFD_ERROR_TOO_LARGE : SQFFD_OK;
 }
 
 static int sqffd__finite3(const double *p)
@@ -1141,8 +1236,11 @@ static int sqffd__finite3(const double *p)
 }
 
 /* A stored superquadric's or lattice's numbers are at most this in
-   magnitude, so that their squares and products stay far from overflow. */
-#define SQFFD__MAX_MAGNITUDE 1e100
+   magnitude, so that their squares and products stay far from overflow;
+   data the fit takes, at most SQFFD__MAX_DATA, so that a fitted model
+   (which may reach somewhat past its data) stays far within that bound. */
+#define SQFFD__MAX_MAGNITUDE 1e150
+#define SQFFD__MAX_DATA 1e100
 
 static int sqffd__bounded3(const double *p)
 {
@@ -1339,7 +1437,7 @@ static void sqffd__la_axpy(double *SQFFD__LA_RESTRICT y, double alpha, const dou
 
 /* ---- Cholesky ---- */
 
-SQFFD_DEF sqffd_result sqffd_cholesky_factor(double *a, int n)
+SQFFD_DEF sqffd_result sqffd_cholesky_factor(double *a, size_t n)
 {
     size_t nn, i, j;
     if (!a || n < 1) return SQFFD_ERROR_INVALID_ARGUMENT;
@@ -1366,7 +1464,7 @@ SQFFD_DEF sqffd_result sqffd_cholesky_factor(double *a, int n)
     return SQFFD_OK;
 }
 
-SQFFD_DEF void sqffd_cholesky_solve(const double *l, int n, double *b)
+SQFFD_DEF void sqffd_cholesky_solve(const double *l, size_t n, double *b)
 {
     size_t nn = (size_t)n, i;
     SQFFD_ASSERT(l && b && n >= 1);
@@ -1410,16 +1508,17 @@ static void sqffd__la_svd_layout(sqffd__arena *ar, size_t m, size_t n, sqffd__la
     w->perm = (int *)sqffd__arena_take(ar, n, sizeof(int));
 }
 
-SQFFD_DEF size_t sqffd_svd_workspace_size(int m, int n)
+SQFFD_DEF sqffd_result sqffd_svd_workspace_size(size_t m, size_t n, size_t *size)
 {
     sqffd__arena ar;
     sqffd__la_svd_work w;
-    size_t mm = (size_t)m, nn = (size_t)n;
-    if (n < 1 || m < n) return 0;
-    if (mm > (size_t)-1 / nn) return 0;
+    if (!size) return SQFFD_ERROR_INVALID_ARGUMENT;
+    *size = 0;
+    if (n < 1 || m < n) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if (m > (size_t)-1 / n) return SQFFD_ERROR_TOO_LARGE;
     sqffd__arena_measure(&ar);
-    sqffd__la_svd_layout(&ar, mm, nn, &w);
-    return sqffd__arena_required(&ar);
+    sqffd__la_svd_layout(&ar, m, n, &w);
+    return sqffd__arena_size(&ar, size);
 }
 
 /* (x, y) <- (c x - s y, s x + c y) in Rutishauser's form with
@@ -1621,7 +1720,7 @@ static void sqffd__la_complete_basis(double *basis, size_t n, size_t rank, doubl
     }
 }
 
-SQFFD_DEF sqffd_result sqffd_svd(const double *a, int m, int n, double *u, double *s, double *v,
+SQFFD_DEF sqffd_result sqffd_svd(const double *a, size_t m, size_t n, double *u, double *s, double *v,
                                  void *workspace, size_t workspace_size)
 {
     /* Jacobi columns of squared norm below DBL_MIN (norm < 1.5e-154 with the
@@ -1638,8 +1737,8 @@ SQFFD_DEF sqffd_result sqffd_svd(const double *a, int m, int n, double *u, doubl
     nn = (size_t)n;
     sqffd__arena_init(&ar, workspace, workspace_size);
     sqffd__la_svd_layout(&ar, mm, nn, &w);
-    if (ar.overflow) /* measured only now: was it the block, or sizes no size_t holds? */
-        return sqffd_svd_workspace_size(m, n) ? SQFFD_ERROR_WORKSPACE_TOO_SMALL : SQFFD_ERROR_TOO_LARGE;
+    if (mm > (size_t)-1 / nn) return SQFFD_ERROR_TOO_LARGE;
+    if (ar.overflow) return sqffd__arena_error(&ar);
     for (i = 0; i < mm * nn; ++i) {
         if (!isfinite(a[i])) return SQFFD_ERROR_NON_FINITE;
         if (fabs(a[i]) > amax) amax = fabs(a[i]);
@@ -1689,19 +1788,36 @@ SQFFD_DEF sqffd_result sqffd_svd(const double *a, int m, int n, double *u, doubl
     return converged ? SQFFD_OK : SQFFD_ERROR_NO_CONVERGENCE;
 }
 
-SQFFD_DEF int sqffd_svd_solve(const double *u, const double *s, const double *v, int m, int n,
-                              double rcond, const double *b, double *x, double *scratch)
+SQFFD_DEF sqffd_result sqffd_svd_solve_workspace_size(size_t n, size_t *size)
 {
-    size_t mm = (size_t)m, nn = (size_t)n, i, j;
-    int rank = 0;
-    SQFFD_ASSERT(u && s && v && b && x && scratch && n >= 1 && m >= n);
-    while (rank < n && s[rank] > 0.0 && s[rank] > rcond * s[0]) ++rank;
+    sqffd__arena ar;
+    if (!size) return SQFFD_ERROR_INVALID_ARGUMENT;
+    *size = 0;
+    if (n < 1) return SQFFD_ERROR_INVALID_ARGUMENT;
+    sqffd__arena_measure(&ar);
+    sqffd__arena_take(&ar, n, sizeof(double));
+    return sqffd__arena_size(&ar, size);
+}
+
+SQFFD_DEF sqffd_result sqffd_svd_solve(const double *u, const double *s, const double *v, size_t m, size_t n,
+                                       double rcond, const double *b, double *x, size_t *rank,
+                                       void *workspace, size_t workspace_size)
+{
+    sqffd__arena ar;
+    double *scratch;
+    size_t i, j, kept = 0;
+    if (!u || !s || !v || !b || !x || n < 1 || m < n || !(rcond >= 0.0)) return SQFFD_ERROR_INVALID_ARGUMENT;
+    sqffd__arena_init(&ar, workspace, workspace_size);
+    scratch = (double *)sqffd__arena_take(&ar, n, sizeof(double));
+    if (ar.overflow) return sqffd__arena_error(&ar);
+    while (kept < n && s[kept] > 0.0 && s[kept] > rcond * s[0]) ++kept;
     /* scratch = diag(1/s) U^T b over the kept values, accumulated row by row */
-    for (j = 0; j < nn; ++j) scratch[j] = 0.0;
-    for (i = 0; i < mm; ++i) sqffd__la_axpy(scratch, b[i], u + i * nn, (size_t)rank);
-    for (j = 0; j < (size_t)rank; ++j) scratch[j] /= s[j];
-    for (i = 0; i < nn; ++i) x[i] = sqffd__la_dot(v + i * nn, scratch, (size_t)rank);
-    return rank;
+    for (j = 0; j < n; ++j) scratch[j] = 0.0;
+    for (i = 0; i < m; ++i) sqffd__la_axpy(scratch, b[i], u + i * n, kept);
+    for (j = 0; j < kept; ++j) scratch[j] /= s[j];
+    for (i = 0; i < n; ++i) x[i] = sqffd__la_dot(v + i * n, scratch, kept);
+    if (rank) *rank = kept;
+    return SQFFD_OK;
 }
 
 /* ---- Linear conjugate gradient ---- */
@@ -1727,14 +1843,16 @@ static void sqffd__la_cg_layout(sqffd__arena *ar, size_t n, sqffd__la_cg_work *w
     w->q = (double *)sqffd__arena_take(ar, n, sizeof(double));
 }
 
-SQFFD_DEF size_t sqffd_cg_workspace_size(int n)
+SQFFD_DEF sqffd_result sqffd_cg_workspace_size(size_t n, size_t *size)
 {
     sqffd__arena ar;
     sqffd__la_cg_work w;
-    if (n < 1) return 0;
+    if (!size) return SQFFD_ERROR_INVALID_ARGUMENT;
+    *size = 0;
+    if (n < 1) return SQFFD_ERROR_INVALID_ARGUMENT;
     sqffd__arena_measure(&ar);
-    sqffd__la_cg_layout(&ar, (size_t)n, &w);
-    return sqffd__arena_required(&ar);
+    sqffd__la_cg_layout(&ar, n, &w);
+    return sqffd__arena_size(&ar, size);
 }
 
 /* 1 when all n entries are finite */
@@ -1753,7 +1871,7 @@ static void sqffd__la_precondition(const double *diag, const double *r, double *
     for (i = 0; i < n; ++i) z[i] = diag ? r[i] / diag[i] : r[i];
 }
 
-SQFFD_DEF sqffd_result sqffd_cg_solve(int n, sqffd_matvec_fn matvec, void *user, const double *b, double *x,
+SQFFD_DEF sqffd_result sqffd_cg_solve(size_t n, sqffd_matvec_fn matvec, void *user, const double *b, double *x,
                                       const sqffd_cg_options *options, int *iterations, double *relative_residual,
                                       void *workspace, size_t workspace_size)
 {
@@ -1771,15 +1889,14 @@ SQFFD_DEF sqffd_result sqffd_cg_solve(int n, sqffd_matvec_fn matvec, void *user,
     nn = (size_t)n;
     sqffd__arena_init(&ar, workspace, workspace_size);
     sqffd__la_cg_layout(&ar, nn, &w);
-    if (ar.overflow) /* measured only now: was it the block, or sizes no size_t holds? */
-        return sqffd_cg_workspace_size(n) ? SQFFD_ERROR_WORKSPACE_TOO_SMALL : SQFFD_ERROR_TOO_LARGE;
+    if (ar.overflow) return sqffd__arena_error(&ar);
     if (!sqffd__la_all_finite(b, nn) || !sqffd__la_all_finite(x, nn)) return SQFFD_ERROR_NON_FINITE;
     if (opt.jacobi_diagonal) {
         if (!sqffd__la_all_finite(opt.jacobi_diagonal, nn)) return SQFFD_ERROR_NON_FINITE;
         for (i = 0; i < nn; ++i)
             if (!(opt.jacobi_diagonal[i] > 0.0)) return SQFFD_ERROR_NOT_POSITIVE_DEFINITE;
     }
-    max_it = opt.max_iterations > 0 ? opt.max_iterations : (n > 0x3fffffff ? 0x7fffffff : 2 * n);
+    max_it = opt.max_iterations > 0 ? opt.max_iterations : (n > 0x3fffffff ? 0x7fffffff : 2 * (int)n);
     bnorm = sqrt(sqffd__la_dot(b, b, nn));
     if (bnorm == 0.0) { /* A x = 0 has the solution 0 */
         for (i = 0; i < nn; ++i) x[i] = 0.0;
@@ -1844,14 +1961,16 @@ static void sqffd__la_ncg_layout(sqffd__arena *ar, size_t n, sqffd__la_ncg_work 
     w->gb = (double *)sqffd__arena_take(ar, n, sizeof(double));
 }
 
-SQFFD_DEF size_t sqffd_ncg_workspace_size(int n)
+SQFFD_DEF sqffd_result sqffd_ncg_workspace_size(size_t n, size_t *size)
 {
     sqffd__arena ar;
     sqffd__la_ncg_work w;
-    if (n < 1) return 0;
+    if (!size) return SQFFD_ERROR_INVALID_ARGUMENT;
+    *size = 0;
+    if (n < 1) return SQFFD_ERROR_INVALID_ARGUMENT;
     sqffd__arena_measure(&ar);
-    sqffd__la_ncg_layout(&ar, (size_t)n, &w);
-    return sqffd__arena_required(&ar);
+    sqffd__la_ncg_layout(&ar, n, &w);
+    return sqffd__arena_size(&ar, size);
 }
 
 typedef struct sqffd__la_ncg_problem {
@@ -1954,11 +2073,26 @@ static int sqffd__la_ncg_line_search(const sqffd__la_ncg_problem *pr, double *x,
     return 1;
 }
 
-SQFFD_DEF sqffd_result sqffd_ncg_minimize(int n, sqffd_objective_fn f, sqffd_project_fn project, void *user, double *x,
-                                          int max_iterations, double tolerance, int *iterations, double *fx,
-                                          sqffd_progress_fn progress, void *progress_user,
+SQFFD_DEF sqffd_ncg_options sqffd_ncg_options_default(void)
+{
+    sqffd_ncg_options o;
+    o.max_iterations = 100;
+    o.tolerance = 1e-8;
+    o.project = NULL;
+    o.progress = NULL;
+    o.progress_user = NULL;
+    return o;
+}
+
+SQFFD_DEF sqffd_result sqffd_ncg_minimize(size_t n, sqffd_objective_fn f, void *user, double *x,
+                                          const sqffd_ncg_options *options, int *iterations, double *fx,
                                           void *workspace, size_t workspace_size)
 {
+    sqffd_ncg_options defaults = sqffd_ncg_options_default();
+    const sqffd_ncg_options *o = options ? options : &defaults;
+    sqffd_project_fn project = o->project;
+    int max_iterations = o->max_iterations;
+    double tolerance = o->tolerance;
     sqffd__arena ar;
     sqffd__la_ncg_work w;
     sqffd__la_ncg_problem pr;
@@ -1968,11 +2102,11 @@ SQFFD_DEF sqffd_result sqffd_ncg_minimize(int n, sqffd_objective_fn f, sqffd_pro
     int it, since_restart = 0;
     if (iterations) *iterations = 0;
     if (n < 1 || !f || !x || max_iterations < 1 || !(tolerance >= 0.0)) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if (n > 0x7fffffff) return SQFFD_ERROR_TOO_LARGE; /* (the restart count is an int) */
     nn = (size_t)n;
     sqffd__arena_init(&ar, workspace, workspace_size);
     sqffd__la_ncg_layout(&ar, nn, &w);
-    if (ar.overflow) /* measured only now: was it the block, or sizes no size_t holds? */
-        return sqffd_ncg_workspace_size(n) ? SQFFD_ERROR_WORKSPACE_TOO_SMALL : SQFFD_ERROR_TOO_LARGE;
+    if (ar.overflow) return sqffd__arena_error(&ar);
     if (!sqffd__la_all_finite(x, nn)) return SQFFD_ERROR_NON_FINITE;
     pr.n = nn; pr.f = f; pr.project = project; pr.user = user;
     if (project) project(user, x);
@@ -1983,7 +2117,7 @@ SQFFD_DEF sqffd_result sqffd_ncg_minimize(int n, sqffd_objective_fn f, sqffd_pro
         double gd, pgnorm = sqffd__la_ncg_reduce(&pr, x, &w);
         if (pgnorm <= tolerance * (1.0 + fabs(value))) { result = SQFFD_OK; break; }
         /* Polak-Ribiere+ on the reduced gradients, steepest descent on restart */
-        if (since_restart > 0 && since_restart < n) {
+        if (since_restart > 0 && (size_t)since_restart < n) {
             double num = 0.0, den = sqffd__la_dot(w.gr_old, w.gr_old, nn), beta;
             for (i = 0; i < nn; ++i) num += w.gr[i] * (w.gr[i] - w.gr_old[i]);
             beta = den > 0.0 && num > 0.0 ? num / den : 0.0;
@@ -2013,7 +2147,7 @@ SQFFD_DEF sqffd_result sqffd_ncg_minimize(int n, sqffd_objective_fn f, sqffd_pro
         ++since_restart;
         if (fx) *fx = value;
         if (iterations) *iterations = it + 1;
-        if (progress && progress(progress_user, SQFFD_STAGE_SUPERQUADRIC, it + 1, value)) {
+        if (o->progress && o->progress(o->progress_user, SQFFD_STAGE_SUPERQUADRIC, it + 1, value)) {
             result = SQFFD_ERROR_CANCELLED;
             break;
         }
@@ -2057,16 +2191,19 @@ static void sqffd__kd_layout(sqffd__arena *a, size_t n, uint32_t **index, sqffd_
                                                                   ? sizeof(sqffd__kd_pending) : sizeof(sqffd__kd_box));
 }
 
-SQFFD_DEF size_t sqffd_kdtree_workspace_size(size_t n)
+SQFFD_DEF sqffd_result sqffd_kdtree_workspace_size(size_t n, size_t *size)
 {
     sqffd__arena a;
     uint32_t *index;
     sqffd_kdtree_node *nodes;
     void *stack;
-    if (n == 0 || n > (size_t)UINT32_MAX) return 0;
+    if (!size) return SQFFD_ERROR_INVALID_ARGUMENT;
+    *size = 0;
+    if (n == 0) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if (n > (size_t)UINT32_MAX) return SQFFD_ERROR_TOO_LARGE;
     sqffd__arena_measure(&a);
     sqffd__kd_layout(&a, n, &index, &nodes, &stack);
-    return sqffd__arena_required(&a);
+    return sqffd__arena_size(&a, size);
 }
 
 /* ceil(log2(c)) for c >= 1: the depth a median-split subtree of c points needs. */
@@ -2178,7 +2315,7 @@ SQFFD_DEF sqffd_result sqffd_kdtree_build(sqffd_kdtree *tree, const double *poin
     if (n > (size_t)UINT32_MAX) return SQFFD_ERROR_TOO_LARGE;
     sqffd__arena_init(&a, workspace, workspace_size);
     sqffd__kd_layout(&a, n, &index, &nodes, &scratch);
-    if (a.overflow) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
+    if (a.overflow) return sqffd__arena_error(&a);
     stack = (sqffd__kd_pending *)scratch;
 
     sqffd__kd_empty_box(stack[0].box);
@@ -2445,33 +2582,41 @@ static size_t sqffd__kd_query(const sqffd_kdtree *tree, const double q[3], doubl
     return counting ? r.within : r.size;
 }
 
-static int sqffd__kd_queryable(const sqffd_kdtree *tree, const double q[3])
+static sqffd_result sqffd__kd_queryable(const sqffd_kdtree *tree, const double q[3], const void *out)
 {
-    return tree && tree->count && tree->nodes && q && sqffd__finite3(q);
+    if (!tree || !tree->count || !tree->nodes || !q || !out) return SQFFD_ERROR_INVALID_ARGUMENT;
+    return sqffd__finite3(q) ? SQFFD_OK : SQFFD_ERROR_NON_FINITE;
 }
 
-SQFFD_DEF size_t sqffd_kdtree_nearest(const sqffd_kdtree *tree, const double query[3], double *dist2)
+SQFFD_DEF sqffd_result sqffd_kdtree_nearest(const sqffd_kdtree *tree, const double query[3], size_t *index,
+                                            double *dist2)
 {
-    size_t nearest = 0;
-    double d = NAN;
-    if (sqffd__kd_queryable(tree, query)) sqffd__kd_query(tree, query, HUGE_VAL, 0, &nearest, &d, 1);
+    double d = 0.0;
+    sqffd_result r = sqffd__kd_queryable(tree, query, index);
+    if (r != SQFFD_OK) return r;
+    sqffd__kd_query(tree, query, HUGE_VAL, 0, index, &d, 1);
     if (dist2) *dist2 = d;
-    return nearest;
+    return SQFFD_OK;
 }
 
-SQFFD_DEF size_t sqffd_kdtree_knn(const sqffd_kdtree *tree, const double query[3], size_t k,
-                                  size_t *indices, double *dist2)
+SQFFD_DEF sqffd_result sqffd_kdtree_knn(const sqffd_kdtree *tree, const double query[3], size_t k, size_t *indices,
+                                        double *dist2, size_t *found)
 {
-    if (!sqffd__kd_queryable(tree, query) || !indices || !dist2 || k == 0) return 0;
-    return sqffd__kd_query(tree, query, HUGE_VAL, 0, indices, dist2, k < tree->count ? k : tree->count);
+    sqffd_result r = sqffd__kd_queryable(tree, query, found);
+    if (r == SQFFD_OK && k > 0 && (!indices || !dist2)) r = SQFFD_ERROR_INVALID_ARGUMENT;
+    if (r != SQFFD_OK) return r;
+    *found = k ? sqffd__kd_query(tree, query, HUGE_VAL, 0, indices, dist2, k < tree->count ? k : tree->count) : 0;
+    return SQFFD_OK;
 }
 
-SQFFD_DEF size_t sqffd_kdtree_radius(const sqffd_kdtree *tree, const double query[3], double radius,
-                                     size_t *indices, double *dist2, size_t capacity)
+SQFFD_DEF sqffd_result sqffd_kdtree_radius(const sqffd_kdtree *tree, const double query[3], double radius,
+                                           size_t *indices, double *dist2, size_t capacity, size_t *count)
 {
-    if (!sqffd__kd_queryable(tree, query) || !(radius >= 0.0)) return 0;
-    if (!indices || !dist2) capacity = 0;
-    return sqffd__kd_query(tree, query, radius * radius, 1, indices, dist2, capacity);
+    sqffd_result r = sqffd__kd_queryable(tree, query, count);
+    if (r == SQFFD_OK && (!(radius >= 0.0) || (capacity > 0 && (!indices || !dist2)))) r = SQFFD_ERROR_INVALID_ARGUMENT;
+    if (r != SQFFD_OK) return r;
+    *count = sqffd__kd_query(tree, query, radius * radius, 1, indices, dist2, capacity);
+    return SQFFD_OK;
 }
 /* ======================================================================
    Layer 3: superquadric with global tapering
@@ -3425,8 +3570,8 @@ static int sqffd__sq_solve(const sqffd__sq_fit *fit, sqffd_superquadric *sq, con
                 delta[i] = rhs;
             }
         }
-        if (sqffd_cholesky_factor(a, np) != SQFFD_OK) return 0;
-        sqffd_cholesky_solve(a, np, delta);
+        if (sqffd_cholesky_factor(a, (size_t)np) != SQFFD_OK) return 0;
+        sqffd_cholesky_solve(a, (size_t)np, delta);
         again = 0;
         for (i = 0; i < np; i++) {
             int log_size = i >= SQFFD__SQ_P_LOGSIZE && i < SQFFD__SQ_P_E1;
@@ -3599,6 +3744,7 @@ static int sqffd__sq_cg_minimize(sqffd__sq_fit *fit, sqffd_superquadric *sq, con
     sqffd__sq_cg cg;
     sqffd_superquadric base = *sq;
     double x[SQFFD__SQ_NPAR], gradient[SQFFD__SQ_NPAR], f0;
+    sqffd_ncg_options o = sqffd_ncg_options_default();
     sqffd_result r;
     cg.fit = fit;
     cg.base = &base;
@@ -3608,9 +3754,13 @@ static int sqffd__sq_cg_minimize(sqffd__sq_fit *fit, sqffd_superquadric *sq, con
     x[0] = x[1] = x[2] = 0.0;
     sqffd__sq_cg_params(fit, sq, x);
     *cost = f0 = sqffd__sq_cg_objective(&cg, x, gradient); /* (the cost where the minimiser returns early) */
-    r = sqffd_ncg_minimize(fit->npar, sqffd__sq_cg_objective, sqffd__sq_cg_project, &cg, x, max_iterations,
-                           fit->opt->tolerance * (f0 > 1.0 ? f0 : 1.0), NULL, cost, sqffd__sq_cg_progress, fit,
-                           fit->ncg_work, fit->ncg_size);
+    o.max_iterations = max_iterations;
+    o.tolerance = fit->opt->tolerance * (f0 > 1.0 ? f0 : 1.0);
+    o.project = sqffd__sq_cg_project;
+    o.progress = sqffd__sq_cg_progress;
+    o.progress_user = fit;
+    r = sqffd_ncg_minimize((size_t)fit->npar, sqffd__sq_cg_objective, &cg, x, &o, NULL, cost, fit->ncg_work,
+                           fit->ncg_size);
     sqffd__sq_cg_model(&cg, x, sq);
     if (r == SQFFD_ERROR_CANCELLED) fit->status = SQFFD_ERROR_CANCELLED;
     return r == SQFFD_OK;
@@ -3660,10 +3810,14 @@ static void sqffd__sq_fit_layout(sqffd__arena *a, size_t n, const sqffd_sq_fit_o
     w->polish = (double *)sqffd__arena_take(a, n < SQFFD__SQ_POLISH ? n : SQFFD__SQ_POLISH, 3 * sizeof(double));
     w->final = n > SQFFD__SQ_FINAL ? (double *)sqffd__arena_take(a, SQFFD__SQ_FINAL, 3 * sizeof(double)) : NULL;
     w->dense = o->robust ? (double *)sqffd__arena_take(a, n < SQFFD__SQ_POLISH ? n : SQFFD__SQ_POLISH, 3 * sizeof(double)) : NULL;
-    w->tree_size = o->robust ? sqffd_kdtree_workspace_size(n < SQFFD__SQ_POLISH ? n : SQFFD__SQ_POLISH) : 0;
+    w->tree_size = 0;
+    if (o->robust && sqffd_kdtree_workspace_size(n < SQFFD__SQ_POLISH ? n : SQFFD__SQ_POLISH, &w->tree_size) != SQFFD_OK)
+        sqffd__arena_too_large(a);
     w->tree = w->tree_size ? sqffd__arena_take(a, w->tree_size, 1) : NULL;
     w->hist = (double *)sqffd__arena_take(a, 3 * SQFFD__SQ_HISTOGRAM, sizeof(double));
-    w->ncg_size = o->optimizer == SQFFD_SQ_OPTIMIZER_CG ? sqffd_ncg_workspace_size(SQFFD__SQ_NPAR) : 0;
+    w->ncg_size = 0;
+    if (o->optimizer == SQFFD_SQ_OPTIMIZER_CG && sqffd_ncg_workspace_size(SQFFD__SQ_NPAR, &w->ncg_size) != SQFFD_OK)
+        sqffd__arena_too_large(a);
     w->ncg = w->ncg_size ? sqffd__arena_take(a, w->ncg_size, 1) : NULL;
     w->lm = (double *)sqffd__arena_take(a, SQFFD__SQ_LM_SCRATCH, sizeof(double));
     w->list = (sqffd__sq_shortlist *)sqffd__arena_take(a, 1, sizeof(sqffd__sq_shortlist));
@@ -3697,14 +3851,18 @@ static int sqffd__sq_options_valid(const sqffd_sq_fit_options *o)
            o->tolerance >= 0.0 && isfinite(o->tolerance) && (!o->robust || o->robust_rounds >= 1);
 }
 
-SQFFD_DEF size_t sqffd_sq_fit_workspace_size(size_t n, const sqffd_sq_fit_options *options)
+SQFFD_DEF sqffd_result sqffd_sq_fit_workspace_size(size_t n, const sqffd_sq_fit_options *options, size_t *size)
 {
     sqffd_sq_fit_options defaults = sqffd_sq_fit_options_default();
+    const sqffd_sq_fit_options *o = options ? options : &defaults;
     sqffd__arena a;
     sqffd__sq_work w;
+    if (!size) return SQFFD_ERROR_INVALID_ARGUMENT;
+    *size = 0;
+    if (n == 0 || !sqffd__sq_options_valid(o)) return SQFFD_ERROR_INVALID_ARGUMENT;
     sqffd__arena_measure(&a);
-    sqffd__sq_fit_layout(&a, n, options ? options : &defaults, &w);
-    return sqffd__arena_required(&a);
+    sqffd__sq_fit_layout(&a, n, o, &w);
+    return sqffd__arena_size(&a, size);
 }
 
 /* An EM step (E, then M) at sq over m points in a pass of its own. */
@@ -3863,7 +4021,8 @@ static size_t sqffd__sq_dense_points(const double *pts, size_t m, double *out, d
     double d2[SQFFD__SQ_NEIGHBOURS + 1], limit;
     if (sqffd_kdtree_build(&tree, pts, m, tree_work, tree_size) != SQFFD_OK) return 0;
     for (i = 0; i < half; i++) { /* the point itself is the first of the k + 1 nearest */
-        size_t found = sqffd_kdtree_knn(&tree, pts + 6 * i, SQFFD__SQ_NEIGHBOURS + 1, index, d2);
+        size_t found = sqffd__kd_query(&tree, pts + 6 * i, HUGE_VAL, 0, index, d2,
+                                       m < SQFFD__SQ_NEIGHBOURS + 1 ? m : SQFFD__SQ_NEIGHBOURS + 1);
         dist[i] = dist[half + i] = found ? d2[found - 1] : 0.0; /* (found >= 1: the tree holds the point) */
     }
     limit = 1.44 * sqffd__sq_select(dist + half, half, half / 2); /* squared: 1.2 times the median distance */
@@ -4081,7 +4240,7 @@ SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_
     if (n < SQFFD_SQ_FIT_MIN_POINTS) return SQFFD_ERROR_TOO_FEW_POINTS;
     sqffd__arena_init(&arena, workspace, workspace_size);
     sqffd__sq_fit_layout(&arena, n, o, &w);
-    if (arena.overflow) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
+    if (arena.overflow) return sqffd__arena_error(&arena);
     list = w.list;
     for (i = 0; i < n; i++)
         if (!sqffd__finite3(points + 3 * i)) return SQFFD_ERROR_NON_FINITE;
@@ -4992,8 +5151,9 @@ static sqffd_result sqffd__fit_nearest_vertex(sqffd__fit_search *s, size_t i, co
     }
     res = sqffd__fit_tree(s);
     if (res != SQFFD_OK) return res;
-    count = sqffd_kdtree_knn(&s->tree, q, s->anchor ? SQFFD__FIT_KNN : 1, near, d2);
-    if (count == 0) return SQFFD_ERROR_NON_FINITE;
+    if (!sqffd__finite3(q)) return SQFFD_ERROR_NON_FINITE;
+    count = sqffd__kd_query(&s->tree, q, HUGE_VAL, 0, near, d2,
+                            s->anchor ? (SQFFD__FIT_KNN < s->tree.count ? SQFFD__FIT_KNN : s->tree.count) : 1);
     *nearest = near[0];
     if (s->anchor) {
         double rest = count == SQFFD__FIT_KNN ? sqrt(d2[count - 1]) : HUGE_VAL; /* the vertices not returned */
@@ -5602,31 +5762,33 @@ static void sqffd__fit_distances_layout(sqffd__arena *a, size_t n_tree, const in
     w->x = (double *)sqffd__arena_take(a, vertices, 3 * sizeof(double));
     w->rings = reverse ? NULL : (sqffd__fit_ring *)sqffd__arena_take(a, vertices, sizeof(sqffd__fit_ring));
     if (!reverse) sqffd__fit_bvh_layout(a, grid, &w->bvh);
-    w->tree_size = sqffd_kdtree_workspace_size(n_tree);
-    if (w->tree_size == 0) a->overflow = 1;
+    if (sqffd_kdtree_workspace_size(n_tree, &w->tree_size) != SQFFD_OK) sqffd__arena_too_large(a);
     w->tree_ws = sqffd__arena_take(a, w->tree_size, 1);
 }
 
-static size_t sqffd__fit_distances_size(size_t n, const sqffd_model *model, int reverse)
+static sqffd_result sqffd__fit_distances_size(size_t n, const sqffd_model *model, int reverse, size_t *size)
 {
     sqffd__arena a;
     sqffd__fit_mesh_work w;
-    size_t m;
-    if (!sqffd__fit_model_valid(model) || n == 0) return 0;
-    m = sqffd__fit_grid_count(model->grid);
+    sqffd_result r;
+    if (!size) return SQFFD_ERROR_INVALID_ARGUMENT;
+    *size = 0;
+    if (!model || n == 0) return SQFFD_ERROR_INVALID_ARGUMENT;
+    r = sqffd_model_validate(model);
+    if (r != SQFFD_OK) return r;
     sqffd__arena_measure(&a);
-    sqffd__fit_distances_layout(&a, reverse ? n : m, model->grid, reverse, &w);
-    return sqffd__arena_required(&a);
+    sqffd__fit_distances_layout(&a, reverse ? n : sqffd__fit_grid_count(model->grid), model->grid, reverse, &w);
+    return sqffd__arena_size(&a, size);
 }
 
-SQFFD_DEF size_t sqffd_model_distances_workspace_size(size_t n, const sqffd_model *model)
+SQFFD_DEF sqffd_result sqffd_model_distances_workspace_size(size_t n, const sqffd_model *model, size_t *size)
 {
-    return sqffd__fit_distances_size(n, model, 0);
+    return sqffd__fit_distances_size(n, model, 0, size);
 }
 
-SQFFD_DEF size_t sqffd_model_reverse_distances_workspace_size(size_t n, const sqffd_model *model)
+SQFFD_DEF sqffd_result sqffd_model_reverse_distances_workspace_size(size_t n, const sqffd_model *model, size_t *size)
 {
-    return sqffd__fit_distances_size(n, model, 1);
+    return sqffd__fit_distances_size(n, model, 1, size);
 }
 
 /* Shared by both directions: validates, lays out and samples the model mesh;
@@ -5648,7 +5810,7 @@ static sqffd_result sqffd__fit_distances_setup(const sqffd_model *model, const d
     m = sqffd__fit_grid_count(model->grid);
     sqffd__arena_init(&a, workspace, workspace_size);
     sqffd__fit_distances_layout(&a, reverse ? n : m, model->grid, reverse, w);
-    if (a.overflow) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
+    if (a.overflow) return sqffd__arena_error(&a);
     sqffd__fit_surface(model, model->grid, w->x);
     if (!reverse) sqffd__fit_rings(model->grid, w->rings);
     return SQFFD_OK;
@@ -5684,8 +5846,9 @@ SQFFD_DEF sqffd_result sqffd_model_reverse_distances(const sqffd_model *model, c
     m = sqffd__fit_grid_count(model->grid);
     for (v = 0; v < m; ++v) {
         double d2, d;
+        size_t nearest;
         if (!sqffd__finite3(w.x + 3 * v)) return SQFFD_ERROR_NON_FINITE;
-        sqffd_kdtree_nearest(&tree, w.x + 3 * v, &d2);
+        sqffd__kd_query(&tree, w.x + 3 * v, HUGE_VAL, 0, &nearest, &d2, 1);
         d = sqrt(d2);
         sum += d; sum2 += d2;
         if (d > max) max = d;
@@ -5944,8 +6107,7 @@ static void sqffd__fit_work_layout(sqffd__arena *a, size_t n, const int dims[3],
     if (sqffd__fit_needs_svd(o)) {
         w->singular = (double *)sqffd__arena_take(a, l, sizeof(double));
         w->v = (double *)sqffd__arena_take(a, l * l, sizeof(double));
-        w->svd_size = sqffd_svd_workspace_size((int)l, (int)l);
-        if (w->svd_size == 0) a->overflow = 1;
+        if (sqffd_svd_workspace_size(l, l, &w->svd_size) != SQFFD_OK) sqffd__arena_too_large(a);
         w->svd_ws = sqffd__arena_take(a, w->svd_size, 1);
     }
     w->x = (double *)sqffd__arena_take(a, m, 3 * sizeof(double));
@@ -5958,7 +6120,7 @@ static void sqffd__fit_work_layout(sqffd__arena *a, size_t n, const int dims[3],
     w->plain = (double *)sqffd__arena_take(a, 3 * l, sizeof(double));
     w->pairs = (double *)sqffd__arena_take(a, (size_t)(dims[0] * dims[1] * dims[0] * dims[1]), sizeof(double));
     w->block = (double (*)[SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE])sqffd__arena_take(a, 4, sizeof *w->block);
-    w->tree_size = sqffd_kdtree_workspace_size(m);
+    if (sqffd_kdtree_workspace_size(m, &w->tree_size) != SQFFD_OK) sqffd__arena_too_large(a);
     w->tree_ws = sqffd__arena_take(a, w->tree_size, 1);
     w->sample_count = sqffd__fit_cap(n, o->ffd_max_points);
     if (w->sample_count < n) w->sample = (double *)sqffd__arena_take(a, w->sample_count, 3 * sizeof(double));
@@ -5981,8 +6143,7 @@ static void sqffd__fit_work_layout(sqffd__arena *a, size_t n, const int dims[3],
     if (o->model_to_data > 0.0) {
         w->data_count = sqffd__fit_cap(w->sample_count, SQFFD__FIT_DATA_MAX);
         if (w->data_count < w->sample_count) w->data = (double *)sqffd__arena_take(a, w->data_count, 3 * sizeof(double));
-        w->data_size = sqffd_kdtree_workspace_size(w->data_count);
-        if (w->data_size == 0) a->overflow = 1;
+        if (sqffd_kdtree_workspace_size(w->data_count, &w->data_size) != SQFFD_OK) sqffd__arena_too_large(a);
         w->data_ws = sqffd__arena_take(a, w->data_size, 1);
         w->data_near = (uint32_t *)sqffd__arena_take(a, m, SQFFD__FIT_DATA_KNN * sizeof(uint32_t));
         w->data_at = (double *)sqffd__arena_take(a, m, 3 * sizeof(double));
@@ -6156,9 +6317,9 @@ static sqffd_result sqffd__fit_solve(const sqffd__fit_system *s, sqffd__fit_work
     sqffd_result res = SQFFD_ERROR_NOT_POSITIVE_DEFINITE;
     memcpy(w->matrix, s->fixed, l * l * sizeof(double));
     sqffd__fit_gram(s, w->weights, 1.0, w->pairs, w->block, w->matrix);
-    if (w->solver == SQFFD_SOLVER_CHOLESKY) res = sqffd_cholesky_factor(w->matrix, (int)l);
+    if (w->solver == SQFFD_SOLVER_CHOLESKY) res = sqffd_cholesky_factor(w->matrix, l);
     if (res == SQFFD_OK) {
-        for (c = 0; c < 3; ++c) sqffd_cholesky_solve(w->matrix, (int)l, rhs + c * l);
+        for (c = 0; c < 3; ++c) sqffd_cholesky_solve(w->matrix, l, rhs + c * l);
         return SQFFD_OK;
     }
     if (res != SQFFD_ERROR_NOT_POSITIVE_DEFINITE || !w->v) return res;
@@ -6166,7 +6327,7 @@ static sqffd_result sqffd__fit_solve(const sqffd__fit_system *s, sqffd__fit_work
     sqffd__fit_gram(s, w->weights, 1.0, w->pairs, w->block, w->matrix);
     for (r = 0; r < l; ++r) /* the whole symmetric matrix */
         for (k = r + 1; k < l; ++k) w->matrix[r * l + k] = w->matrix[k * l + r];
-    res = sqffd_svd(w->matrix, (int)l, (int)l, NULL, w->singular, w->v, w->svd_ws, w->svd_size);
+    res = sqffd_svd(w->matrix, l, l, NULL, w->singular, w->v, w->svd_ws, w->svd_size);
     if (res != SQFFD_OK) return res;
     for (k = l; k-- > 0;) /* symmetric positive semi-definite: A = V S V^T, A^+ = V S^+ V^T */
         w->singular[k] = w->singular[k] > SQFFD__FIT_SVD_RCOND * w->singular[0] ? 1.0 / w->singular[k] : 0.0;
@@ -6418,8 +6579,7 @@ static void sqffd__fit_frame_layout(sqffd__arena *a, size_t n, const int dims[3]
     if (whole) {
         size_t k = sqffd__fit_cap(n, o->sq_max_points);
         f->sample = k < n ? (double *)sqffd__arena_take(a, k, 3 * sizeof(double)) : NULL;
-        f->sq_size = sqffd_sq_fit_workspace_size(k, &o->sq);
-        if (f->sq_size == 0) a->overflow = 1;
+        if (sqffd_sq_fit_workspace_size(k, &o->sq, &f->sq_size) != SQFFD_OK) sqffd__arena_too_large(a);
         f->sq_ws = sqffd__arena_take(a, f->sq_size, 1);
     }
     f->report = (sqffd_fit_report *)sqffd__arena_take(a, 1, sizeof(sqffd_fit_report));
@@ -6440,10 +6600,14 @@ static void sqffd__fit_state_layout(sqffd__arena *a, const int dims[3], const in
 static sqffd_result sqffd__fit_check_data(const double *points, size_t n, double *diagonal)
 {
     sqffd_result res;
+    size_t i;
     if (!points) return SQFFD_ERROR_INVALID_ARGUMENT;
     if (n < SQFFD__FIT_MIN_POINTS) return SQFFD_ERROR_TOO_FEW_POINTS;
     res = sqffd__fit_diagonal(points, n, diagonal);
     if (res != SQFFD_OK) return res;
+    if (*diagonal > 0.0)
+        for (i = 0; i < 3 * n; ++i)
+            if (!(fabs(points[i]) <= SQFFD__MAX_DATA)) return SQFFD_ERROR_NON_FINITE;
     return *diagonal > 0.0 ? SQFFD_OK : SQFFD_ERROR_DEGENERATE;
 }
 
@@ -6458,29 +6622,44 @@ static sqffd_result sqffd__fit_check_whole_options(const sqffd_fit_options *o)
     return res;
 }
 
-SQFFD_DEF size_t sqffd_fit_workspace_size(size_t n, const sqffd_fit_options *options)
+SQFFD_DEF sqffd_result sqffd_fit_workspace_size(size_t n, const sqffd_fit_options *options, size_t *size)
 {
+    sqffd_fit_options defaults = sqffd_fit_options_default();
+    const sqffd_fit_options *o = options ? options : &defaults;
     sqffd__arena a;
     sqffd__fit_system s;
     sqffd__fit_frame f;
-    if (!options || n == 0 || !sqffd__ffd_dims_valid(options->lattice) || sqffd__fit_grid_check(options->grid) != SQFFD_OK)
-        return 0;
+    sqffd_result r;
+    if (!size) return SQFFD_ERROR_INVALID_ARGUMENT;
+    *size = 0;
+    if (n == 0) return SQFFD_ERROR_INVALID_ARGUMENT;
+    r = sqffd__fit_check_whole_options(o);
+    if (r != SQFFD_OK) return r;
     sqffd__arena_measure(&a);
-    sqffd__fit_system_layout(&a, options->lattice, options->grid, &s);
-    sqffd__fit_frame_layout(&a, n, options->lattice, options->grid, options, 1, &f);
-    return sqffd__arena_required(&a);
+    sqffd__fit_system_layout(&a, o->lattice, o->grid, &s);
+    sqffd__fit_frame_layout(&a, n, o->lattice, o->grid, o, 1, &f);
+    return sqffd__arena_size(&a, size);
 }
 
-SQFFD_DEF size_t sqffd_fit_ffd_workspace_size(size_t n, const sqffd_model *model, const sqffd_fit_options *options)
+SQFFD_DEF sqffd_result sqffd_fit_ffd_workspace_size(size_t n, const sqffd_model *model, const sqffd_fit_options *options,
+                                                    size_t *size)
 {
+    sqffd_fit_options defaults = sqffd_fit_options_default();
+    const sqffd_fit_options *o = options ? options : &defaults;
     sqffd__arena a;
     sqffd__fit_system s;
     sqffd__fit_frame f;
-    if (!options || n == 0 || !sqffd__fit_model_valid(model)) return 0;
+    sqffd_result r;
+    if (!size) return SQFFD_ERROR_INVALID_ARGUMENT;
+    *size = 0;
+    if (!model || n == 0) return SQFFD_ERROR_INVALID_ARGUMENT;
+    r = sqffd_model_validate(model);
+    if (r == SQFFD_OK) r = sqffd__fit_check_options(o);
+    if (r != SQFFD_OK) return r;
     sqffd__arena_measure(&a);
     sqffd__fit_system_layout(&a, model->ffd.dims, model->grid, &s);
-    sqffd__fit_frame_layout(&a, n, model->ffd.dims, model->grid, options, 0, &f);
-    return sqffd__arena_required(&a);
+    sqffd__fit_frame_layout(&a, n, model->ffd.dims, model->grid, o, 0, &f);
+    return sqffd__arena_size(&a, size);
 }
 
 /* The error of the model over all n points (the iterations may run on a
@@ -6531,9 +6710,11 @@ SQFFD_DEF sqffd_result sqffd_fit_ffd(const double *points, size_t n, const sqffd
     sqffd__fit_system s;
     sqffd__fit_frame f;
     sqffd_fit_report *rep;
+    sqffd_fit_options defaults = sqffd_fit_options_default();
     double diagonal = 0.0;
     sqffd_result res;
-    if (!points || !options || !model) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if (!options) options = &defaults;
+    if (!points || !model) return SQFFD_ERROR_INVALID_ARGUMENT;
     res = sqffd_model_validate(model);
     if (res == SQFFD_OK) res = sqffd__fit_check_options(options);
     if (res == SQFFD_OK) res = sqffd__fit_check_data(points, n, &diagonal);
@@ -6541,7 +6722,7 @@ SQFFD_DEF sqffd_result sqffd_fit_ffd(const double *points, size_t n, const sqffd
     sqffd__arena_init(&a, workspace, workspace_size);
     sqffd__fit_system_layout(&a, model->ffd.dims, model->grid, &s);
     sqffd__fit_frame_layout(&a, n, model->ffd.dims, model->grid, options, 0, &f);
-    if (a.overflow) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
+    if (a.overflow) return sqffd__arena_error(&a);
     rep = report ? report : f.report;
     memset(rep, 0, sizeof *rep);
     res = sqffd__fit_prepare(model, options->alpha, options->tether, options->regularization, &s);
@@ -6622,16 +6803,18 @@ SQFFD_DEF sqffd_result sqffd_fit(const double *points, size_t n, const sqffd_fit
     sqffd__fit_system s;
     sqffd__fit_frame f;
     sqffd_fit_report *rep;
+    sqffd_fit_options defaults = sqffd_fit_options_default();
     double diagonal = 0.0;
     sqffd_result res;
-    if (!points || !options || !model) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if (!options) options = &defaults;
+    if (!points || !model) return SQFFD_ERROR_INVALID_ARGUMENT;
     res = sqffd__fit_check_whole_options(options);
     if (res == SQFFD_OK) res = sqffd__fit_check_data(points, n, &diagonal);
     if (res != SQFFD_OK) return res;
     sqffd__arena_init(&a, workspace, workspace_size);
     sqffd__fit_system_layout(&a, options->lattice, options->grid, &s);
     sqffd__fit_frame_layout(&a, n, options->lattice, options->grid, options, 1, &f);
-    if (a.overflow) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
+    if (a.overflow) return sqffd__arena_error(&a);
     rep = report ? report : f.report;
     memset(rep, 0, sizeof *rep);
     return sqffd__fit_whole(points, n, diagonal, options, &s, &f, model, rep);
@@ -6643,14 +6826,19 @@ SQFFD_DEF sqffd_result sqffd_fit(const double *points, size_t n, const sqffd_fit
 
 /* ---- the prepared system ------------------------------------------------- */
 
-SQFFD_DEF size_t sqffd_ffd_system_size(const sqffd_model *model)
+SQFFD_DEF sqffd_result sqffd_ffd_system_size(const sqffd_model *model, size_t *size)
 {
     sqffd__arena a;
     sqffd__fit_system *state;
-    if (!sqffd__fit_model_valid(model)) return 0;
+    sqffd_result r;
+    if (!size) return SQFFD_ERROR_INVALID_ARGUMENT;
+    *size = 0;
+    if (!model) return SQFFD_ERROR_INVALID_ARGUMENT;
+    r = sqffd_model_validate(model);
+    if (r != SQFFD_OK) return r;
     sqffd__arena_measure(&a);
     sqffd__fit_state_layout(&a, model->ffd.dims, model->grid, &state);
-    return sqffd__arena_required(&a);
+    return sqffd__arena_size(&a, size);
 }
 
 SQFFD_DEF sqffd_result sqffd_ffd_system_init(sqffd_ffd_system *system, const sqffd_model *model,
@@ -6668,7 +6856,7 @@ SQFFD_DEF sqffd_result sqffd_ffd_system_init(sqffd_ffd_system *system, const sqf
     if (res != SQFFD_OK) return res;
     sqffd__arena_init(&a, memory, memory_size);
     sqffd__fit_state_layout(&a, model->ffd.dims, model->grid, &state);
-    if (!state) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
+    if (!state) return sqffd__arena_error(&a);
     res = sqffd__fit_prepare(model, o->alpha, o->tether, o->regularization, state);
     if (res != SQFFD_OK) return res;
     system->sq = model->sq;
@@ -6717,17 +6905,22 @@ static sqffd_fit_options sqffd__fit_system_options(const sqffd_ffd_system *syste
     return o;
 }
 
-SQFFD_DEF size_t sqffd_fit_prepared_workspace_size(size_t n, const sqffd_ffd_system *system,
-                                                   const sqffd_fit_options *options)
+SQFFD_DEF sqffd_result sqffd_fit_prepared_workspace_size(size_t n, const sqffd_ffd_system *system,
+                                                         const sqffd_fit_options *options, size_t *size)
 {
     sqffd__arena a;
     sqffd__fit_frame f;
     sqffd_fit_options o;
-    if (!system || !system->state || n == 0) return 0;
+    sqffd_result r;
+    if (!size) return SQFFD_ERROR_INVALID_ARGUMENT;
+    *size = 0;
+    if (!system || !system->state || n == 0) return SQFFD_ERROR_INVALID_ARGUMENT;
     o = sqffd__fit_system_options(system, options);
+    r = sqffd__fit_check_options(&o);
+    if (r != SQFFD_OK) return r;
     sqffd__arena_measure(&a);
     sqffd__fit_frame_layout(&a, n, system->dims, system->grid, &o, 0, &f);
-    return sqffd__arena_required(&a);
+    return sqffd__arena_size(&a, size);
 }
 
 SQFFD_DEF sqffd_result sqffd_fit_prepared(const sqffd_ffd_system *system, const double *points, size_t n,
@@ -6749,7 +6942,7 @@ SQFFD_DEF sqffd_result sqffd_fit_prepared(const sqffd_ffd_system *system, const 
     if (res != SQFFD_OK) return res;
     sqffd__arena_init(&a, workspace, workspace_size);
     sqffd__fit_frame_layout(&a, n, system->dims, system->grid, &o, 0, &f);
-    if (a.overflow) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
+    if (a.overflow) return sqffd__arena_error(&a);
     rep = report ? report : f.report;
     memset(rep, 0, sizeof *rep);
     return sqffd__fit_run(points, n, diagonal, &o, (const sqffd__fit_system *)system->state, &f.w, 1, model, rep);
@@ -6769,28 +6962,34 @@ SQFFD_DEF sqffd_track_options sqffd_track_options_default(void)
 
 /* One arena for the sequence: the system first (it stays), then the
    largest frame's scratch (frame 0's with stage 1's). */
-SQFFD_DEF size_t sqffd_track_workspace_size(const size_t *counts, size_t frame_count, const sqffd_track_options *options)
+SQFFD_DEF sqffd_result sqffd_track_workspace_size(const size_t *counts, size_t frame_count,
+                                                  const sqffd_track_options *options, size_t *size)
 {
     sqffd_track_options defaults = sqffd_track_options_default();
-    const sqffd_fit_options *o = options ? &options->fit : &defaults.fit;
+    const sqffd_track_options *opt = options ? options : &defaults;
     sqffd__arena a, frame;
     sqffd__fit_system *state;
     sqffd__fit_frame f;
     size_t t, need = 0;
-    if (!counts || frame_count == 0 || !sqffd__ffd_dims_valid(o->lattice) || sqffd__fit_grid_check(o->grid) != SQFFD_OK)
-        return 0;
+    sqffd_result r;
+    if (!size) return SQFFD_ERROR_INVALID_ARGUMENT;
+    *size = 0;
+    if (!counts || frame_count == 0 || opt->frame_iterations < 0) return SQFFD_ERROR_INVALID_ARGUMENT;
+    r = sqffd__fit_check_whole_options(&opt->fit);
+    if (r != SQFFD_OK) return r;
     sqffd__arena_measure(&a);
-    sqffd__fit_state_layout(&a, o->lattice, o->grid, &state);
+    sqffd__fit_state_layout(&a, opt->fit.lattice, opt->fit.grid, &state);
     for (t = 0; t < frame_count; ++t) {
-        size_t size;
-        if (counts[t] == 0) return 0;
+        size_t frame_size;
+        if (counts[t] == 0) return SQFFD_ERROR_INVALID_ARGUMENT;
         frame = a;
-        sqffd__fit_frame_layout(&frame, counts[t], o->lattice, o->grid, o, t == 0, &f);
-        size = sqffd__arena_required(&frame);
-        if (size == 0) return 0;
-        need = size > need ? size : need;
+        sqffd__fit_frame_layout(&frame, counts[t], opt->fit.lattice, opt->fit.grid, &opt->fit, t == 0, &f);
+        r = sqffd__arena_size(&frame, &frame_size);
+        if (r != SQFFD_OK) return r;
+        need = frame_size > need ? frame_size : need;
     }
-    return need;
+    *size = need;
+    return SQFFD_OK;
 }
 
 SQFFD_DEF sqffd_result sqffd_track(const double *const *frames, const size_t *counts, size_t frame_count,
@@ -6815,7 +7014,7 @@ SQFFD_DEF sqffd_result sqffd_track(const double *const *frames, const size_t *co
     if (res != SQFFD_OK) return res;
     sqffd__arena_init(&a, workspace, workspace_size);
     sqffd__fit_state_layout(&a, o.lattice, o.grid, &state);
-    if (!state) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
+    if (!state) return sqffd__arena_error(&a);
     for (t = 0; t < frame_count; ++t) {
         sqffd_fit_report *rep;
         double diagonal = 0.0;
@@ -6828,7 +7027,7 @@ SQFFD_DEF sqffd_result sqffd_track(const double *const *frames, const size_t *co
         frame = a; /* every frame's scratch starts after the system */
         o.max_iterations = t == 0 ? opt->fit.max_iterations : opt->frame_iterations;
         sqffd__fit_frame_layout(&frame, counts[t], o.lattice, o.grid, &o, t == 0, &f);
-        if (frame.overflow) { res = SQFFD_ERROR_WORKSPACE_TOO_SMALL; break; }
+        if (frame.overflow) { res = sqffd__arena_error(&frame); break; }
         rep = reports ? reports + t : f.report;
         memset(rep, 0, sizeof *rep);
         if (t == 0) res = sqffd__fit_whole(frames[t], counts[t], diagonal, &o, state, &f, models, rep);
@@ -6902,14 +7101,19 @@ static void sqffd__motion_layout(sqffd__arena *a, size_t m, sqffd__motion_work *
     w->report = (sqffd_motion_report *)sqffd__arena_take(a, 1, sizeof(sqffd_motion_report));
 }
 
-SQFFD_DEF size_t sqffd_motion_workspace_size(const sqffd_model *models, size_t frame_count)
+SQFFD_DEF sqffd_result sqffd_motion_workspace_size(const sqffd_model *models, size_t frame_count, size_t *size)
 {
     sqffd__arena a;
     sqffd__motion_work w;
-    if (!models || frame_count == 0 || !sqffd__fit_model_valid(models)) return 0;
+    sqffd_result r;
+    if (!size) return SQFFD_ERROR_INVALID_ARGUMENT;
+    *size = 0;
+    if (!models || frame_count == 0) return SQFFD_ERROR_INVALID_ARGUMENT;
+    r = sqffd_model_validate(models);
+    if (r != SQFFD_OK) return r;
     sqffd__arena_measure(&a);
     sqffd__motion_layout(&a, sqffd__fit_grid_count(models->grid), &w);
-    return sqffd__arena_required(&a);
+    return sqffd__arena_size(&a, size);
 }
 
 /* A unit vector along v (0 if v is zero, not finite, or tiny against `scale`). */
@@ -7026,7 +7230,7 @@ SQFFD_DEF sqffd_result sqffd_motion(const sqffd_model *models, size_t frame_coun
     m = sqffd__fit_grid_count(models->grid);
     sqffd__arena_init(&a, workspace, workspace_size);
     sqffd__motion_layout(&a, m, &w);
-    if (a.overflow) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
+    if (a.overflow) return sqffd__arena_error(&a);
     rep = w.report;
     memset(rep, 0, sizeof *rep);
     /* every frame's mesh and volume; ES is the least */
@@ -7150,9 +7354,11 @@ SQFFD_DEF sqffd_result sqffd_motion(const sqffd_model *models, size_t frame_coun
    Layer 7: volumes to points
    ====================================================================== */
 
-SQFFD_DEF void sqffd_points_subsample(const double *points, size_t n, size_t k, double *out)
+SQFFD_DEF sqffd_result sqffd_points_subsample(const double *points, size_t n, size_t k, double *out)
 {
-    if (points && out && k <= n && k > 0) sqffd__subsample(points, n, k, out);
+    if (k > n || (k > 0 && (!points || !out))) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if (k > 0) sqffd__subsample(points, n, k, out);
+    return SQFFD_OK;
 }
 
 static size_t sqffd__vol_type_size(sqffd_voxel_type type)
@@ -7254,7 +7460,7 @@ SQFFD_DEF sqffd_result sqffd_volume_range(const sqffd_volume *volume, double *mi
 SQFFD_DEF sqffd_result sqffd_volume_otsu(const sqffd_volume *volume, double *threshold)
 {
     uint32_t hist[SQFFD__VOL_BINS];
-    double lo = 0.0, hi = 0.0, width, total = 0.0, sum = 0.0, below = 0.0, below_sum = 0.0, best = -1.0;
+    double lo = 0.0, hi = 0.0, half_span, cut, total = 0.0, sum = 0.0, below = 0.0, below_sum = 0.0, best = -1.0;
     size_t first = 0, last = 0;
     int b;
     sqffd_result res = sqffd_volume_range(volume, &lo, &hi);
@@ -7262,11 +7468,11 @@ SQFFD_DEF sqffd_result sqffd_volume_otsu(const sqffd_volume *volume, double *thr
     if (!threshold) return SQFFD_ERROR_INVALID_ARGUMENT;
     if (!(hi > lo)) return SQFFD_ERROR_DEGENERATE;
     memset(hist, 0, sizeof hist);
-    width = (hi - lo) / SQFFD__VOL_BINS;
+    half_span = 0.5 * hi - 0.5 * lo; /* (halves: finite for any finite range, and not 0 for a denormal one) */
     SQFFD__VOL_EACH(volume, x, {
         if (isfinite(x)) {
-            b = (int)((x - lo) / width);
-            b = b < 0 ? 0 : b >= SQFFD__VOL_BINS ? SQFFD__VOL_BINS - 1 : b;
+            double f = (0.5 * x - 0.5 * lo) / half_span * SQFFD__VOL_BINS;
+            b = !(f >= 0.0) ? 0 : f >= SQFFD__VOL_BINS ? SQFFD__VOL_BINS - 1 : (int)f;
             if (hist[b] < UINT32_MAX) ++hist[b]; /* (beyond 2^32 - 1 voxels in a bin it saturates) */
         }
     });
@@ -7288,7 +7494,8 @@ SQFFD_DEF sqffd_result sqffd_volume_otsu(const sqffd_volume *volume, double *thr
         else if (between >= best * (1.0 - 1e-12)) last = (size_t)b;
     }
     if (best < 0.0) return SQFFD_ERROR_DEGENERATE; /* one value only */
-    *threshold = lo + width * (0.5 * (double)(first + last) + 1.0);
+    cut = (0.5 * (double)(first + last) + 1.0) / SQFFD__VOL_BINS; /* of the range */
+    *threshold = lo + half_span * cut + half_span * cut;
     return SQFFD_OK;
 }
 
@@ -7319,7 +7526,7 @@ static void sqffd__iso_layout(sqffd__arena *a, const sqffd_volume *v, size_t vox
     w->flag[1] = (unsigned char *)sqffd__arena_take(a, plane + 8, 1);
     w->parent = NULL;
     if (components) {
-        if (voxels > 0x7FFFFFFFu) a->overflow = 1; /* (the top bit marks the roots) */
+        if (voxels > 0x7FFFFFFFu) sqffd__arena_too_large(a); /* (the top bit marks the roots) */
         w->parent = (uint32_t *)sqffd__arena_take(a, voxels, sizeof(uint32_t));
     }
 }
@@ -7333,15 +7540,19 @@ static void sqffd__iso_slice(const sqffd_volume *v, size_t k, double level, sqff
     memset(w->flag[b] + plane, 0, 8);
 }
 
-SQFFD_DEF size_t sqffd_iso_workspace_size(const sqffd_volume *volume, const sqffd_iso_options *options)
+SQFFD_DEF sqffd_result sqffd_iso_workspace_size(const sqffd_volume *volume, const sqffd_iso_options *options, size_t *size)
 {
     sqffd__arena a;
     sqffd__iso_work w;
     size_t voxels;
-    if (sqffd__vol_check(volume, &voxels) != SQFFD_OK) return 0;
+    sqffd_result r;
+    if (!size) return SQFFD_ERROR_INVALID_ARGUMENT;
+    *size = 0;
+    r = sqffd__vol_check(volume, &voxels);
+    if (r != SQFFD_OK) return r;
     sqffd__arena_measure(&a);
     sqffd__iso_layout(&a, volume, voxels, options ? options->largest_component : 0, &w);
-    return sqffd__arena_required(&a);
+    return sqffd__arena_size(&a, size);
 }
 
 static uint32_t sqffd__iso_root(uint32_t *parent, uint32_t x)
@@ -7428,12 +7639,14 @@ SQFFD_DEF sqffd_result sqffd_iso_points(const sqffd_volume *volume, const sqffd_
     *count = 0;
     sqffd__arena_init(&a, workspace, workspace_size);
     sqffd__iso_layout(&a, v, voxels, o->largest_component, &w);
-    if (a.overflow) return SQFFD_ERROR_WORKSPACE_TOO_SMALL;
-    for (d = 0; d < 3; ++d) { /* the world direction of each voxel axis */
-        double len = 0.0;
-        for (r = 0; r < 3; ++r) len += v->affine[4 * r + d] * v->affine[4 * r + d];
+    if (a.overflow) return sqffd__arena_error(&a);
+    for (d = 0; d < 3; ++d) { /* the world direction of each voxel axis (scaled first: no under/overflow) */
+        double len = 0.0, big = 0.0;
+        for (r = 0; r < 3; ++r) big = fabs(v->affine[4 * r + d]) > big ? fabs(v->affine[4 * r + d]) : big;
+        for (r = 0; r < 3; ++r) axis[d][r] = big > 0.0 ? v->affine[4 * r + d] / big : 0.0;
+        for (r = 0; r < 3; ++r) len += axis[d][r] * axis[d][r];
         len = sqrt(len);
-        for (r = 0; r < 3; ++r) axis[d][r] = len > 0.0 ? v->affine[4 * r + d] / len : 0.0;
+        for (r = 0; r < 3; ++r) axis[d][r] = len > 0.0 ? axis[d][r] / len : 0.0;
     }
     if (o->largest_component) {
         keep = sqffd__iso_largest(v, o->level, &w);
@@ -7479,7 +7692,7 @@ SQFFD_DEF sqffd_result sqffd_iso_points(const sqffd_volume *volume, const sqffd_
                     }
                     if (found < capacity) {
                         double *out = points + 3 * found;
-                        t = (o->level - here) / (there - here);
+                        t = (0.5 * o->level - 0.5 * here) / (0.5 * there - 0.5 * here); /* (halves: no overflow) */
                         p[0] = (double)i + (d == 0 ? t : 0.0);
                         p[1] = (double)j + (d == 1 ? t : 0.0);
                         p[2] = (double)k + (d == 2 ? t : 0.0);

@@ -22,8 +22,10 @@ typedef struct row {
 static double reverse_rms(const sqffd_model *m, const double *pts, size_t n)
 {
     sqffd_distance_stats s;
-    size_t size = sqffd_model_reverse_distances_workspace_size(n, m);
-    void *ws = malloc(size);
+    size_t size;
+    void *ws;
+    if (sqffd_model_reverse_distances_workspace_size(n, m, &size) != SQFFD_OK) return -1.0;
+    ws = malloc(size);
     if (!ws || sqffd_model_reverse_distances(m, pts, n, NULL, &s, ws, size) != SQFFD_OK) s.rms_relative = -1.0;
     free(ws);
     return s.rms_relative;
@@ -34,20 +36,23 @@ static double reverse_rms(const sqffd_model *m, const double *pts, size_t n)
    uses (the subsample when there is one). */
 static double closest_pass(const sqffd_model *m, const double *pts, size_t n)
 {
-    size_t count = 0, v, i, size;
+    size_t count = 0, v = 0, i, size;
     double *x, t0, t1, sink = 0.0;
     void *ws;
     sqffd_kdtree tree;
     sqffd_model_mesh_size(m->grid[0], m->grid[1], &count, NULL);
     x = (double *)malloc(3 * count * sizeof *x);
     sqffd_model_mesh(m, m->grid[0], m->grid[1], x, NULL);
-    size = sqffd_kdtree_workspace_size(count);
+    if (sqffd_kdtree_workspace_size(count, &size) != SQFFD_OK) {
+        free(x);
+        return 0.0;
+    }
     ws = malloc(size);
     sqffd_kdtree_build(&tree, x, count, ws, size);
     t0 = bench_now();
     for (i = 0; i < n; i++) {
         double d2;
-        v = sqffd_kdtree_nearest(&tree, pts + 3 * i, &d2);
+        sqffd_kdtree_nearest(&tree, pts + 3 * i, &v, &d2);
         sink += d2 + (double)v;
     }
     t1 = bench_now();
@@ -59,10 +64,10 @@ static double closest_pass(const sqffd_model *m, const double *pts, size_t n)
 static int measure(const double *pts, size_t n, const sqffd_fit_options *o, int runs, row *r)
 {
     double total[MAX_RUNS], sq[MAX_RUNS], ffd0[MAX_RUNS], ffd[MAX_RUNS], pass[MAX_RUNS];
-    size_t size = sqffd_fit_workspace_size(n, o), k, sq_size;
+    size_t size = 0, k, sq_size = 0;
     size_t sq_n = o->sq_max_points && n > o->sq_max_points ? o->sq_max_points : n;
     size_t ffd_n = o->ffd_max_points && n > o->ffd_max_points ? o->ffd_max_points : n;
-    void *ws = malloc(size), *sq_ws;
+    void *ws, *sq_ws;
     double *sample = (double *)malloc(3 * sq_n * sizeof *sample);
     double *ffd_pts = (double *)malloc(3 * ffd_n * sizeof *ffd_pts);
     sqffd_model m, start;
@@ -70,7 +75,9 @@ static int measure(const double *pts, size_t n, const sqffd_fit_options *o, int 
     sqffd_fit_options zero = *o;
     int i;
     sqffd_superquadric s;
-    sq_size = sqffd_sq_fit_workspace_size(sq_n, &o->sq);
+    if (sqffd_fit_workspace_size(n, o, &size) != SQFFD_OK || sqffd_sq_fit_workspace_size(sq_n, &o->sq, &sq_size) != SQFFD_OK)
+        return 0;
+    ws = malloc(size);
     sq_ws = malloc(sq_size);
     if (!ws || !sq_ws || !sample || !ffd_pts) return 0;
     for (k = 0; k < sq_n; k++) /* the same subsamples sqffd_fit uses */

@@ -40,18 +40,21 @@ static void print_row(const char *name, double ours, double peer, double sdiff)
    gets the max relative difference of the singular values. */
 static double bench_svd(int m, int n, int with_vectors, double *sdiff_out)
 {
-    size_t mn = (size_t)m * (size_t)n, size = sqffd_svd_workspace_size(m, n);
+    size_t mn = (size_t)m * (size_t)n, size;
     double *a = (double *)xmalloc(mn * sizeof(double)), *u = (double *)xmalloc(mn * sizeof(double));
     double *s = (double *)xmalloc((size_t)n * sizeof(double)), *v = (double *)xmalloc((size_t)n * (size_t)n * sizeof(double));
-    void *work = xmalloc(size);
+    void *work;
     double ours[RUNS], peer[RUNS], peer_median = 0.0, sdiff = -1.0;
     char name[64];
     size_t i;
     int r;
+    sqffd_result size_res = sqffd_svd_workspace_size((size_t)m, (size_t)n, &size);
+    if (size_res != SQFFD_OK) { printf("sqffd_svd_workspace_size: %s\n", sqffd_result_string(size_res)); exit(1); }
+    work = xmalloc(size);
     for (i = 0; i < mn; ++i) a[i] = uniform();
     for (r = 0; r < RUNS; ++r) {
         double t0 = bench_now();
-        sqffd_result res = sqffd_svd(a, m, n, with_vectors ? u : NULL, s, with_vectors ? v : NULL, work, size);
+        sqffd_result res = sqffd_svd(a, (size_t)m, (size_t)n, with_vectors ? u : NULL, s, with_vectors ? v : NULL, work, size);
         ours[r] = bench_now() - t0;
         if (res != SQFFD_OK) { printf("sqffd_svd: %s\n", sqffd_result_string(res)); exit(1); }
     }
@@ -105,7 +108,7 @@ static void bench_cholesky(int n)
         double t0;
         memcpy(a, spd, nn * sizeof(double));
         t0 = bench_now();
-        if (sqffd_cholesky_factor(a, n) != SQFFD_OK) { printf("cholesky failed\n"); exit(1); }
+        if (sqffd_cholesky_factor(a, (size_t)n) != SQFFD_OK) { printf("cholesky failed\n"); exit(1); }
         ours[r] = bench_now() - t0;
     }
 #ifdef SQFFD_BENCH_LAPACKE

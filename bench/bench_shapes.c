@@ -127,15 +127,20 @@ static const char *flag(int applies, int ok)
 static void bench_row(const char *shape, const double *pts, size_t n, int targets)
 {
     sqffd_fit_options o = sqffd_fit_options_default();
-    size_t size = sqffd_fit_workspace_size(n, &o), reverse_size;
-    void *ws = malloc(size), *reverse_ws;
+    size_t size, reverse_size;
+    void *ws, *reverse_ws;
     const reference *ref = find_reference(shape, n);
     double ms[RUNS], err, time_ms;
     sqffd_model m;
     sqffd_fit_report rep;
     sqffd_distance_stats reverse;
-    sqffd_result r = SQFFD_OK;
+    sqffd_result r = sqffd_fit_workspace_size(n, &o, &size);
     int i;
+    if (r != SQFFD_OK) {
+        row_failed(shape, n, "workspace size failed: ", sqffd_result_string(r));
+        return;
+    }
+    ws = malloc(size);
     if (!ws) {
         row_failed(shape, n, "out of memory", "");
         return;
@@ -150,7 +155,11 @@ static void bench_row(const char *shape, const double *pts, size_t n, int target
         row_failed(shape, n, "fit failed: ", sqffd_result_string(r));
         return;
     }
-    reverse_size = sqffd_model_reverse_distances_workspace_size(n, &m);
+    r = sqffd_model_reverse_distances_workspace_size(n, &m, &reverse_size);
+    if (r != SQFFD_OK) {
+        row_failed(shape, n, "model->data workspace size failed: ", sqffd_result_string(r));
+        return;
+    }
     reverse_ws = malloc(reverse_size);
     if (!reverse_ws) {
         row_failed(shape, n, "out of memory", "");

@@ -26,10 +26,16 @@ static void run_row(const row *r)
     synth_sq_ranges ranges = synth_sq_ranges_default();
     size_t capacity = r->n + r->n / 4 + 1;
     double *pts = (double *)malloc(3 * capacity * sizeof *pts);
-    size_t size = sqffd_sq_fit_workspace_size(capacity, &r->options);
-    void *work = malloc(size);
+    size_t size;
+    void *work;
     double times[SHAPES], ious[SHAPES], per_shape[RUNS], iterations = 0.0;
     int s, k, failures = 0;
+    if (sqffd_sq_fit_workspace_size(capacity, &r->options, &size) != SQFFD_OK) {
+        printf("| %-6zu | %-22s | workspace size failed |\n", r->n, r->name);
+        free(pts);
+        return;
+    }
+    work = malloc(size);
     for (s = 0; s < r->shapes; s++) {
         sqffd_superquadric truth, fit;
         sqffd_sq_fit_report report;

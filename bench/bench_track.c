@@ -64,11 +64,16 @@ static int track(const sequence *s, const sqffd_track_options *options, sqffd_mo
 {
     sqffd_track_options o = *options;
     sqffd_fit_report *reports = (sqffd_fit_report *)malloc(s->frames * sizeof *reports);
-    size_t size = sqffd_track_workspace_size(s->counts, s->frames, &o), done, t;
-    void *work = malloc(size);
+    size_t size, done, t;
+    void *work;
     clock_frames c;
     double end;
     sqffd_result r;
+    if (sqffd_track_workspace_size(s->counts, s->frames, &o, &size) != SQFFD_OK) {
+        free(reports);
+        return -1;
+    }
+    work = malloc(size);
     if (!reports || !work) return -1;
     c.count = 0;
     o.progress = stamp;

@@ -120,7 +120,7 @@ int main(void)
     v.strides[0] = 1; v.strides[1] = NX; v.strides[2] = (ptrdiff_t)NX * NY;
     v.affine[0] = v.affine[5] = v.affine[10] = v.affine[15] = 1.0;
     o.largest_component = 1;
-    size = sqffd_iso_workspace_size(&v, &o);
+    if (sqffd_iso_workspace_size(&v, &o, &size) != SQFFD_OK) return 1;
     work = malloc(size);
     points = (double *)malloc(3 * voxels * sizeof(double) / 8);
     if (!work || !points) return 1;

@@ -41,7 +41,11 @@ int main(void)
     if (!points) return 1;
     make_points(points, ROWS, COLS);
 
-    size = sqffd_fit_workspace_size(N, &opt); /* the library never allocates: you do */
+    r = sqffd_fit_workspace_size(N, &opt, &size); /* the library never allocates: you do */
+    if (r != SQFFD_OK) {
+        fprintf(stderr, "fit workspace: %s\n", sqffd_result_string(r));
+        return 1;
+    }
     workspace = malloc(size);
     if (!workspace) return 1;
     r = sqffd_fit(points, N, &opt, &model, &rep, workspace, size);

@@ -373,11 +373,11 @@ static int volume_points(const sqffd_image *image, size_t t, const char *name, c
         snprintf(err, err_size, "%s: no automatic iso level: %s (give --iso V)", name, sqffd_result_string(r));
         return 1;
     }
-    size = sqffd_iso_workspace_size(&frame, &o);
-    work = size ? malloc(size) : NULL;
+    r = sqffd_iso_workspace_size(&frame, &o, &size);
+    work = r == SQFFD_OK ? malloc(size) : NULL;
     /* every component's crossings bound the largest one's: counted without the labelling, filled with it */
     o.largest_component = 0;
-    r = work ? sqffd_iso_points(&frame, &o, NULL, NULL, 0, &n, work, size) : SQFFD_ERROR_TOO_LARGE;
+    if (r == SQFFD_OK) r = work ? sqffd_iso_points(&frame, &o, NULL, NULL, 0, &n, work, size) : SQFFD_ERROR_TOO_LARGE;
     o.largest_component = !in->all_components;
     all = r == SQFFD_OK && n ? (double *)malloc(3 * n * sizeof *all) : NULL;
     if (all) r = sqffd_iso_points(&frame, &o, all, NULL, n, &n, work, size);
@@ -398,8 +398,13 @@ static int volume_points(const sqffd_image *image, size_t t, const char *name, c
             snprintf(err, err_size, "%s: out of memory", name);
             return 1;
         }
-        sqffd_points_subsample(all, n, keep, kept);
+        r = sqffd_points_subsample(all, n, keep, kept);
         free(all);
+        if (r != SQFFD_OK) {
+            free(kept);
+            snprintf(err, err_size, "%s: subsample: %s", name, sqffd_result_string(r));
+            return 1;
+        }
         all = kept;
     }
     *points = all;
@@ -427,9 +432,15 @@ static int read_input(const char *path, const input_args *in, int first_only, do
         if (sqffd_io_read_file(path, &points, &n, err, err_size)) return 1;
         if (in->sample_set && in->sample < n) {
             double *kept = (double *)malloc(3 * in->sample * sizeof *kept);
+            sqffd_result r;
             if (!kept) { free(points); snprintf(err, err_size, "%s: out of memory", path); return 1; }
-            sqffd_points_subsample(points, n, in->sample, kept);
+            r = sqffd_points_subsample(points, n, in->sample, kept);
             free(points);
+            if (r != SQFFD_OK) {
+                free(kept);
+                snprintf(err, err_size, "%s: subsample: %s", path, sqffd_result_string(r));
+                return 1;
+            }
             points = kept;
             n = in->sample;
         }
@@ -654,8 +665,9 @@ static sqffd_result mesh_to_data(const sqffd_model *model, const int mesh[2], co
     sqffd_result r;
     shown.grid[0] = mesh[0];
     shown.grid[1] = mesh[1];
-    size = sqffd_model_reverse_distances_workspace_size(n, &shown);
-    work = size ? malloc(size) : NULL;
+    r = sqffd_model_reverse_distances_workspace_size(n, &shown, &size);
+    if (r != SQFFD_OK) return r;
+    work = malloc(size);
     r = work ? sqffd_model_reverse_distances(&shown, points, n, per_vertex, stats, work, size) : SQFFD_ERROR_TOO_LARGE;
     free(work);
     return r;
@@ -694,9 +706,13 @@ static int cmd_fit(int argc, char **argv)
     n = counts[0];
     t[1] = seconds_now();
 
-    work_size = sqffd_fit_workspace_size(n, &a.options);
-    if (work_size == 0) {
+    r = sqffd_fit_workspace_size(n, &a.options, &work_size);
+    if (r == SQFFD_ERROR_TOO_LARGE) {
         fprintf(stderr, "%s: %lu points: too many for the fit\n", a.input, (unsigned long)n);
+        goto done;
+    }
+    if (r != SQFFD_OK) {
+        fprintf(stderr, "%s: cannot size the fit: %s\n", a.input, sqffd_result_string(r));
         goto done;
     }
     work = malloc(work_size);
@@ -747,12 +763,15 @@ static int cmd_fit(int argc, char **argv)
         goto done;
     }
     if (a.points_output) {
-        size_t dsize = sqffd_model_distances_workspace_size(n, &model);
-        void *dwork = dsize ? malloc(dsize) : NULL;
+        size_t dsize;
+        void *dwork;
         sqffd_distance_stats stats;
+        r = sqffd_model_distances_workspace_size(n, &model, &dsize);
+        dwork = r == SQFFD_OK ? malloc(dsize) : NULL;
         point_error = (double *)malloc(n * sizeof *point_error);
-        r = dwork && point_error ? sqffd_model_distances(&model, points, n, point_error, &stats, dwork, dsize)
-                                 : SQFFD_ERROR_INVALID_ARGUMENT;
+        if (r == SQFFD_OK)
+            r = dwork && point_error ? sqffd_model_distances(&model, points, n, point_error, &stats, dwork, dsize)
+                                     : SQFFD_ERROR_INVALID_ARGUMENT;
         free(dwork);
         if (r != SQFFD_OK) {
             fprintf(stderr, "%s: could not measure the point distances: %s\n", a.points_output,
@@ -1063,8 +1082,12 @@ static int track_run(track_args *a, double **points, size_t *counts, track_resul
     res->models = (sqffd_model *)malloc(frames * sizeof *res->models);
     res->reports = (sqffd_fit_report *)malloc(frames * sizeof *res->reports);
     res->out.volumes = (double *)malloc(frames * sizeof(double));
-    work_size = sqffd_track_workspace_size(counts, frames, &a->options);
-    work = work_size ? malloc(work_size) : NULL;
+    r = sqffd_track_workspace_size(counts, frames, &a->options, &work_size);
+    if (r != SQFFD_OK) {
+        fprintf(stderr, "sqffd track: cannot size the tracking: %s\n", sqffd_result_string(r));
+        goto done;
+    }
+    work = malloc(work_size);
     if (!work || !res->models || !res->reports || !res->out.volumes) {
         fprintf(stderr, "sqffd track: out of memory (the tracking needs %lu bytes)\n", (unsigned long)work_size);
         goto done;
@@ -1085,8 +1108,13 @@ static int track_run(track_args *a, double **points, size_t *counts, track_resul
         goto done;
     }
     free(work);
-    work_size = sqffd_motion_workspace_size(res->models, frames);
-    work = work_size ? malloc(work_size) : NULL;
+    work = NULL;
+    r = sqffd_motion_workspace_size(res->models, frames, &work_size);
+    if (r != SQFFD_OK) {
+        fprintf(stderr, "sqffd track: cannot size the motion analysis: %s\n", sqffd_result_string(r));
+        goto done;
+    }
+    work = malloc(work_size);
     sqffd_model_mesh_size(res->models->grid[0], res->models->grid[1], &nv, NULL);
     res->vertices = nv;
     res->out.trajectories = (double *)malloc(3 * nv * frames * sizeof(double));
@@ -1380,9 +1408,11 @@ static int cmd_info(int argc, char **argv)
 static int demo_table1(const double *points, size_t n, const sqffd_model *start, double alpha[4], double error[4])
 {
     sqffd_fit_options o = sqffd_fit_options_default();
-    size_t size = sqffd_fit_ffd_workspace_size(n, start, &o);
-    void *work = malloc(size);
+    size_t size;
+    void *work;
     int k;
+    if (sqffd_fit_ffd_workspace_size(n, start, &o, &size) != SQFFD_OK) return 1;
+    work = malloc(size);
     if (!work) return 1;
     for (k = 0; k < 4; k++) {
         sqffd_model m = *start;

@@ -40,14 +40,16 @@ static size_t decode_points(const uint8_t *data, size_t size, int raw, int shift
 /* kd-tree: nearest of every point and of shifted queries must match brute force. */
 static void fuzz_kdtree(const double *points, size_t n)
 {
-    size_t size = sqffd_kdtree_workspace_size(n), i, j;
-    void *work = size ? malloc(size) : NULL;
+    size_t size, i, j;
+    void *work;
     sqffd_kdtree tree;
+    if (sqffd_kdtree_workspace_size(n, &size) != SQFFD_OK) return;
+    work = malloc(size);
     if (!work) return;
     if (sqffd_kdtree_build(&tree, points, n, work, size) == SQFFD_OK) {
         for (i = 0; i < n; i++) {
             double q[3], best = HUGE_VAL, d2, knn_d2[4];
-            size_t knn_idx[4], got;
+            size_t knn_idx[4], got, nearest;
             q[0] = points[3 * i] + 0.25;
             q[1] = points[3 * i + 1] - 0.125;
             q[2] = points[3 * ((i * 7) % n) + 2];
@@ -55,14 +57,17 @@ static void fuzz_kdtree(const double *points, size_t n)
                 double d = sqffd__dist2_3(q, points + 3 * j);
                 if (d < best) best = d;
             }
-            sqffd_kdtree_nearest(&tree, q, &d2);
+            if (sqffd_kdtree_nearest(&tree, q, &nearest, &d2) != SQFFD_OK || nearest >= n) abort();
             if (d2 != best && !(isinf(best) && isinf(d2))) abort();
-            got = sqffd_kdtree_knn(&tree, q, 4, knn_idx, knn_d2);
+            if (sqffd_kdtree_knn(&tree, q, 4, knn_idx, knn_d2, &got) != SQFFD_OK) abort();
             if (got != (n < 4 ? n : 4) || knn_d2[0] != d2) abort();
             for (j = 1; j < got; j++)
                 if (knn_d2[j] < knn_d2[j - 1]) abort();
-            if (isfinite(d2) && sqffd_kdtree_radius(&tree, q, sqrt(d2) * 1.5 + 1e-9, NULL, NULL, 0) < 1 && d2 < 1e300)
-                abort();
+            if (isfinite(d2)) {
+                size_t within = 0;
+                if (sqffd_kdtree_radius(&tree, q, sqrt(d2) * 1.5 + 1e-9, NULL, NULL, 0, &within) != SQFFD_OK) abort();
+                if (within < 1 && d2 < 1e300) abort();
+            }
         }
     }
     free(work);
@@ -80,8 +85,8 @@ static void fuzz_sq_fit(const double *points, size_t n, uint8_t flags)
     o.optimizer = (flags & 64) ? SQFFD_SQ_OPTIMIZER_CG : SQFFD_SQ_OPTIMIZER_LM;
     o.max_iterations = 8;
     o.robust_rounds = 2;
-    size = sqffd_sq_fit_workspace_size(n, &o);
-    work = size ? malloc(size) : NULL;
+    if (sqffd_sq_fit_workspace_size(n, &o, &size) != SQFFD_OK) return;
+    work = malloc(size);
     if (!work) return;
     if (sqffd_sq_fit(points, n, &o, &sq, NULL, work, size) == SQFFD_OK) {
         int k;
@@ -110,8 +115,8 @@ static void fuzz_model_fit(const double *points, size_t n, uint8_t flags, int la
     o.grid[0] = 6;
     o.grid[1] = 8;
     o.max_iterations = 3;
-    size = sqffd_fit_workspace_size(n, &o);
-    work = size ? malloc(size) : NULL;
+    if (sqffd_fit_workspace_size(n, &o, &size) != SQFFD_OK) return;
+    work = malloc(size);
     if (!work) return;
     if (sqffd_fit(points, n, &o, &model, &report, work, size) == SQFFD_OK) {
         double p[3];

@@ -59,10 +59,13 @@ typedef struct fit_job {
 
 static sqffd_result run_fit(fit_job *j)
 {
-    size_t size = sqffd_fit_workspace_size(N, j->options);
-    void *work = xmalloc(size);
+    size_t size;
+    void *work;
     sqffd_fit_report report;
-    sqffd_result r = sqffd_fit(j->points, N, j->options, &j->model, &report, work, size);
+    sqffd_result r = sqffd_fit_workspace_size(N, j->options, &size);
+    if (r != SQFFD_OK) return r;
+    work = xmalloc(size);
+    r = sqffd_fit(j->points, N, j->options, &j->model, &report, work, size);
     j->error = report.error.rms_relative;
     free(work);
     return r;
@@ -88,10 +91,13 @@ typedef struct prepared_job {
 
 static sqffd_result run_prepared(prepared_job *j)
 {
-    size_t size = sqffd_fit_prepared_workspace_size(N, j->system, j->options);
-    void *work = xmalloc(size);
+    size_t size;
+    void *work;
     sqffd_fit_report report;
-    sqffd_result r = sqffd_fit_prepared(j->system, j->points, N, j->options, &j->model, &report, work, size);
+    sqffd_result r = sqffd_fit_prepared_workspace_size(N, j->system, j->options, &size);
+    if (r != SQFFD_OK) return r;
+    work = xmalloc(size);
+    r = sqffd_fit_prepared(j->system, j->points, N, j->options, &j->model, &report, work, size);
     j->error = report.error.rms_relative;
     free(work);
     return r;
@@ -118,8 +124,11 @@ static void run_queries(query_job *j)
     size_t q;
     for (q = 0; q < QUERIES; q++) {
         double d2[4];
-        j->nearest[q] = sqffd_kdtree_nearest(j->tree, j->queries + 3 * q, NULL);
-        if (sqffd_kdtree_knn(j->tree, j->queries + 3 * q, 4, j->knn[q], d2) != 4) j->knn[q][0] = (size_t)-1;
+        size_t found;
+        if (sqffd_kdtree_nearest(j->tree, j->queries + 3 * q, &j->nearest[q], NULL) != SQFFD_OK)
+            j->nearest[q] = (size_t)-1;
+        if (sqffd_kdtree_knn(j->tree, j->queries + 3 * q, 4, j->knn[q], d2, &found) != SQFFD_OK || found != 4)
+            j->knn[q][0] = (size_t)-1;
     }
 }
 
@@ -184,7 +193,10 @@ int main(void)
         }
 
     /* 2. one prepared system (read-only after init), two fits against it */
-    size = sqffd_ffd_system_size(&ref.model);
+    if (sqffd_ffd_system_size(&ref.model, &size) != SQFFD_OK) {
+        printf("threads: sqffd_ffd_system_size failed\n");
+        return 1;
+    }
     system_memory = xmalloc(size);
     if (sqffd_ffd_system_init(&system, &ref.model, &o, system_memory, size) != SQFFD_OK) {
         printf("threads: sqffd_ffd_system_init failed\n");
@@ -215,7 +227,10 @@ int main(void)
         }
 
     /* 3. one kd-tree, two readers (queries: the ES points, and a few far ones) */
-    size = sqffd_kdtree_workspace_size(N);
+    if (sqffd_kdtree_workspace_size(N, &size) != SQFFD_OK) {
+        printf("threads: sqffd_kdtree_workspace_size failed\n");
+        return 1;
+    }
     tree_memory = xmalloc(size);
     if (sqffd_kdtree_build(&tree, ed, N, tree_memory, size) != SQFFD_OK) {
         printf("threads: sqffd_kdtree_build failed\n");

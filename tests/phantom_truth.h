@@ -55,8 +55,7 @@ static int phantom_score_track(const phantom_lv *p, const sqffd_model *models, s
     low = (unsigned char *)malloc(m);
     segment = (unsigned char *)malloc(m);
     tri = (uint32_t *)malloc(3 * nt * sizeof(uint32_t));
-    size = sqffd_motion_workspace_size(models, frames);
-    work = malloc(size);
+    work = sqffd_motion_workspace_size(models, frames, &size) == SQFFD_OK ? malloc(size) : NULL;
     memset(&out, 0, sizeof out);
     out.trajectories = traj;
     out.displacement = displacement;

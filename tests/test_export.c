@@ -429,7 +429,7 @@ static int fit_phantom(void)
     pts = (double *)malloc(3 * N * sizeof *pts);
     phantom_lv_frame(&p, 0.0, N, 0.01, 21, pts, NULL);
     o.max_iterations = 12;
-    size = sqffd_fit_workspace_size(N, &o);
+    CHECK_RESULT(sqffd_fit_workspace_size(N, &o, &size), SQFFD_OK);
     ws = malloc(size);
     r = sqffd_fit(pts, N, &o, &fitted_model, &fitted_report, ws, size);
     free(ws);

@@ -99,9 +99,12 @@ static double spring_energy(const sqffd_ffd *f)
 /* Runs sqffd_fit with a malloc'd workspace. */
 static sqffd_result run_fit(const double *pts, size_t n, const sqffd_fit_options *o, sqffd_model *m, sqffd_fit_report *rep)
 {
-    size_t size = sqffd_fit_workspace_size(n, o);
-    void *ws = malloc(size ? size : 1);
-    sqffd_result r = sqffd_fit(pts, n, o, m, rep, ws, size);
+    size_t size;
+    void *ws;
+    sqffd_result r = sqffd_fit_workspace_size(n, o, &size);
+    if (r != SQFFD_OK) return r;
+    ws = malloc(size);
+    r = sqffd_fit(pts, n, o, m, rep, ws, size);
     free(ws);
     return r;
 }
@@ -109,9 +112,12 @@ static sqffd_result run_fit(const double *pts, size_t n, const sqffd_fit_options
 static sqffd_result run_fit_ffd(const double *pts, size_t n, const sqffd_fit_options *o, sqffd_model *m,
                                 sqffd_fit_report *rep)
 {
-    size_t size = sqffd_fit_ffd_workspace_size(n, m, o);
-    void *ws = malloc(size ? size : 1);
-    sqffd_result r = sqffd_fit_ffd(pts, n, o, m, rep, ws, size);
+    size_t size;
+    void *ws;
+    sqffd_result r = sqffd_fit_ffd_workspace_size(n, m, o, &size);
+    if (r != SQFFD_OK) return r;
+    ws = malloc(size);
+    r = sqffd_fit_ffd(pts, n, o, m, rep, ws, size);
     free(ws);
     return r;
 }
@@ -119,8 +125,10 @@ static sqffd_result run_fit_ffd(const double *pts, size_t n, const sqffd_fit_opt
 static double reverse_rms(const sqffd_model *m, const double *pts, size_t n)
 {
     sqffd_distance_stats s;
-    size_t size = sqffd_model_reverse_distances_workspace_size(n, m);
-    void *ws = malloc(size);
+    size_t size;
+    void *ws;
+    CHECK_RESULT(sqffd_model_reverse_distances_workspace_size(n, m, &size), SQFFD_OK);
+    ws = malloc(size);
     CHECK_RESULT(sqffd_model_reverse_distances(m, pts, n, NULL, &s, ws, size), SQFFD_OK);
     free(ws);
     return s.rms_relative;
@@ -444,7 +452,7 @@ static void test_model_distances(void)
         sqffd_model_point(&m, eta, omega, pts + 3 * i);
         for (c = 0; c < 3; c++) pts[3 * i + c] += synth_range(&r, -0.05, 0.05);
     }
-    size = sqffd_model_distances_workspace_size(N, &m);
+    CHECK_RESULT(sqffd_model_distances_workspace_size(N, &m, &size), SQFFD_OK);
     ws = malloc(size);
     CHECK_RESULT(sqffd_model_distances(&m, pts, N, got, &s, ws, size), SQFFD_OK);
     for (i = 0; i < N; i++) {
@@ -511,7 +519,7 @@ static void check_warm_start(const double *pts, size_t n, sqffd_fit_options o, d
     o.tolerance = 0.0;
     o.max_iterations = 0;
     CHECK_RESULT(run_fit(pts, n, &o, &start, &rep), SQFFD_OK); /* the superquadric only */
-    size = sqffd_model_distances_workspace_size(n, &start);
+    CHECK_RESULT(sqffd_model_distances_workspace_size(n, &start, &size), SQFFD_OK);
     ws = malloc(size);
     for (c = 0; c < RUNS; c++) {
         m = start;
@@ -815,7 +823,7 @@ static double worst_vs_brute(const sqffd_model *m, const double *pts, size_t n, 
     v = (double *)malloc(3 * nv * sizeof *v);
     tri = (uint32_t *)malloc(3 * nt * sizeof *tri);
     CHECK_RESULT(sqffd_model_mesh(m, m->grid[0], m->grid[1], v, tri), SQFFD_OK);
-    size = sqffd_model_distances_workspace_size(n, m);
+    CHECK_RESULT(sqffd_model_distances_workspace_size(n, m, &size), SQFFD_OK);
     ws = malloc(size);
     CHECK_RESULT(sqffd_model_distances(m, pts, n, per, &s, ws, size), SQFFD_OK);
     for (i = 0; i < n; i++) {
@@ -950,7 +958,7 @@ static void test_fit_robust_ffd(void)
     memcpy(noisy, clean, 3 * N * sizeof *noisy);
     synth_outliers(&r, clean, N, OUT, 1.5, noisy + 3 * N);
     CHECK_RESULT(run_fit(clean, N, &o, &m, &rep), SQFFD_OK);
-    size = sqffd_model_distances_workspace_size(N, &m);
+    CHECK_RESULT(sqffd_model_distances_workspace_size(N, &m, &size), SQFFD_OK);
     ws = malloc(size);
     CHECK_RESULT(sqffd_model_distances(&m, clean, N, NULL, &s, ws, size), SQFFD_OK);
     d_clean = s.rms;
@@ -984,8 +992,10 @@ static double error_statistic(const sqffd_model *m, const double *pts, size_t n,
 {
     double *per = (double *)malloc(n * sizeof *per), value;
     sqffd_distance_stats s;
-    size_t size = sqffd_model_distances_workspace_size(n, m);
-    void *ws = malloc(size);
+    size_t size;
+    void *ws;
+    CHECK_RESULT(sqffd_model_distances_workspace_size(n, m, &size), SQFFD_OK);
+    ws = malloc(size);
     CHECK_RESULT(sqffd_model_distances(m, pts, n, per, &s, ws, size), SQFFD_OK);
     qsort(per, n, sizeof *per, cmp_double);
     value = robust ? per[n * 3 / 4] : s.rms;
@@ -1104,7 +1114,7 @@ static void test_fit_subsamples(void)
     void *ws;
     phantom_lv_sample(&ph, 0.0, N, pts);
     CHECK_RESULT(run_fit(pts, N, &o, &m, &all), SQFFD_OK);
-    size = sqffd_model_distances_workspace_size(N, &m);
+    CHECK_RESULT(sqffd_model_distances_workspace_size(N, &m, &size), SQFFD_OK);
     ws = malloc(size);
     CHECK_RESULT(sqffd_model_distances(&m, pts, N, NULL, &s, ws, size), SQFFD_OK);
     CHECK_NEAR(s.rms_relative, all.error.rms_relative, 1e-9 * s.rms_relative);
@@ -1129,12 +1139,16 @@ static void test_fit_bad_input(void)
     sqffd_model m;
     sqffd_superquadric sq = test_sq();
     double *pts = (double *)malloc(3 * N * sizeof *pts), *flat = (double *)malloc(3 * N * sizeof *flat);
-    size_t size = sqffd_fit_workspace_size(N, &o), i;
-    void *ws = malloc(size);
+    size_t size, bad_size, i;
+    void *ws;
+    CHECK_RESULT(sqffd_fit_workspace_size(N, &o, &size), SQFFD_OK);
+    ws = malloc(size);
     phantom_lv_sample(&ph, 0.0, N, pts);
     /* options */
     bad = o; bad.lattice[1] = 1;
-    CHECK(sqffd_fit_workspace_size(N, &bad) == 0);
+    bad_size = 1;
+    CHECK_RESULT(sqffd_fit_workspace_size(N, &bad, &bad_size), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK(bad_size == 0);
     CHECK_RESULT(sqffd_fit(pts, N, &bad, &m, &rep, ws, size), SQFFD_ERROR_INVALID_ARGUMENT);
     CHECK_RESULT(sqffd_model_init(&m, &sq, &bad), SQFFD_ERROR_INVALID_ARGUMENT);
     bad = o; bad.lattice[2] = SQFFD_MAX_LATTICE + 1;
@@ -1159,6 +1173,26 @@ static void test_fit_bad_input(void)
     CHECK_RESULT(sqffd_fit(pts, N, &bad, &m, &rep, ws, size), SQFFD_ERROR_INVALID_ARGUMENT);
     CHECK_RESULT(sqffd_fit(NULL, N, &o, &m, &rep, ws, size), SQFFD_ERROR_INVALID_ARGUMENT);
     CHECK_RESULT(sqffd_fit(pts, N, &o, &m, &rep, NULL, size), SQFFD_ERROR_WORKSPACE_TOO_SMALL);
+    { /* NULL options are the defaults (o is sqffd_fit_options_default()) */
+        sqffd_model with_o, with_null, start;
+        size_t null_size = 1, ffd_size = 0, ffd_null_size = 1;
+        void *ffd_ws;
+        CHECK_RESULT(sqffd_fit_workspace_size(N, NULL, &null_size), SQFFD_OK);
+        CHECK(null_size == size);
+        CHECK_RESULT(sqffd_fit(pts, N, &o, &with_o, NULL, ws, size), SQFFD_OK);
+        CHECK_RESULT(sqffd_fit(pts, N, NULL, &with_null, NULL, ws, size), SQFFD_OK);
+        CHECK(memcmp(&with_o, &with_null, sizeof with_o) == 0);
+        start = with_o;
+        CHECK_RESULT(sqffd_fit_ffd_workspace_size(N, &start, &o, &ffd_size), SQFFD_OK);
+        CHECK_RESULT(sqffd_fit_ffd_workspace_size(N, &start, NULL, &ffd_null_size), SQFFD_OK);
+        CHECK(ffd_null_size == ffd_size);
+        ffd_ws = malloc(ffd_size);
+        with_o = with_null = start;
+        CHECK_RESULT(sqffd_fit_ffd(pts, N, &o, &with_o, NULL, ffd_ws, ffd_size), SQFFD_OK);
+        CHECK_RESULT(sqffd_fit_ffd(pts, N, NULL, &with_null, NULL, ffd_ws, ffd_size), SQFFD_OK);
+        CHECK(memcmp(&with_o, &with_null, sizeof with_o) == 0);
+        free(ffd_ws);
+    }
     /* meshes too coarse or too big */
     CHECK_RESULT(sqffd_model_mesh_size(1, 10, NULL, NULL), SQFFD_ERROR_INVALID_ARGUMENT);
     CHECK_RESULT(sqffd_model_mesh_size(10, 2, NULL, NULL), SQFFD_ERROR_INVALID_ARGUMENT);
@@ -1171,6 +1205,9 @@ static void test_fit_bad_input(void)
     CHECK_RESULT(sqffd_fit(pts, N, &o, &m, &rep, ws, size), SQFFD_ERROR_NON_FINITE);
     CHECK_RESULT(sqffd_model_init(&m, &sq, &o), SQFFD_OK);
     CHECK_RESULT(sqffd_model_distances(&m, pts, N, NULL, NULL, ws, size), SQFFD_ERROR_NON_FINITE);
+    pts[3 * 17 + 1] = 5e117; /* finite, but a model fitted to it could not be stored (fuzz_track found it) */
+    CHECK_RESULT(sqffd_fit(pts, N, &o, &m, &rep, ws, size), SQFFD_ERROR_NON_FINITE);
+    CHECK_RESULT(sqffd_fit_ffd(pts, N, &o, &m, &rep, ws, size), SQFFD_ERROR_NON_FINITE);
     pts[3 * 17 + 1] = 0.0;
     for (i = 0; i < N; i++) { /* coplanar: the superquadric fit rejects it */
         flat[3 * i] = pts[3 * i]; flat[3 * i + 1] = pts[3 * i + 1]; flat[3 * i + 2] = 2.0;
@@ -1182,7 +1219,9 @@ static void test_fit_bad_input(void)
     CHECK_RESULT(sqffd_fit_ffd(flat, N, &o, &m, &rep, ws, size), SQFFD_ERROR_DEGENERATE);
     m.grid[0] = 0;
     CHECK_RESULT(sqffd_fit_ffd(pts, N, &o, &m, &rep, ws, size), SQFFD_ERROR_INVALID_MODEL);
-    CHECK(sqffd_model_distances_workspace_size(N, &m) == 0);
+    bad_size = 1;
+    CHECK_RESULT(sqffd_model_distances_workspace_size(N, &m, &bad_size), SQFFD_ERROR_INVALID_MODEL);
+    CHECK(bad_size == 0);
     free(pts); free(flat); free(ws);
 }
 
@@ -1205,7 +1244,7 @@ static void test_fit_workspace_canary(void)
         o.solver = k ? SQFFD_SOLVER_SVD : SQFFD_SOLVER_CHOLESKY;
         o.sq_max_points = k ? 300 : 0;
         o.ffd_max_points = k ? 400 : 0;
-        size = sqffd_fit_workspace_size(N, &o);
+        CHECK_RESULT(sqffd_fit_workspace_size(N, &o, &size), SQFFD_OK);
         CHECK(size > 0);
         block = (unsigned char *)malloc(size + GUARD + 1);
         memset(block, 0xA5, size + GUARD + 1);
@@ -1216,7 +1255,7 @@ static void test_fit_workspace_canary(void)
         CHECK_RESULT(sqffd_fit(pts, N, &o, &m, &rep, block, 0), SQFFD_ERROR_WORKSPACE_TOO_SMALL);
         free(block);
     }
-    size = sqffd_model_distances_workspace_size(N, &m);
+    CHECK_RESULT(sqffd_model_distances_workspace_size(N, &m, &size), SQFFD_OK);
     block = (unsigned char *)malloc(size + GUARD);
     memset(block, 0xA5, size + GUARD);
     CHECK_RESULT(sqffd_model_distances(&m, pts, N, NULL, NULL, block, size), SQFFD_OK);

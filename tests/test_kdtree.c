@@ -41,8 +41,11 @@ typedef struct kd_fixture {
 
 static int kd_build(kd_fixture *f, const double *points, size_t n)
 {
-    size_t size = sqffd_kdtree_workspace_size(n);
-    sqffd_result r;
+    size_t size;
+    sqffd_result r = sqffd_kdtree_workspace_size(n, &size);
+    f->workspace = NULL;
+    CHECK_RESULT(r, SQFFD_OK);
+    if (r != SQFFD_OK) return 0;
     f->workspace = malloc(size);
     r = sqffd_kdtree_build(&f->tree, points, n, f->workspace, size);
     CHECK_RESULT(r, SQFFD_OK);
@@ -116,22 +119,24 @@ static void kd_check_query(const sqffd_kdtree *t, const double *points, size_t n
                            double *sorted, size_t *idx, double *d2, size_t *brute_idx)
 {
     static const size_t ks[4] = {1, 8, 64, 100000};
-    size_t i, j, got, expect;
-    double nd2, r, r2;
+    size_t i, j, got, expect, nearest;
+    double nd2 = NAN, r, r2;
 
     for (i = 0; i < n; i++) sorted[i] = kd_dist2(points + 3 * i, q);
     qsort(sorted, n, sizeof *sorted, kd_cmp_double);
 
     /* nearest */
-    got = sqffd_kdtree_nearest(t, q, &nd2);
-    CHECK(got < n);
-    if (got < n) CHECK(nd2 == kd_dist2(points + 3 * got, q));
+    nearest = n;
+    CHECK_RESULT(sqffd_kdtree_nearest(t, q, &nearest, &nd2), SQFFD_OK);
+    CHECK(nearest < n);
+    if (nearest < n) CHECK(nd2 == kd_dist2(points + 3 * nearest, q));
     CHECK_NEAR(nd2, sorted[0], 1e-12 * (1.0 + sorted[0]));
 
     /* k nearest: sorted, distinct, true distances, matching brute force */
     for (j = 0; j < 4; j++) {
         size_t k = ks[j], m = k < n ? k : n;
-        got = sqffd_kdtree_knn(t, q, k, idx, d2);
+        got = (size_t)-1;
+        CHECK_RESULT(sqffd_kdtree_knn(t, q, k, idx, d2, &got), SQFFD_OK);
         CHECK_MSG(got == m, "knn k=%zu returned %zu, expected %zu", k, got, m);
         if (got != m) continue;
         for (i = 0; i < m; i++) {
@@ -152,9 +157,11 @@ static void kd_check_query(const sqffd_kdtree *t, const double *points, size_t n
     expect = 0;
     for (i = 0; i < n; i++)
         if (kd_dist2(points + 3 * i, q) <= r2) brute_idx[expect++] = i;
-    got = sqffd_kdtree_radius(t, q, r, NULL, NULL, 0);
+    got = (size_t)-1;
+    CHECK_RESULT(sqffd_kdtree_radius(t, q, r, NULL, NULL, 0, &got), SQFFD_OK);
     CHECK_MSG(got == expect, "radius count %zu, brute force %zu", got, expect);
-    got = sqffd_kdtree_radius(t, q, r, idx, d2, n);
+    got = (size_t)-1;
+    CHECK_RESULT(sqffd_kdtree_radius(t, q, r, idx, d2, n, &got), SQFFD_OK);
     CHECK(got == expect);
     if (got == expect) {
         for (i = 0; i < got; i++) {
@@ -165,7 +172,8 @@ static void kd_check_query(const sqffd_kdtree *t, const double *points, size_t n
         for (i = 0; i < got; i++) CHECK(idx[i] == brute_idx[i]);
     }
     /* capacity smaller than the count: the nearest ones */
-    got = sqffd_kdtree_radius(t, q, r, idx, d2, 3);
+    got = (size_t)-1;
+    CHECK_RESULT(sqffd_kdtree_radius(t, q, r, idx, d2, 3, &got), SQFFD_OK);
     CHECK(got == expect);
     for (i = 0; i < 3 && i < expect; i++) CHECK_NEAR(d2[i], sorted[i], 1e-12 * (1.0 + sorted[i]));
 }
@@ -367,9 +375,9 @@ static void test_kdtree_refit(void)
 /* Refit errors leave the tree as it was. */
 static void test_kdtree_refit_errors(void)
 {
-    size_t n = 1000, i;
+    size_t n = 1000, i, nearest;
     double *p = (double *)malloc(3 * n * sizeof(double)), *moved = (double *)malloc(3 * n * sizeof(double));
-    double q[3] = {0.2, 0.1, 0.3}, d_before, d_after;
+    double q[3] = {0.2, 0.1, 0.3}, d_before = NAN, d_after = NAN;
     sqffd_kdtree zero;
     kd_fixture f;
     memset(&zero, 0, sizeof zero);
@@ -379,7 +387,7 @@ static void test_kdtree_refit_errors(void)
     CHECK_RESULT(sqffd_kdtree_refit(&zero, p), SQFFD_ERROR_INVALID_ARGUMENT);
     if (kd_build(&f, p, n)) {
         CHECK_RESULT(sqffd_kdtree_refit(&f.tree, NULL), SQFFD_ERROR_INVALID_ARGUMENT);
-        sqffd_kdtree_nearest(&f.tree, q, &d_before);
+        CHECK_RESULT(sqffd_kdtree_nearest(&f.tree, q, &nearest, &d_before), SQFFD_OK);
         memcpy(moved, p, 3 * n * sizeof(double));
         for (i = 0; i < 3 * n; i++) moved[i] += 0.01;
         moved[3 * 700 + 1] = NAN;
@@ -387,7 +395,7 @@ static void test_kdtree_refit_errors(void)
         moved[3 * 700 + 1] = INFINITY;
         CHECK_RESULT(sqffd_kdtree_refit(&f.tree, moved), SQFFD_ERROR_NON_FINITE);
         CHECK(f.tree.points == p);
-        sqffd_kdtree_nearest(&f.tree, q, &d_after);
+        CHECK_RESULT(sqffd_kdtree_nearest(&f.tree, q, &nearest, &d_after), SQFFD_OK);
         CHECK(d_after == d_before);
     }
     free(f.workspace);
@@ -398,7 +406,9 @@ static void test_kdtree_refit_errors(void)
         CHECK_RESULT(sqffd_kdtree_refit(&f.tree, moved), SQFFD_OK);
         for (i = 0; i < 3 * n; i++) moved[i] += 1.0; /* still identical */
         CHECK_RESULT(sqffd_kdtree_refit(&f.tree, moved), SQFFD_OK);
-        CHECK(sqffd_kdtree_nearest(&f.tree, q, &d_after) < n && d_after == kd_dist2(moved, q));
+        nearest = n;
+        CHECK_RESULT(sqffd_kdtree_nearest(&f.tree, q, &nearest, &d_after), SQFFD_OK);
+        CHECK(nearest < n && d_after == kd_dist2(moved, q));
         moved[3 * 10] += 1e-9;
         CHECK_RESULT(sqffd_kdtree_refit(&f.tree, moved), SQFFD_ERROR_DEGENERATE);
     }
@@ -409,11 +419,15 @@ static void test_kdtree_refit_errors(void)
 static void test_kdtree_errors(void)
 {
     double p[3 * 20];
-    size_t i, size = sqffd_kdtree_workspace_size(20);
+    size_t i, size = 0, bad_size = 1;
     sqffd_kdtree tree;
-    void *ws = malloc(size);
+    void *ws;
+    CHECK_RESULT(sqffd_kdtree_workspace_size(20, &size), SQFFD_OK);
+    ws = malloc(size);
     for (i = 0; i < 60; i++) p[i] = (double)i;
-    CHECK(sqffd_kdtree_workspace_size(0) == 0);
+    CHECK_RESULT(sqffd_kdtree_workspace_size(0, &bad_size), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK(bad_size == 0);
+    CHECK_RESULT(sqffd_kdtree_workspace_size(20, NULL), SQFFD_ERROR_INVALID_ARGUMENT);
     CHECK(size > 0);
     CHECK_RESULT(sqffd_kdtree_build(&tree, p, 0, ws, size), SQFFD_ERROR_INVALID_ARGUMENT);
     CHECK_RESULT(sqffd_kdtree_build(NULL, p, 20, ws, size), SQFFD_ERROR_INVALID_ARGUMENT);
@@ -421,7 +435,9 @@ static void test_kdtree_errors(void)
     CHECK_RESULT(sqffd_kdtree_build(&tree, p, 20, NULL, size), SQFFD_ERROR_WORKSPACE_TOO_SMALL);
     if (sizeof(size_t) > 4) {
         size_t huge = (size_t)UINT32_MAX + 1;
-        CHECK(sqffd_kdtree_workspace_size(huge) == 0);
+        bad_size = 1;
+        CHECK_RESULT(sqffd_kdtree_workspace_size(huge, &bad_size), SQFFD_ERROR_TOO_LARGE);
+        CHECK(bad_size == 0);
         CHECK_RESULT(sqffd_kdtree_build(&tree, p, huge, ws, size), SQFFD_ERROR_TOO_LARGE);
     }
     p[37] = NAN;
@@ -431,30 +447,69 @@ static void test_kdtree_errors(void)
     CHECK_RESULT(sqffd_kdtree_build(&tree, p, 20, ws, size), SQFFD_ERROR_NON_FINITE);
     p[37] = 37.0;
     CHECK_RESULT(sqffd_kdtree_build(&tree, p, 20, ws, size), SQFFD_OK);
+    { /* query arguments: NULL pointers, a tree never built */
+        double q[3] = {0.5, 1.0, 2.0}, d2[4]; /* 0.5 from point 0, far from the others */
+        size_t index = 99, idx[4], found, count;
+        sqffd_kdtree unbuilt;
+        memset(&unbuilt, 0, sizeof unbuilt);
+        CHECK_RESULT(sqffd_kdtree_nearest(NULL, q, &index, d2), SQFFD_ERROR_INVALID_ARGUMENT);
+        CHECK_RESULT(sqffd_kdtree_nearest(&tree, NULL, &index, d2), SQFFD_ERROR_INVALID_ARGUMENT);
+        CHECK_RESULT(sqffd_kdtree_nearest(&tree, q, NULL, d2), SQFFD_ERROR_INVALID_ARGUMENT);
+        CHECK_RESULT(sqffd_kdtree_nearest(&unbuilt, q, &index, d2), SQFFD_ERROR_INVALID_ARGUMENT);
+        CHECK_RESULT(sqffd_kdtree_nearest(&tree, q, &index, NULL), SQFFD_OK); /* dist2 may be NULL */
+        CHECK(index == 0);                                                     /* p[0 .. 3) = (0, 1, 2) */
+        CHECK_RESULT(sqffd_kdtree_knn(NULL, q, 4, idx, d2, &found), SQFFD_ERROR_INVALID_ARGUMENT);
+        CHECK_RESULT(sqffd_kdtree_knn(&tree, NULL, 4, idx, d2, &found), SQFFD_ERROR_INVALID_ARGUMENT);
+        CHECK_RESULT(sqffd_kdtree_knn(&tree, q, 4, idx, d2, NULL), SQFFD_ERROR_INVALID_ARGUMENT);
+        CHECK_RESULT(sqffd_kdtree_knn(&tree, q, 4, NULL, NULL, &found), SQFFD_ERROR_INVALID_ARGUMENT);
+        CHECK_RESULT(sqffd_kdtree_knn(&tree, q, 4, NULL, d2, &found), SQFFD_ERROR_INVALID_ARGUMENT);
+        CHECK_RESULT(sqffd_kdtree_knn(&tree, q, 4, idx, NULL, &found), SQFFD_ERROR_INVALID_ARGUMENT);
+        CHECK_RESULT(sqffd_kdtree_knn(&unbuilt, q, 4, idx, d2, &found), SQFFD_ERROR_INVALID_ARGUMENT);
+        CHECK_RESULT(sqffd_kdtree_radius(NULL, q, 1.0, idx, d2, 4, &count), SQFFD_ERROR_INVALID_ARGUMENT);
+        CHECK_RESULT(sqffd_kdtree_radius(&tree, NULL, 1.0, idx, d2, 4, &count), SQFFD_ERROR_INVALID_ARGUMENT);
+        CHECK_RESULT(sqffd_kdtree_radius(&tree, q, 1.0, idx, d2, 4, NULL), SQFFD_ERROR_INVALID_ARGUMENT);
+        CHECK_RESULT(sqffd_kdtree_radius(&tree, q, 1.0, NULL, NULL, 4, &count), SQFFD_ERROR_INVALID_ARGUMENT);
+        CHECK_RESULT(sqffd_kdtree_radius(&unbuilt, q, 1.0, idx, d2, 4, &count), SQFFD_ERROR_INVALID_ARGUMENT);
+        count = 99;
+        CHECK_RESULT(sqffd_kdtree_radius(&tree, q, 1.0, NULL, NULL, 0, &count), SQFFD_OK); /* capacity 0: counts */
+        CHECK(count == 1);
+    }
     free(ws);
 }
 
 static void test_kdtree_nonfinite_query(void)
 {
-    double *p, q[3] = {0.5, NAN, 0.5}, d2[8], dist = 0.0;
-    size_t idx[8];
+    double *p, q[3] = {0.5, NAN, 0.5}, d2[8], dist = 0.25;
+    size_t idx[8], index = 7, found, count;
     kd_fixture f;
     kd_rng_state = 9;
     p = kd_uniform_cube(500, 1.0, 0.0);
     if (kd_build(&f, p, 500)) {
-        CHECK(sqffd_kdtree_nearest(&f.tree, q, &dist) == 0);
-        CHECK(isnan(dist));
-        CHECK(sqffd_kdtree_knn(&f.tree, q, 8, idx, d2) == 0);
-        CHECK(sqffd_kdtree_radius(&f.tree, q, 1.0, idx, d2, 8) == 0);
+        CHECK_RESULT(sqffd_kdtree_nearest(&f.tree, q, &index, &dist), SQFFD_ERROR_NON_FINITE);
+        CHECK(index == 7 && dist == 0.25); /* untouched */
+        found = 99;
+        CHECK_RESULT(sqffd_kdtree_knn(&f.tree, q, 8, idx, d2, &found), SQFFD_ERROR_NON_FINITE);
+        CHECK(found == 99); /* untouched on an error */
+        CHECK_RESULT(sqffd_kdtree_radius(&f.tree, q, 1.0, idx, d2, 8, &count), SQFFD_ERROR_NON_FINITE);
         q[1] = INFINITY;
-        CHECK(sqffd_kdtree_nearest(&f.tree, q, &dist) == 0);
-        CHECK(isnan(dist));
-        CHECK(sqffd_kdtree_knn(&f.tree, q, 8, idx, d2) == 0);
+        CHECK_RESULT(sqffd_kdtree_nearest(&f.tree, q, &index, &dist), SQFFD_ERROR_NON_FINITE);
+        CHECK(index == 7 && dist == 0.25);
+        found = 99;
+        CHECK_RESULT(sqffd_kdtree_knn(&f.tree, q, 8, idx, d2, &found), SQFFD_ERROR_NON_FINITE);
+        CHECK(found == 99); /* untouched on an error */
+        CHECK_RESULT(sqffd_kdtree_radius(&f.tree, q, 1.0, idx, d2, 8, &count), SQFFD_ERROR_NON_FINITE);
         q[1] = 0.5; /* bad radii and k */
-        CHECK(sqffd_kdtree_radius(&f.tree, q, -1.0, idx, d2, 8) == 0);
-        CHECK(sqffd_kdtree_radius(&f.tree, q, NAN, idx, d2, 8) == 0);
-        CHECK(sqffd_kdtree_radius(&f.tree, q, INFINITY, NULL, NULL, 0) == 500);
-        CHECK(sqffd_kdtree_knn(&f.tree, q, 0, idx, d2) == 0);
+        CHECK_RESULT(sqffd_kdtree_radius(&f.tree, q, -1.0, idx, d2, 8, &count), SQFFD_ERROR_INVALID_ARGUMENT);
+        CHECK_RESULT(sqffd_kdtree_radius(&f.tree, q, NAN, idx, d2, 8, &count), SQFFD_ERROR_INVALID_ARGUMENT);
+        count = 0;
+        CHECK_RESULT(sqffd_kdtree_radius(&f.tree, q, INFINITY, NULL, NULL, 0, &count), SQFFD_OK);
+        CHECK(count == 500);
+        found = 99;
+        CHECK_RESULT(sqffd_kdtree_knn(&f.tree, q, 0, idx, d2, &found), SQFFD_OK);
+        CHECK(found == 0);
+        found = 99;
+        CHECK_RESULT(sqffd_kdtree_knn(&f.tree, q, 0, NULL, NULL, &found), SQFFD_OK); /* k == 0: no arrays needed */
+        CHECK(found == 0);
     }
     free(f.workspace);
     free(p);
@@ -464,10 +519,12 @@ static void test_kdtree_workspace_bounds(void)
 {
     /* One byte short is refused without writing; every alignment works; the
        tree never writes past the size it was given. */
-    size_t n = 3000, size = sqffd_kdtree_workspace_size(n), i, shift;
-    double *p, q[3] = {0.3, 0.6, 0.2}, d_ref, d;
-    unsigned char *block = (unsigned char *)malloc(size + 64);
+    size_t n = 3000, size = 0, i, shift, nearest;
+    double *p, q[3] = {0.3, 0.6, 0.2}, d_ref, d = NAN;
+    unsigned char *block;
     sqffd_kdtree tree;
+    CHECK_RESULT(sqffd_kdtree_workspace_size(n, &size), SQFFD_OK);
+    block = (unsigned char *)malloc(size + 64);
     kd_rng_state = 10;
     p = kd_uniform_cube(n, 1.0, 0.0);
     CHECK_MSG((double)size / (double)n <= 48.0, "%.1f bytes per point", (double)size / (double)n);
@@ -475,15 +532,14 @@ static void test_kdtree_workspace_bounds(void)
     CHECK_RESULT(sqffd_kdtree_build(&tree, p, n, block, size - 1), SQFFD_ERROR_WORKSPACE_TOO_SMALL);
     for (i = 0; i < size + 64; i++)
         if (block[i] != 0xA5) { CHECK_MSG(0, "byte %zu written", i); break; }
-    sqffd_kdtree_nearest(&tree, q, &d); /* a zeroed tree: defined answer */
-    CHECK(isnan(d));
+    CHECK_RESULT(sqffd_kdtree_nearest(&tree, q, &nearest, &d), SQFFD_ERROR_INVALID_ARGUMENT); /* a zeroed tree */
     d_ref = 0.0;
     for (shift = 0; shift < 16; shift++) {
         memset(block, 0xA5, size + 64);
         CHECK_RESULT(sqffd_kdtree_build(&tree, p, n, block + shift, size), SQFFD_OK);
         for (i = shift + size; i < size + 64; i++)
             if (block[i] != 0xA5) { CHECK_MSG(0, "shift %zu: byte %zu past the end written", shift, i); break; }
-        sqffd_kdtree_nearest(&tree, q, &d);
+        CHECK_RESULT(sqffd_kdtree_nearest(&tree, q, &nearest, &d), SQFFD_OK);
         if (shift == 0) d_ref = d;
         CHECK(d == d_ref);
         kd_check_tree(&tree, 0);
@@ -512,9 +568,11 @@ static void test_kdtree_deterministic(void)
         CHECK(memcmp(a.tree.nodes, b.tree.nodes, a.tree.node_count * sizeof(sqffd_kdtree_node)) == 0);
         for (i = 0; i < 200; i++) {
             double q[3];
+            size_t found_a = 0, found_b = 0;
             q[0] = 2 * kd_uniform() - 1; q[1] = 2 * kd_uniform() - 1; q[2] = 2 * kd_uniform() - 1;
-            CHECK(sqffd_kdtree_knn(&a.tree, q, 16, idx_a, d_a) == 16);
-            CHECK(sqffd_kdtree_knn(&b.tree, q, 16, idx_b, d_b) == 16);
+            CHECK_RESULT(sqffd_kdtree_knn(&a.tree, q, 16, idx_a, d_a, &found_a), SQFFD_OK);
+            CHECK_RESULT(sqffd_kdtree_knn(&b.tree, q, 16, idx_b, d_b, &found_b), SQFFD_OK);
+            CHECK(found_a == 16 && found_b == 16);
             CHECK(memcmp(idx_a, idx_b, sizeof idx_a) == 0 && memcmp(d_a, d_b, sizeof d_a) == 0);
         }
     }

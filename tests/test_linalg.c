@@ -260,12 +260,14 @@ static int la_canary_intact(const unsigned char *w, size_t size)
    singular values go to s_out (n entries) when not NULL. */
 static void la_check_svd(const double *a, int m, int n, double *s_out)
 {
-    size_t size = sqffd_svd_workspace_size(m, n);
-    unsigned char *work = la_workspace(size);
+    size_t size = 0;
+    unsigned char *work;
     double *u = la_alloc((size_t)m * (size_t)n), *s = la_alloc((size_t)n), *v = la_alloc((size_t)n * (size_t)n);
     double *s2 = la_alloc((size_t)n);
     double err = 0.0, norm = 0.0, scale = 0.0;
     int i, j, k;
+    CHECK_RESULT(sqffd_svd_workspace_size((size_t)m, (size_t)n, &size), SQFFD_OK);
+    work = la_workspace(size);
     CHECK(size > 0);
     CHECK_RESULT(sqffd_svd(a, m, n, u, s, v, work, size), SQFFD_OK);
     CHECK(la_canary_intact(work, size));
@@ -397,9 +399,11 @@ static void test_svd_scaling(void)
 {
     const int m = 20, n = 6;
     double a[120], b[120], s[6], s_ref[6], u[120], v[36], u2[120], v2[36], s2[6];
-    size_t size = sqffd_svd_workspace_size(m, n);
-    unsigned char *work = la_workspace(size);
+    size_t size = 0;
+    unsigned char *work;
     int i, j;
+    CHECK_RESULT(sqffd_svd_workspace_size((size_t)m, (size_t)n, &size), SQFFD_OK);
+    work = la_workspace(size);
     la_seed(16);
     la_fill_random(a, 120);
     la_check_svd(a, m, n, s_ref);
@@ -456,16 +460,24 @@ static void test_svd_hilbert(void)
 static void test_svd_solve(void)
 {
     const int m = 50, n = 8;
-    double *a = la_alloc((size_t)(m * n)), *u = la_alloc((size_t)(m * n)), s[8], v[64], b[50], x[8], scratch[8];
+    double *a = la_alloc((size_t)(m * n)), *u = la_alloc((size_t)(m * n)), s[8], v[64], b[50], x[8];
     double ata[64], atb[8];
-    size_t size = sqffd_svd_workspace_size(m, n);
-    unsigned char *work = la_workspace(size);
+    size_t size = 0, solve_size = 0, rank;
+    unsigned char *work, *solve_work;
     int i, j, k;
+    CHECK_RESULT(sqffd_svd_workspace_size((size_t)m, (size_t)n, &size), SQFFD_OK);
+    CHECK_RESULT(sqffd_svd_solve_workspace_size((size_t)n, &solve_size), SQFFD_OK);
+    CHECK(solve_size > 0);
+    work = la_workspace(size);
+    solve_work = la_workspace(solve_size);
     la_seed(13);
     la_fill_random(a, (size_t)(m * n));
     for (i = 0; i < m; ++i) b[i] = la_rand();
     CHECK_RESULT(sqffd_svd(a, m, n, u, s, v, work, size), SQFFD_OK);
-    CHECK(sqffd_svd_solve(u, s, v, m, n, 1e-12, b, x, scratch) == n);
+    rank = 99;
+    CHECK_RESULT(sqffd_svd_solve(u, s, v, m, n, 1e-12, b, x, &rank, solve_work, solve_size), SQFFD_OK);
+    CHECK(rank == (size_t)n);
+    CHECK(la_canary_intact(solve_work, solve_size));
     /* least squares = normal equations A^T A x = A^T b (Cholesky) */
     for (i = 0; i < n; ++i) {
         atb[i] = 0.0;
@@ -483,38 +495,69 @@ static void test_svd_solve(void)
        solution spreads column 0's weight evenly over the three copies */
     for (i = 0; i < m; ++i) { a[i * n + 6] = a[i * n]; a[i * n + 7] = a[i * n]; }
     CHECK_RESULT(sqffd_svd(a, m, n, u, s, v, work, size), SQFFD_OK);
-    CHECK(sqffd_svd_solve(u, s, v, m, n, 1e-10, b, x, scratch) == 6);
+    rank = 99;
+    CHECK_RESULT(sqffd_svd_solve(u, s, v, m, n, 1e-10, b, x, &rank, solve_work, solve_size), SQFFD_OK);
+    CHECK(rank == 6);
     CHECK_NEAR(x[0], x[6], 1e-12);
     CHECK_NEAR(x[0], x[7], 1e-12);
     { /* x agrees with the full-rank solve over columns 0..5, weight 0 split in 3 */
         double *a6 = la_alloc((size_t)(m * 6)), *u6 = la_alloc((size_t)(m * 6)), s6[6], v6[36], x6[6];
-        size_t size6 = sqffd_svd_workspace_size(m, 6);
-        unsigned char *work6 = la_workspace(size6);
+        size_t size6 = 0, solve_size6 = 0;
+        unsigned char *work6, *solve_work6;
+        CHECK_RESULT(sqffd_svd_workspace_size((size_t)m, 6, &size6), SQFFD_OK);
+        CHECK_RESULT(sqffd_svd_solve_workspace_size(6, &solve_size6), SQFFD_OK);
+        work6 = la_workspace(size6);
+        solve_work6 = la_workspace(solve_size6);
         for (i = 0; i < m; ++i)
             for (j = 0; j < 6; ++j) a6[i * 6 + j] = a[i * n + j];
         CHECK_RESULT(sqffd_svd(a6, m, 6, u6, s6, v6, work6, size6), SQFFD_OK);
-        CHECK(sqffd_svd_solve(u6, s6, v6, m, 6, 1e-10, b, x6, scratch) == 6);
+        rank = 99;
+        CHECK_RESULT(sqffd_svd_solve(u6, s6, v6, m, 6, 1e-10, b, x6, &rank, solve_work6, solve_size6), SQFFD_OK);
+        CHECK(rank == 6);
+        CHECK(la_canary_intact(solve_work6, solve_size6));
         CHECK_NEAR(3.0 * x[0], x6[0], 1e-12);
         for (j = 1; j < 6; ++j) CHECK_NEAR(x[j], x6[j], 1e-12);
-        free(a6); free(u6); free(work6);
+        free(a6); free(u6); free(work6); free(solve_work6);
     }
     /* everything cut: rank 0, x = 0 */
-    CHECK(sqffd_svd_solve(u, s, v, m, n, 2.0, b, x, scratch) == 0);
+    rank = 99;
+    CHECK_RESULT(sqffd_svd_solve(u, s, v, m, n, 2.0, b, x, &rank, solve_work, solve_size), SQFFD_OK);
+    CHECK(rank == 0);
     for (i = 0; i < n; ++i) CHECK(x[i] == 0.0);
-    free(a); free(u); free(work);
+    /* rank may be NULL; bad arguments; too small a workspace */
+    CHECK_RESULT(sqffd_svd_solve(u, s, v, m, n, 1e-10, b, x, NULL, solve_work, solve_size), SQFFD_OK);
+    CHECK_RESULT(sqffd_svd_solve(NULL, s, v, m, n, 1e-10, b, x, &rank, solve_work, solve_size), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(sqffd_svd_solve(u, NULL, v, m, n, 1e-10, b, x, &rank, solve_work, solve_size), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(sqffd_svd_solve(u, s, NULL, m, n, 1e-10, b, x, &rank, solve_work, solve_size), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(sqffd_svd_solve(u, s, v, m, n, 1e-10, NULL, x, &rank, solve_work, solve_size), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(sqffd_svd_solve(u, s, v, m, n, 1e-10, b, NULL, &rank, solve_work, solve_size), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(sqffd_svd_solve(u, s, v, m, 0, 1e-10, b, x, &rank, solve_work, solve_size), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(sqffd_svd_solve(u, s, v, 4, 5, 1e-10, b, x, &rank, solve_work, solve_size), SQFFD_ERROR_INVALID_ARGUMENT); /* m < n */
+    CHECK_RESULT(sqffd_svd_solve(u, s, v, m, n, 1e-10, b, x, &rank, solve_work, solve_size - 1), SQFFD_ERROR_WORKSPACE_TOO_SMALL);
+    CHECK_RESULT(sqffd_svd_solve(u, s, v, m, n, 1e-10, b, x, &rank, NULL, solve_size), SQFFD_ERROR_WORKSPACE_TOO_SMALL);
+    CHECK(la_canary_intact(solve_work, solve_size));
+    free(a); free(u); free(work); free(solve_work);
 }
 
 static void test_svd_errors(void)
 {
     double a[12], u[12], s[3], v[9];
-    size_t size = sqffd_svd_workspace_size(4, 3);
+    size_t size = 0, bad_size;
     unsigned char *work;
     int i;
     la_seed(14);
     la_fill_random(a, 12);
-    CHECK(sqffd_svd_workspace_size(2, 3) == 0);
-    CHECK(sqffd_svd_workspace_size(0, 0) == 0);
-    CHECK(sqffd_svd_workspace_size(2000000000, 2000000000) == 0); /* 3.2e19 bytes */
+    CHECK_RESULT(sqffd_svd_workspace_size(4, 3, &size), SQFFD_OK);
+    bad_size = 1;
+    CHECK_RESULT(sqffd_svd_workspace_size(2, 3, &bad_size), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK(bad_size == 0);
+    bad_size = 1;
+    CHECK_RESULT(sqffd_svd_workspace_size(0, 0, &bad_size), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK(bad_size == 0);
+    bad_size = 1;
+    CHECK_RESULT(sqffd_svd_workspace_size(2000000000, 2000000000, &bad_size), SQFFD_ERROR_TOO_LARGE); /* 3.2e19 bytes */
+    CHECK(bad_size == 0);
+    CHECK_RESULT(sqffd_svd_workspace_size(4, 3, NULL), SQFFD_ERROR_INVALID_ARGUMENT);
     work = la_workspace(size - 1); /* one byte short */
     CHECK_RESULT(sqffd_svd(a, 4, 3, u, s, v, work, size - 1), SQFFD_ERROR_WORKSPACE_TOO_SMALL);
     CHECK(la_canary_intact(work, size - 1));
@@ -567,12 +610,14 @@ static void test_cg_vs_cholesky(void)
     const int n = 80;
     double *a = la_alloc((size_t)(n * n)), *l = la_alloc((size_t)(n * n)), *b = la_alloc((size_t)n);
     double *x = la_alloc((size_t)n), *ref = la_alloc((size_t)n), *diag = la_alloc((size_t)n), *dscale = la_alloc((size_t)n);
-    size_t size = sqffd_cg_workspace_size(n);
-    unsigned char *work = la_workspace(size);
+    size_t size = 0;
+    unsigned char *work;
     sqffd_cg_options opt = sqffd_cg_options_default();
     la_dense m;
     int i, j, it_plain = 0, it_jacobi = 0, pass;
     double rel = 1.0;
+    CHECK_RESULT(sqffd_cg_workspace_size((size_t)n, &size), SQFFD_OK);
+    work = la_workspace(size);
     la_seed(20);
     la_random_spd(a, n);
     /* badly scaled rows and columns: D A D with D spanning 1e-2..1e2 */
@@ -619,12 +664,16 @@ static void test_cg_vs_cholesky(void)
 static void test_cg_errors(void)
 {
     double a[4] = {2, 0, 0, 1}, indef[4] = {1, 0, 0, -1}, b[2] = {1, 1}, x[2] = {0, 0}, diag[2] = {2, 0};
-    size_t size = sqffd_cg_workspace_size(2);
-    unsigned char *work = la_workspace(size);
+    size_t size = 0, bad_size = 1;
+    unsigned char *work;
     sqffd_cg_options opt = sqffd_cg_options_default();
     la_dense m;
     int it;
     double rel;
+    CHECK_RESULT(sqffd_cg_workspace_size(2, &size), SQFFD_OK);
+    CHECK_RESULT(sqffd_cg_workspace_size(0, &bad_size), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK(bad_size == 0);
+    work = la_workspace(size);
     m.a = a; m.n = 2; m.poison = 0; m.calls = 0;
     CHECK(opt.max_iterations == 0 && opt.tolerance == 1e-10 && opt.jacobi_diagonal == NULL);
     CHECK_RESULT(sqffd_cg_solve(2, la_dense_matvec, &m, b, x, NULL, &it, &rel, work, size), SQFFD_OK);
@@ -730,6 +779,17 @@ static int la_cancel_at_3(void *user, int stage, int iteration, double error)
     return iteration == 3;
 }
 
+/* NCG options: the defaults with the given iteration limit, tolerance and
+   projection (NULL: none). */
+static sqffd_ncg_options la_ncg_options(int max_iterations, double tolerance, sqffd_project_fn project)
+{
+    sqffd_ncg_options o = sqffd_ncg_options_default();
+    o.max_iterations = max_iterations;
+    o.tolerance = tolerance;
+    o.project = project;
+    return o;
+}
+
 /* extended Rosenbrock in n dimensions: minimum 0 at (1, ..., 1) */
 static double la_rosenbrock_n(void *user, const double *x, double *g)
 {
@@ -748,11 +808,14 @@ static double la_rosenbrock_n(void *user, const double *x, double *g)
 static void test_ncg_unconstrained(void)
 {
     const int n = 12;
-    size_t size = sqffd_ncg_workspace_size(n);
-    unsigned char *work = la_workspace(size);
+    size_t size = 0;
+    unsigned char *work;
     double *a = la_alloc((size_t)(n * n)), b[12], ref[12], x[12], x2[12], fx, fx2;
+    sqffd_ncg_options opt;
     la_quadratic q;
     int i, it, it2;
+    CHECK_RESULT(sqffd_ncg_workspace_size((size_t)n, &size), SQFFD_OK);
+    work = la_workspace(size);
     la_seed(30);
     la_random_spd(a, n);
     for (i = 0; i < n; ++i) b[i] = la_rand();
@@ -766,27 +829,32 @@ static void test_ncg_unconstrained(void)
     }
     q.a = a; q.b = b; q.n = n; q.evaluations = 0;
     memset(x, 0, sizeof x);
-    CHECK_RESULT(sqffd_ncg_minimize(n, la_quadratic_f, NULL, &q, x, 500, 1e-13, &it, &fx, NULL, NULL, work, size), SQFFD_OK);
+    opt = la_ncg_options(500, 1e-13, NULL);
+    CHECK_RESULT(sqffd_ncg_minimize(n, la_quadratic_f, &q, x, &opt, &it, &fx, work, size), SQFFD_OK);
     CHECK(la_canary_intact(work, size));
     for (i = 0; i < n; ++i) CHECK_NEAR(x[i], ref[i], 1e-10);
     CHECK_MSG(it <= 4 * n, "quadratic took %d iterations", it);
     /* deterministic: the same run again is bit-identical */
     memset(x2, 0, sizeof x2);
-    CHECK_RESULT(sqffd_ncg_minimize(n, la_quadratic_f, NULL, &q, x2, 500, 1e-13, &it2, &fx2, NULL, NULL, work, size), SQFFD_OK);
+    CHECK_RESULT(sqffd_ncg_minimize(n, la_quadratic_f, &q, x2, &opt, &it2, &fx2, work, size), SQFFD_OK);
     CHECK(memcmp(x, x2, sizeof x) == 0 && fx == fx2 && it == it2);
 
     x[0] = -1.2; x[1] = 1.0;
-    CHECK_RESULT(sqffd_ncg_minimize(2, la_rosenbrock, NULL, NULL, x, 5000, 1e-12, &it, &fx, NULL, NULL, work, size), SQFFD_OK);
+    opt = la_ncg_options(5000, 1e-12, NULL);
+    CHECK_RESULT(sqffd_ncg_minimize(2, la_rosenbrock, NULL, x, &opt, &it, &fx, work, size), SQFFD_OK);
     CHECK_NEAR(x[0], 1.0, 1e-6);
     CHECK_NEAR(x[1], 1.0, 1e-6);
     CHECK(fx < 1e-12);
     {
         int dim = 20;
         double xr[20];
-        size_t size20 = sqffd_ncg_workspace_size(dim);
-        unsigned char *work20 = la_workspace(size20);
+        size_t size20 = 0;
+        unsigned char *work20;
+        CHECK_RESULT(sqffd_ncg_workspace_size((size_t)dim, &size20), SQFFD_OK);
+        work20 = la_workspace(size20);
         for (i = 0; i < dim; ++i) xr[i] = i % 2 ? 1.0 : -1.2;
-        CHECK_RESULT(sqffd_ncg_minimize(dim, la_rosenbrock_n, NULL, &dim, xr, 5000, 1e-10, &it, &fx, NULL, NULL, work20, size20), SQFFD_OK);
+        opt = la_ncg_options(5000, 1e-10, NULL);
+        CHECK_RESULT(sqffd_ncg_minimize((size_t)dim, la_rosenbrock_n, &dim, xr, &opt, &it, &fx, work20, size20), SQFFD_OK);
         CHECK(la_canary_intact(work20, size20));
         for (i = 0; i < dim; ++i) CHECK_NEAR(xr[i], 1.0, 1e-6);
         free(work20);
@@ -796,28 +864,32 @@ static void test_ncg_unconstrained(void)
 
 static void test_ncg_projected(void)
 {
-    size_t size = sqffd_ncg_workspace_size(2);
-    unsigned char *work = la_workspace(size);
+    size_t size = 0;
+    unsigned char *work;
     double x[2], fx, c;
+    sqffd_ncg_options box = la_ncg_options(200, 1e-12, la_unit_box), rosenbrock_box;
     int it;
+    CHECK_RESULT(sqffd_ncg_workspace_size(2, &size), SQFFD_OK);
+    work = la_workspace(size);
     /* both coordinates end on the box: KKT point (1, 0) */
     c = -1.0; x[0] = 0.5; x[1] = 0.5;
-    CHECK_RESULT(sqffd_ncg_minimize(2, la_coupled, la_unit_box, &c, x, 200, 1e-12, &it, &fx, NULL, NULL, work, size), SQFFD_OK);
+    CHECK_RESULT(sqffd_ncg_minimize(2, la_coupled, &c, x, &box, &it, &fx, work, size), SQFFD_OK);
     CHECK_NEAR(x[0], 1.0, 1e-12);
     CHECK_NEAR(x[1], 0.0, 1e-12);
     /* one on the box, one inside: (1, 2/3) */
     c = 0.5; x[0] = 0.1; x[1] = 0.9;
-    CHECK_RESULT(sqffd_ncg_minimize(2, la_coupled, la_unit_box, &c, x, 200, 1e-12, &it, &fx, NULL, NULL, work, size), SQFFD_OK);
+    CHECK_RESULT(sqffd_ncg_minimize(2, la_coupled, &c, x, &box, &it, &fx, work, size), SQFFD_OK);
     CHECK_NEAR(x[0], 1.0, 1e-12);
     CHECK_NEAR(x[1], 2.0 / 3.0, 1e-9);
     /* start outside the box: projected first */
     c = 0.5; x[0] = 7.0; x[1] = -3.0;
-    CHECK_RESULT(sqffd_ncg_minimize(2, la_coupled, la_unit_box, &c, x, 200, 1e-12, &it, &fx, NULL, NULL, work, size), SQFFD_OK);
+    CHECK_RESULT(sqffd_ncg_minimize(2, la_coupled, &c, x, &box, &it, &fx, work, size), SQFFD_OK);
     CHECK_NEAR(x[0], 1.0, 1e-12);
     CHECK_NEAR(x[1], 2.0 / 3.0, 1e-9);
     /* Rosenbrock with x0 <= 0.5: the constrained minimum (0.5, 0.25) */
     x[0] = -1.2; x[1] = 1.0;
-    CHECK_RESULT(sqffd_ncg_minimize(2, la_rosenbrock, la_rosenbrock_box, NULL, x, 5000, 1e-12, &it, &fx, NULL, NULL, work, size), SQFFD_OK);
+    rosenbrock_box = la_ncg_options(5000, 1e-12, la_rosenbrock_box);
+    CHECK_RESULT(sqffd_ncg_minimize(2, la_rosenbrock, NULL, x, &rosenbrock_box, &it, &fx, work, size), SQFFD_OK);
     CHECK_NEAR(x[0], 0.5, 1e-12);
     CHECK_NEAR(x[1], 0.25, 1e-8);
     free(work);
@@ -832,31 +904,55 @@ static double la_nan_objective(void *user, const double *x, double *g)
 
 static void test_ncg_errors(void)
 {
-    size_t size = sqffd_ncg_workspace_size(2);
-    unsigned char *work = la_workspace(size);
+    size_t size = 0, bad_size = 1;
+    unsigned char *work;
     double x[2], fx, f0;
+    sqffd_ncg_options opt = sqffd_ncg_options_default();
     int it;
+    /* the defaults */
+    CHECK(opt.max_iterations == 100 && opt.tolerance == 1e-8 && opt.project == NULL && opt.progress == NULL &&
+          opt.progress_user == NULL);
+    CHECK_RESULT(sqffd_ncg_workspace_size(2, &size), SQFFD_OK);
+    CHECK_RESULT(sqffd_ncg_workspace_size(0, &bad_size), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK(bad_size == 0);
+    work = la_workspace(size);
+    { /* NULL options are the defaults, to the bit */
+        double xd[2] = {-1.2, 1.0}, xn[2] = {-1.2, 1.0}, fd = 0.0, fn = 1.0;
+        int itd = -1, itn = -2;
+        sqffd_result rd = sqffd_ncg_minimize(2, la_rosenbrock, NULL, xd, &opt, &itd, &fd, work, size);
+        sqffd_result rn = sqffd_ncg_minimize(2, la_rosenbrock, NULL, xn, NULL, &itn, &fn, work, size);
+        CHECK(rd == SQFFD_OK || rd == SQFFD_ERROR_NO_CONVERGENCE);
+        CHECK(rn == rd && itn == itd && fn == fd && memcmp(xn, xd, sizeof xd) == 0);
+    }
     /* iteration limit: NO_CONVERGENCE but a usable, improved point */
     x[0] = -1.2; x[1] = 1.0;
     f0 = 24.2; /* rosenbrock(-1.2, 1) */
-    CHECK_RESULT(sqffd_ncg_minimize(2, la_rosenbrock, NULL, NULL, x, 3, 1e-12, &it, &fx, NULL, NULL, work, size), SQFFD_ERROR_NO_CONVERGENCE);
+    opt = la_ncg_options(3, 1e-12, NULL);
+    CHECK_RESULT(sqffd_ncg_minimize(2, la_rosenbrock, NULL, x, &opt, &it, &fx, work, size), SQFFD_ERROR_NO_CONVERGENCE);
     CHECK(it == 3 && fx < f0);
     { double g[2]; CHECK(la_rosenbrock(NULL, x, g) == fx); }
     /* cancelled by the progress callback at iteration 3 */
     x[0] = -1.2; x[1] = 1.0;
     la_progress_calls = 0;
-    CHECK_RESULT(sqffd_ncg_minimize(2, la_rosenbrock, NULL, NULL, x, 100, 1e-12, &it, &fx, la_cancel_at_3, NULL, work, size), SQFFD_ERROR_CANCELLED);
+    opt = la_ncg_options(100, 1e-12, NULL);
+    opt.progress = la_cancel_at_3;
+    CHECK_RESULT(sqffd_ncg_minimize(2, la_rosenbrock, NULL, x, &opt, &it, &fx, work, size), SQFFD_ERROR_CANCELLED);
     CHECK(la_progress_calls == 3 && it == 3);
+    opt = la_ncg_options(100, 1e-12, NULL);
     x[0] = nan("");
-    CHECK_RESULT(sqffd_ncg_minimize(2, la_rosenbrock, NULL, NULL, x, 100, 1e-12, &it, &fx, NULL, NULL, work, size), SQFFD_ERROR_NON_FINITE);
+    CHECK_RESULT(sqffd_ncg_minimize(2, la_rosenbrock, NULL, x, &opt, &it, &fx, work, size), SQFFD_ERROR_NON_FINITE);
     x[0] = 0.0;
-    CHECK_RESULT(sqffd_ncg_minimize(1, la_nan_objective, NULL, NULL, x, 100, 1e-12, &it, &fx, NULL, NULL, work, size), SQFFD_ERROR_NON_FINITE);
-    CHECK_RESULT(sqffd_ncg_minimize(2, la_rosenbrock, NULL, NULL, x, 0, 1e-12, &it, &fx, NULL, NULL, work, size), SQFFD_ERROR_INVALID_ARGUMENT);
-    CHECK_RESULT(sqffd_ncg_minimize(2, la_rosenbrock, NULL, NULL, x, 10, -1.0, &it, &fx, NULL, NULL, work, size), SQFFD_ERROR_INVALID_ARGUMENT);
-    CHECK_RESULT(sqffd_ncg_minimize(2, NULL, NULL, NULL, x, 10, 1e-6, &it, &fx, NULL, NULL, work, size), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(sqffd_ncg_minimize(1, la_nan_objective, NULL, x, &opt, &it, &fx, work, size), SQFFD_ERROR_NON_FINITE);
+    opt = la_ncg_options(0, 1e-12, NULL);
+    CHECK_RESULT(sqffd_ncg_minimize(2, la_rosenbrock, NULL, x, &opt, &it, &fx, work, size), SQFFD_ERROR_INVALID_ARGUMENT);
+    opt = la_ncg_options(10, -1.0, NULL);
+    CHECK_RESULT(sqffd_ncg_minimize(2, la_rosenbrock, NULL, x, &opt, &it, &fx, work, size), SQFFD_ERROR_INVALID_ARGUMENT);
+    opt = la_ncg_options(10, 1e-6, NULL);
+    CHECK_RESULT(sqffd_ncg_minimize(2, NULL, NULL, x, &opt, &it, &fx, work, size), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(sqffd_ncg_minimize(0, la_rosenbrock, NULL, x, &opt, &it, &fx, work, size), SQFFD_ERROR_INVALID_ARGUMENT);
     free(work);
     work = la_workspace(size - 1);
-    CHECK_RESULT(sqffd_ncg_minimize(2, la_rosenbrock, NULL, NULL, x, 10, 1e-6, &it, &fx, NULL, NULL, work, size - 1), SQFFD_ERROR_WORKSPACE_TOO_SMALL);
+    CHECK_RESULT(sqffd_ncg_minimize(2, la_rosenbrock, NULL, x, &opt, &it, &fx, work, size - 1), SQFFD_ERROR_WORKSPACE_TOO_SMALL);
     CHECK(la_canary_intact(work, size - 1));
     free(work);
 }

@@ -125,9 +125,12 @@ static struct {
 
 static sqffd_result run_fit_malloc(const double *pts, size_t n, const sqffd_fit_options *o, sqffd_model *m)
 {
-    size_t size = sqffd_fit_workspace_size(n, o);
-    void *ws = xmalloc(size);
-    sqffd_result r = sqffd_fit(pts, n, o, m, NULL, ws, size);
+    size_t size;
+    void *ws;
+    sqffd_result r = sqffd_fit_workspace_size(n, o, &size);
+    if (r != SQFFD_OK) return r;
+    ws = xmalloc(size);
+    r = sqffd_fit(pts, n, o, m, NULL, ws, size);
     free(ws);
     return r;
 }
@@ -155,7 +158,7 @@ static int setup(void)
     D.track.fit = D.fit;
     D.track.frame_iterations = 2;
     CHECK_RESULT(run_fit_malloc(D.ed, N_FIT, &D.fit, &D.model), SQFFD_OK);
-    size = sqffd_track_workspace_size(D.counts, FRAMES, &D.track);
+    CHECK_RESULT(sqffd_track_workspace_size(D.counts, FRAMES, &D.track, &size), SQFFD_OK);
     ws = xmalloc(size);
     CHECK_RESULT(sqffd_track(D.frames, D.counts, FRAMES, &D.track, D.tracked, NULL, NULL, ws, size), SQFFD_OK);
     free(ws);
@@ -326,8 +329,12 @@ static sqffd_result ncg_run(void *c, void *ws, size_t size)
 {
     ncg_ctx *x = (ncg_ctx *)c;
     int i;
+    sqffd_ncg_options o = sqffd_ncg_options_default();
+    o.max_iterations = 200;
+    o.tolerance = 1e-10;
+    o.project = ncg_box;
     for (i = 0; i < NCG_N; i++) x->x[i] = -1.0 + 0.3 * i;
-    return sqffd_ncg_minimize(NCG_N, ncg_f, ncg_box, NULL, x->x, 200, 1e-10, &x->it, &x->fx, NULL, NULL, ws, size);
+    return sqffd_ncg_minimize(NCG_N, ncg_f, NULL, x->x, &o, &x->it, &x->fx, ws, size);
 }
 static uint64_t ncg_digest(void *c)
 {
@@ -366,9 +373,10 @@ static uint64_t kd_digest(void *c)
         p[0] = 30.0 * sin(0.37 * (double)q);
         p[1] = 30.0 * cos(0.61 * (double)q);
         p[2] = -45.0 + 2.0 * (double)q;
-        idx[0] = sqffd_kdtree_nearest(&x->tree, p, d2);
+        CHECK_RESULT(sqffd_kdtree_nearest(&x->tree, p, &idx[0], &d2[0]), SQFFD_OK);
         h = hash_bytes(hash_bytes(h, idx, sizeof idx[0]), d2, sizeof d2[0]);
-        found = sqffd_kdtree_knn(&x->tree, p, 6, idx, d2);
+        found = 0;
+        CHECK_RESULT(sqffd_kdtree_knn(&x->tree, p, 6, idx, d2, &found), SQFFD_OK);
         h = hash_bytes(hash_bytes(h, idx, found * sizeof idx[0]), d2, found * sizeof d2[0]);
     }
     return h;
@@ -475,7 +483,7 @@ static uint64_t system_digest(void *c)
     void *ws;
     sqffd_result r;
     x->use.system = &x->system;
-    size = sqffd_fit_prepared_workspace_size(x->use.n, &x->system, x->use.opt);
+    CHECK_RESULT(sqffd_fit_prepared_workspace_size(x->use.n, &x->system, x->use.opt, &size), SQFFD_OK);
     ws = xmalloc(size);
     r = fit_prepared_run(&x->use, ws, size);
     free(ws);
@@ -601,7 +609,7 @@ static void test_memory_linalg_exact_workspace(void)
     svd_matrix(a);
     s.a = a;
     op.name = "sqffd_svd"; op.run = svd_run; op.digest = svd_digest; op.ctx = &s;
-    op.size = sqffd_svd_workspace_size(SVD_M, SVD_N);
+    CHECK_RESULT(sqffd_svd_workspace_size(SVD_M, SVD_N, &op.size), SQFFD_OK);
     check_workspace(&op);
     for (i = 0; i < CG_N; i++) {
         b[i] = cos(0.9 * i);
@@ -611,10 +619,10 @@ static void test_memory_linalg_exact_workspace(void)
     opt.jacobi_diagonal = diag;
     c.opt = &opt;
     op.name = "sqffd_cg_solve"; op.run = cg_run; op.digest = cg_digest; op.ctx = &c;
-    op.size = sqffd_cg_workspace_size(CG_N);
+    CHECK_RESULT(sqffd_cg_workspace_size(CG_N, &op.size), SQFFD_OK);
     check_workspace(&op);
     op.name = "sqffd_ncg_minimize"; op.run = ncg_run; op.digest = ncg_digest; op.ctx = &g;
-    op.size = sqffd_ncg_workspace_size(NCG_N);
+    CHECK_RESULT(sqffd_ncg_workspace_size(NCG_N, &op.size), SQFFD_OK);
     check_workspace(&op);
 }
 
@@ -626,11 +634,11 @@ static void test_memory_kdtree_exact_workspace(void)
     k.points = D.ed;
     k.n = N_FIT;
     op.name = "sqffd_kdtree_build"; op.run = kd_run; op.digest = kd_digest; op.ctx = &k;
-    op.size = sqffd_kdtree_workspace_size(N_FIT);
+    CHECK_RESULT(sqffd_kdtree_workspace_size(N_FIT, &op.size), SQFFD_OK);
     check_workspace(&op);
     k.n = 7; /* a lone root leaf */
     op.name = "sqffd_kdtree_build (7 points)";
-    op.size = sqffd_kdtree_workspace_size(7);
+    CHECK_RESULT(sqffd_kdtree_workspace_size(7, &op.size), SQFFD_OK);
     check_workspace(&op);
 }
 
@@ -651,7 +659,7 @@ static void test_memory_sq_fit_exact_workspace(void)
         c.n = v == 2 ? 30 : N_FIT;
         c.opt = &o[v];
         op.name = names[v]; op.run = sq_run; op.digest = sq_digest; op.ctx = &c;
-        op.size = sqffd_sq_fit_workspace_size(c.n, &o[v]);
+        CHECK_RESULT(sqffd_sq_fit_workspace_size(c.n, &o[v], &op.size), SQFFD_OK);
         check_workspace(&op);
     }
 }
@@ -678,7 +686,7 @@ static void test_memory_fit_exact_workspace(void)
         c.n = N_FIT;
         c.opt = &o[v];
         op.name = names[v]; op.run = fit_run; op.digest = fit_digest; op.ctx = &c;
-        op.size = sqffd_fit_workspace_size(N_FIT, &o[v]);
+        CHECK_RESULT(sqffd_fit_workspace_size(N_FIT, &o[v], &op.size), SQFFD_OK);
         check_workspace(&op);
     }
 }
@@ -699,7 +707,7 @@ static void test_memory_fit_ffd_exact_workspace(void)
         c.start = &D.model;
         op.name = robust ? "sqffd_fit_ffd (robust)" : "sqffd_fit_ffd";
         op.run = fit_ffd_run; op.digest = fit_digest; op.ctx = &c;
-        op.size = sqffd_fit_ffd_workspace_size(N_FIT, &D.model, &o);
+        CHECK_RESULT(sqffd_fit_ffd_workspace_size(N_FIT, &D.model, &o, &op.size), SQFFD_OK);
         check_workspace(&op);
     }
 }
@@ -715,10 +723,10 @@ static void test_memory_distances_exact_workspace(void)
     c.m = grid_vertices(&D.model);
     c.values = (double *)xmalloc((c.n > c.m ? c.n : c.m) * sizeof(double));
     op.name = "sqffd_model_distances"; op.run = dist_run; op.digest = dist_digest; op.ctx = &c;
-    op.size = sqffd_model_distances_workspace_size(N_FIT, &D.model);
+    CHECK_RESULT(sqffd_model_distances_workspace_size(N_FIT, &D.model, &op.size), SQFFD_OK);
     check_workspace(&op);
     op.name = "sqffd_model_reverse_distances"; op.run = reverse_run; op.digest = reverse_digest;
-    op.size = sqffd_model_reverse_distances_workspace_size(N_FIT, &D.model);
+    CHECK_RESULT(sqffd_model_reverse_distances_workspace_size(N_FIT, &D.model, &op.size), SQFFD_OK);
     check_workspace(&op);
     free(c.values);
 }
@@ -740,10 +748,10 @@ static void test_memory_prepared_exact_workspace(void)
     s.use.opt = &D.fit;
     s.use.start = &D.model;
     op.name = "sqffd_ffd_system_init"; op.run = system_run; op.digest = system_digest; op.ctx = &s;
-    op.size = sqffd_ffd_system_size(&D.model);
+    CHECK_RESULT(sqffd_ffd_system_size(&D.model, &op.size), SQFFD_OK);
     check_workspace(&op);
     /* a run against a system */
-    size = sqffd_ffd_system_size(&D.model);
+    CHECK_RESULT(sqffd_ffd_system_size(&D.model, &size), SQFFD_OK);
     memory = xmalloc(size);
     CHECK_RESULT(sqffd_ffd_system_init(&sys, &D.model, &D.fit, memory, size), SQFFD_OK);
     c.points = D.es;
@@ -752,7 +760,7 @@ static void test_memory_prepared_exact_workspace(void)
     c.start = &D.model;
     c.system = &sys;
     op.name = "sqffd_fit_prepared"; op.run = fit_prepared_run; op.digest = fit_digest; op.ctx = &c;
-    op.size = sqffd_fit_prepared_workspace_size(N_FIT, &sys, &D.fit);
+    CHECK_RESULT(sqffd_fit_prepared_workspace_size(N_FIT, &sys, &D.fit, &op.size), SQFFD_OK);
     check_workspace(&op);
     free(memory);
 }
@@ -770,7 +778,7 @@ static void test_memory_track_motion_exact_workspace(void)
     t->counts = D.counts;
     t->opt = &D.track;
     op.name = "sqffd_track"; op.run = track_run; op.digest = track_digest; op.ctx = t;
-    op.size = sqffd_track_workspace_size(D.counts, FRAMES, &D.track);
+    CHECK_RESULT(sqffd_track_workspace_size(D.counts, FRAMES, &D.track, &op.size), SQFFD_OK);
     check_workspace(&op);
     nv = grid_vertices(&D.tracked[0]);
     out.volumes = (double *)xmalloc(FRAMES * sizeof(double));
@@ -784,7 +792,7 @@ static void test_memory_track_motion_exact_workspace(void)
     m.out = &out;
     m.m = nv;
     op.name = "sqffd_motion"; op.run = motion_run; op.digest = motion_digest; op.ctx = &m;
-    op.size = sqffd_motion_workspace_size(D.tracked, FRAMES);
+    CHECK_RESULT(sqffd_motion_workspace_size(D.tracked, FRAMES, &op.size), SQFFD_OK);
     check_workspace(&op);
     free(out.volumes); free(out.trajectories); free(out.displacement); free(out.excursion);
     free(out.low_motion); free(out.segment);
@@ -808,7 +816,7 @@ static void test_memory_iso_exact_workspace(void)
         o.largest_component = largest;
         op.name = largest ? "sqffd_iso_points (largest component)" : "sqffd_iso_points";
         op.run = iso_run; op.digest = iso_digest; op.ctx = &c;
-        op.size = sqffd_iso_workspace_size(&D.volume, &o);
+        CHECK_RESULT(sqffd_iso_workspace_size(&D.volume, &o, &op.size), SQFFD_OK);
         check_workspace(&op);
         CHECK(rw_digest(&op) != 0 && c.count > 100 && c.count <= c.capacity); /* (the short run above left count 0) */
     }
@@ -957,7 +965,7 @@ static void test_memory_read_only_inputs(void)
     svd_matrix(a);
     sv.a = a;
     op.name = "sqffd_svd"; op.run = svd_run; op.digest = svd_digest; op.ctx = &sv;
-    op.size = sqffd_svd_workspace_size(SVD_M, SVD_N);
+    CHECK_RESULT(sqffd_svd_workspace_size(SVD_M, SVD_N, &op.size), SQFFD_OK);
     want = rw_digest(&op);
     sv.a = (const double *)ro_copy(&b_a, a, sizeof a);
     CHECK(ro_run(&op) == want);
@@ -970,7 +978,7 @@ static void test_memory_read_only_inputs(void)
     cg.b = b;
     cg.opt = &cgo;
     op.name = "sqffd_cg_solve"; op.run = cg_run; op.digest = cg_digest; op.ctx = &cg;
-    op.size = sqffd_cg_workspace_size(CG_N);
+    CHECK_RESULT(sqffd_cg_workspace_size(CG_N, &op.size), SQFFD_OK);
     want = rw_digest(&op);
     cgo.jacobi_diagonal = (const double *)ro_copy(&b_diag, diag, sizeof diag);
     cg.opt = (const sqffd_cg_options *)ro_copy(&b_cg, &cgo, sizeof cgo);
@@ -981,7 +989,7 @@ static void test_memory_read_only_inputs(void)
     kd.points = D.ed;
     kd.n = N_FIT;
     op.name = "sqffd_kdtree_build"; op.run = kd_run; op.digest = kd_digest; op.ctx = &kd;
-    op.size = sqffd_kdtree_workspace_size(N_FIT);
+    CHECK_RESULT(sqffd_kdtree_workspace_size(N_FIT, &op.size), SQFFD_OK);
     want = rw_digest(&op);
     kd.points = ed;
     CHECK(ro_run(&op) == want);
@@ -1000,7 +1008,7 @@ static void test_memory_read_only_inputs(void)
     sq.n = N_FIT;
     sq.opt = &sqo;
     op.name = "sqffd_sq_fit"; op.run = sq_run; op.digest = sq_digest; op.ctx = &sq;
-    op.size = sqffd_sq_fit_workspace_size(N_FIT, &sqo);
+    CHECK_RESULT(sqffd_sq_fit_workspace_size(N_FIT, &sqo, &op.size), SQFFD_OK);
     want = rw_digest(&op);
     sq.points = ed;
     sq.opt = (const sqffd_sq_fit_options *)ro_copy(&b_sq, &sqo, sizeof sqo);
@@ -1012,7 +1020,7 @@ static void test_memory_read_only_inputs(void)
     fit.opt = &D.fit;
     fit.start = &D.model;
     op.name = "sqffd_fit"; op.run = fit_run; op.digest = fit_digest; op.ctx = &fit;
-    op.size = sqffd_fit_workspace_size(N_FIT, &D.fit);
+    CHECK_RESULT(sqffd_fit_workspace_size(N_FIT, &D.fit, &op.size), SQFFD_OK);
     want = rw_digest(&op);
     fit.points = ed;
     fit.opt = fo;
@@ -1020,7 +1028,7 @@ static void test_memory_read_only_inputs(void)
     fit.points = D.es;
     fit.opt = &D.fit;
     op.name = "sqffd_fit_ffd"; op.run = fit_ffd_run;
-    op.size = sqffd_fit_ffd_workspace_size(N_FIT, &D.model, &D.fit);
+    CHECK_RESULT(sqffd_fit_ffd_workspace_size(N_FIT, &D.model, &D.fit, &op.size), SQFFD_OK);
     want = rw_digest(&op);
     fit.points = es;
     fit.opt = fo;
@@ -1035,7 +1043,7 @@ static void test_memory_read_only_inputs(void)
     dist.m = nv;
     dist.values = (double *)xmalloc((N_FIT > nv ? N_FIT : nv) * sizeof(double));
     op.name = "sqffd_model_distances"; op.run = dist_run; op.digest = dist_digest; op.ctx = &dist;
-    op.size = sqffd_model_distances_workspace_size(N_FIT, &D.model);
+    CHECK_RESULT(sqffd_model_distances_workspace_size(N_FIT, &D.model, &op.size), SQFFD_OK);
     want = rw_digest(&op);
     dist.model = model;
     dist.points = es;
@@ -1043,7 +1051,7 @@ static void test_memory_read_only_inputs(void)
     dist.model = &D.model;
     dist.points = D.es;
     op.name = "sqffd_model_reverse_distances"; op.run = reverse_run; op.digest = reverse_digest;
-    op.size = sqffd_model_reverse_distances_workspace_size(N_FIT, &D.model);
+    CHECK_RESULT(sqffd_model_reverse_distances_workspace_size(N_FIT, &D.model, &op.size), SQFFD_OK);
     want = rw_digest(&op);
     dist.model = model;
     dist.points = es;
@@ -1055,9 +1063,11 @@ static void test_memory_read_only_inputs(void)
     sys.model = model;
     sys.opt = fo;
     {
-        size_t size = sqffd_ffd_system_size(&D.model);
-        void *mem = ro_pages(&b_sysmem, size);
+        size_t size = 0;
+        void *mem;
         const sqffd_ffd_system *sealed;
+        CHECK_RESULT(sqffd_ffd_system_size(&D.model, &size), SQFFD_OK);
+        mem = ro_pages(&b_sysmem, size);
         CHECK_RESULT(sqffd_ffd_system_init(&sys.system, model, fo, mem, size), SQFFD_OK);
         ro_seal(&b_sysmem);
         sealed = (const sqffd_ffd_system *)ro_copy(&b_sys, &sys.system, sizeof sys.system);
@@ -1066,7 +1076,7 @@ static void test_memory_read_only_inputs(void)
         fit.start = &D.model;
         fit.system = &sys.system;
         op.name = "sqffd_fit_prepared"; op.run = fit_prepared_run; op.digest = fit_digest; op.ctx = &fit;
-        op.size = sqffd_fit_prepared_workspace_size(N_FIT, &sys.system, &D.fit);
+        CHECK_RESULT(sqffd_fit_prepared_workspace_size(N_FIT, &sys.system, &D.fit, &op.size), SQFFD_OK);
         fit.system = sealed;
         fit.points = es;
         fit.opt = fo;
@@ -1078,7 +1088,7 @@ static void test_memory_read_only_inputs(void)
             mem_op o2 = op;
             o2.ctx = &plain;
             o2.run = fit_ffd_run;
-            o2.size = sqffd_fit_ffd_workspace_size(N_FIT, &D.model, &D.fit);
+            CHECK_RESULT(sqffd_fit_ffd_workspace_size(N_FIT, &D.model, &D.fit, &o2.size), SQFFD_OK);
             CHECK(rw_digest(&o2) == want);
         }
         ro_free(&b_sys);
@@ -1090,7 +1100,7 @@ static void test_memory_read_only_inputs(void)
     tr->counts = D.counts;
     tr->opt = &D.track;
     op.name = "sqffd_track"; op.run = track_run; op.digest = track_digest; op.ctx = tr;
-    op.size = sqffd_track_workspace_size(D.counts, FRAMES, &D.track);
+    CHECK_RESULT(sqffd_track_workspace_size(D.counts, FRAMES, &D.track, &op.size), SQFFD_OK);
     want = rw_digest(&op);
     for (t = 0; t < FRAMES; t++) frame[t] = (const double *)ro_copy(&b_frame[t], D.frame[t], sizeof D.frame[t]);
     tr->frames = (const double *const *)ro_copy(&b_frames, frame, sizeof frame);
@@ -1111,7 +1121,7 @@ static void test_memory_read_only_inputs(void)
     mot.out = &out;
     mot.m = nv;
     op.name = "sqffd_motion"; op.run = motion_run; op.digest = motion_digest; op.ctx = &mot;
-    op.size = sqffd_motion_workspace_size(D.tracked, FRAMES);
+    CHECK_RESULT(sqffd_motion_workspace_size(D.tracked, FRAMES, &op.size), SQFFD_OK);
     want = rw_digest(&op);
     mot.models = (const sqffd_model *)ro_copy(&b_models, D.tracked, sizeof D.tracked);
     mot.opt = (const sqffd_motion_options *)ro_copy(&b_motion, &mo, sizeof mo);
@@ -1129,7 +1139,7 @@ static void test_memory_read_only_inputs(void)
     iso.volume = &D.volume;
     iso.opt = &io;
     op.name = "sqffd_iso_points"; op.run = iso_run; op.digest = iso_digest; op.ctx = &iso;
-    op.size = sqffd_iso_workspace_size(&D.volume, &io);
+    CHECK_RESULT(sqffd_iso_workspace_size(&D.volume, &io, &op.size), SQFFD_OK);
     want = rw_digest(&op);
     vol = D.volume;
     vol.data = ro_copy(&b_vox, D.voxels, sizeof D.voxels);
@@ -1170,7 +1180,7 @@ static void test_memory_fit_twice_bit_identical(void)
     for (robust = 0; robust < 2; robust++) {
         o = D.fit;
         o.sq.robust = robust;
-        size = sqffd_fit_workspace_size(N_FIT, &o);
+        CHECK_RESULT(sqffd_fit_workspace_size(N_FIT, &o, &size), SQFFD_OK);
         w1 = (unsigned char *)xmalloc(size);
         w2 = (unsigned char *)xmalloc(size + 3);
         memset(w1, 0x00, size);
@@ -1203,7 +1213,7 @@ static void test_memory_track_twice_bit_identical(void)
     a->frames = b->frames = D.frames;
     a->counts = b->counts = D.counts;
     a->opt = b->opt = &D.track;
-    size = sqffd_track_workspace_size(D.counts, FRAMES, &D.track);
+    CHECK_RESULT(sqffd_track_workspace_size(D.counts, FRAMES, &D.track, &size), SQFFD_OK);
     ws = xmalloc(size);
     memset(ws, 0x00, size);
     CHECK_RESULT(track_run(a, ws, size), SQFFD_OK);
@@ -1234,8 +1244,10 @@ static void test_memory_sq_fit_failure_writes_nothing(void)
     sqffd_superquadric sq, sentinel_sq;
     sqffd_sq_fit_report rep, sentinel_rep;
     double flat[3 * 100], nan_pts[3 * 100];
-    size_t size = sqffd_sq_fit_workspace_size(N_FIT, &o), i;
-    void *ws = xmalloc(size);
+    size_t size = 0, i;
+    void *ws;
+    CHECK_RESULT(sqffd_sq_fit_workspace_size(N_FIT, &o, &size), SQFFD_OK);
+    ws = xmalloc(size);
     if (!setup()) { free(ws); return; }
     memset(&sentinel_sq, 0x5A, sizeof sentinel_sq);
     memset(&sentinel_rep, 0x5A, sizeof sentinel_rep);
@@ -1291,10 +1303,12 @@ static void test_memory_kdtree_failure_outputs(void)
 {
     enum { N = 300 };
     double *p = (double *)xmalloc(3 * N * sizeof *p), *moved = (double *)xmalloc(3 * N * sizeof *moved);
-    size_t size = sqffd_kdtree_workspace_size(N), i;
-    unsigned char *ws = (unsigned char *)xmalloc(size), *nodes_before;
+    size_t size = 0, i;
+    unsigned char *ws, *nodes_before;
     uint32_t *index_before;
     sqffd_kdtree tree, before;
+    CHECK_RESULT(sqffd_kdtree_workspace_size(N, &size), SQFFD_OK);
+    ws = (unsigned char *)xmalloc(size);
     if (!setup()) { free(p); free(moved); free(ws); return; }
     memcpy(p, D.ed, 3 * 200 * sizeof *p);
     for (i = 200; i < N; i++) { p[3 * i] = 100.0; p[3 * i + 1] = 100.0; p[3 * i + 2] = 100.0; } /* a pile: one big leaf */
@@ -1361,14 +1375,20 @@ static int ncg_cancel_third(void *user, int stage, int iteration, double error)
 
 static void test_memory_ncg_cancel_last_point(void)
 {
-    size_t size = sqffd_ncg_workspace_size(NCG_N);
-    void *ws = xmalloc(size);
+    size_t size = 0;
+    void *ws;
     double x[NCG_N], g[NCG_N], fx = 0.0, last = -1.0;
+    sqffd_ncg_options o = sqffd_ncg_options_default();
     int i, it = 0;
+    CHECK_RESULT(sqffd_ncg_workspace_size(NCG_N, &size), SQFFD_OK);
+    ws = xmalloc(size);
+    o.max_iterations = 200;
+    o.tolerance = 1e-12;
+    o.project = ncg_box;
+    o.progress = ncg_cancel_third;
+    o.progress_user = &last;
     for (i = 0; i < NCG_N; i++) x[i] = -1.0 + 0.3 * i;
-    CHECK_RESULT(sqffd_ncg_minimize(NCG_N, ncg_f, ncg_box, NULL, x, 200, 1e-12, &it, &fx, ncg_cancel_third, &last, ws,
-                                    size),
-                 SQFFD_ERROR_CANCELLED);
+    CHECK_RESULT(sqffd_ncg_minimize(NCG_N, ncg_f, NULL, x, &o, &it, &fx, ws, size), SQFFD_ERROR_CANCELLED);
     CHECK(it == 3);
     CHECK_MSG(ncg_f(NULL, x, g) == last && fx == last, "f(x) = %.17g, progress saw %.17g, *fx = %.17g",
               ncg_f(NULL, x, g), last, fx);
@@ -1379,11 +1399,13 @@ static void test_memory_ncg_cancel_last_point(void)
    residual reported is its true one. */
 static void test_memory_cg_limit_last_iterate(void)
 {
-    size_t size = sqffd_cg_workspace_size(CG_N);
-    void *ws = xmalloc(size);
+    size_t size = 0;
+    void *ws;
     sqffd_cg_options o = sqffd_cg_options_default();
     double b[CG_N], x[CG_N], y[CG_N], r2 = 0.0, b2 = 0.0, rel = -1.0;
     int i, it = 0;
+    CHECK_RESULT(sqffd_cg_workspace_size(CG_N, &size), SQFFD_OK);
+    ws = xmalloc(size);
     for (i = 0; i < CG_N; i++) {
         b[i] = cos(0.9 * i);
         x[i] = 0.0;
@@ -1410,7 +1432,7 @@ static void test_memory_track_short_workspace_no_frame(void)
     size_t size, done = 99;
     void *ws;
     if (!setup()) { free(models); return; }
-    size = sqffd_track_workspace_size(D.counts, FRAMES, &D.track);
+    CHECK_RESULT(sqffd_track_workspace_size(D.counts, FRAMES, &D.track, &size), SQFFD_OK);
     ws = xmalloc(size);
     CHECK_RESULT(sqffd_track(D.frames, D.counts, FRAMES, &D.track, models, NULL, &done, ws, size - 1),
                  SQFFD_ERROR_WORKSPACE_TOO_SMALL);
@@ -1445,14 +1467,14 @@ static void test_memory_output_arrays_exact(void)
     if (!setup()) return;
     /* distances: n per point; reverse: one per grid vertex */
     nv = grid_vertices(&D.model);
-    size = sqffd_model_distances_workspace_size(N_FIT, &D.model);
+    CHECK_RESULT(sqffd_model_distances_workspace_size(N_FIT, &D.model, &size), SQFFD_OK);
     ws = xmalloc(size);
     values = (double *)with_tail(N_FIT * sizeof(double));
     CHECK_RESULT(sqffd_model_distances(&D.model, D.es, N_FIT, values, NULL, ws, size), SQFFD_OK);
     CHECK_MSG(tail_intact(values, N_FIT * sizeof(double)), "sqffd_model_distances wrote past per_point[n]");
     free(values);
     free(ws);
-    size = sqffd_model_reverse_distances_workspace_size(N_FIT, &D.model);
+    CHECK_RESULT(sqffd_model_reverse_distances_workspace_size(N_FIT, &D.model, &size), SQFFD_OK);
     ws = xmalloc(size);
     values = (double *)with_tail(nv * sizeof(double));
     CHECK_RESULT(sqffd_model_reverse_distances(&D.model, D.es, N_FIT, values, NULL, ws, size), SQFFD_OK);
@@ -1470,7 +1492,7 @@ static void test_memory_output_arrays_exact(void)
     free(tri);
     /* iso points with room for half of them */
     io.level = 100.0;
-    size = sqffd_iso_workspace_size(&D.volume, &io);
+    CHECK_RESULT(sqffd_iso_workspace_size(&D.volume, &io, &size), SQFFD_OK);
     ws = xmalloc(size);
     CHECK_RESULT(sqffd_iso_points(&D.volume, &io, NULL, NULL, 0, &count, ws, size), SQFFD_OK);
     CHECK(count > 10);
@@ -1486,14 +1508,18 @@ static void test_memory_output_arrays_exact(void)
     free(normals);
     free(ws);
     /* kd-tree queries: k and capacity */
-    size = sqffd_kdtree_workspace_size(N_FIT);
+    CHECK_RESULT(sqffd_kdtree_workspace_size(N_FIT, &size), SQFFD_OK);
     ws = xmalloc(size);
     CHECK_RESULT(sqffd_kdtree_build(&tree, D.ed, N_FIT, ws, size), SQFFD_OK);
     idx = (size_t *)with_tail(7 * sizeof(size_t));
     dist2 = (double *)with_tail(7 * sizeof(double));
-    CHECK(sqffd_kdtree_knn(&tree, q, 7, idx, dist2) == 7);
+    got = 0;
+    CHECK_RESULT(sqffd_kdtree_knn(&tree, q, 7, idx, dist2, &got), SQFFD_OK);
+    CHECK(got == 7);
     CHECK(tail_intact(idx, 7 * sizeof(size_t)) && tail_intact(dist2, 7 * sizeof(double)));
-    CHECK(sqffd_kdtree_radius(&tree, q, 1e9, idx, dist2, 7) == N_FIT);
+    got = 0;
+    CHECK_RESULT(sqffd_kdtree_radius(&tree, q, 1e9, idx, dist2, 7, &got), SQFFD_OK);
+    CHECK(got == N_FIT);
     CHECK(tail_intact(idx, 7 * sizeof(size_t)) && tail_intact(dist2, 7 * sizeof(double)));
     free(idx);
     free(dist2);
@@ -1503,7 +1529,7 @@ static void test_memory_output_arrays_exact(void)
         double a[SVD_M * SVD_N], *u = (double *)with_tail(SVD_M * SVD_N * sizeof(double));
         double *s = (double *)with_tail(SVD_N * sizeof(double)), *v = (double *)with_tail(SVD_N * SVD_N * sizeof(double));
         svd_matrix(a);
-        size = sqffd_svd_workspace_size(SVD_M, SVD_N);
+        CHECK_RESULT(sqffd_svd_workspace_size(SVD_M, SVD_N, &size), SQFFD_OK);
         ws = xmalloc(size);
         CHECK_RESULT(sqffd_svd(a, SVD_M, SVD_N, u, s, v, ws, size), SQFFD_OK);
         CHECK(tail_intact(u, SVD_M * SVD_N * sizeof(double)) && tail_intact(s, SVD_N * sizeof(double)) &&
@@ -1516,7 +1542,7 @@ static void test_memory_output_arrays_exact(void)
         sqffd_fit_report *reports = (sqffd_fit_report *)with_tail(FRAMES * sizeof(sqffd_fit_report));
         sqffd_motion_outputs out;
         sqffd_motion_report rep;
-        size = sqffd_track_workspace_size(D.counts, FRAMES, &D.track);
+        CHECK_RESULT(sqffd_track_workspace_size(D.counts, FRAMES, &D.track, &size), SQFFD_OK);
         ws = xmalloc(size);
         CHECK_RESULT(sqffd_track(D.frames, D.counts, FRAMES, &D.track, models, reports, NULL, ws, size), SQFFD_OK);
         CHECK_MSG(tail_intact(models, FRAMES * sizeof(sqffd_model)) &&
@@ -1529,7 +1555,7 @@ static void test_memory_output_arrays_exact(void)
         out.excursion = (double *)with_tail(nv * sizeof(double));
         out.low_motion = (unsigned char *)with_tail(nv);
         out.segment = (unsigned char *)with_tail(nv);
-        size = sqffd_motion_workspace_size(models, FRAMES);
+        CHECK_RESULT(sqffd_motion_workspace_size(models, FRAMES, &size), SQFFD_OK);
         ws = xmalloc(size);
         CHECK_RESULT(sqffd_motion(models, FRAMES, NULL, &out, &rep, ws, size), SQFFD_OK);
         CHECK_MSG(tail_intact(out.volumes, FRAMES * sizeof(double)) &&

@@ -333,9 +333,12 @@ static void test_sq_iou(void)
 static sqffd_result fit_points(const double *pts, size_t n, const sqffd_sq_fit_options *o, sqffd_superquadric *sq,
                                sqffd_sq_fit_report *report)
 {
-    size_t size = sqffd_sq_fit_workspace_size(n, o);
-    void *work = malloc(size);
-    sqffd_result r = sqffd_sq_fit(pts, n, o, sq, report, work, size);
+    size_t size;
+    void *work;
+    sqffd_result r = sqffd_sq_fit_workspace_size(n, o, &size);
+    if (r != SQFFD_OK) return r;
+    work = malloc(size);
+    r = sqffd_sq_fit(pts, n, o, sq, report, work, size);
     free(work);
     return r;
 }
@@ -369,7 +372,7 @@ static void fit_statistics(int kind, int cases, size_t n, int robust, int resolu
     void *work;
     int c;
     o.robust = robust;
-    size = sqffd_sq_fit_workspace_size(n + n / 4 + 1, &o);
+    CHECK_RESULT(sqffd_sq_fit_workspace_size(n + n / 4 + 1, &o, &size), SQFFD_OK);
     work = malloc(size);
     for (c = 0; c < cases; c++) {
         sqffd_superquadric truth, fit;
@@ -612,9 +615,11 @@ static void test_sq_fit_no_collapse(void)
     enum { N = 1500 };
     double *pts = (double *)malloc(3 * N * sizeof *pts), *sub = (double *)malloc(3 * N * sizeof *sub);
     sqffd_sq_fit_options o = sqffd_sq_fit_options_default();
-    size_t size = sqffd_sq_fit_workspace_size(N, &o), i, d, k;
-    void *ws = malloc(size);
+    size_t size, i, d, k;
+    void *ws;
     int seed;
+    CHECK_RESULT(sqffd_sq_fit_workspace_size(N, &o, &size), SQFFD_OK);
+    ws = malloc(size);
     for (seed = 1; seed <= 3; seed++) {
         synth_hand(N, (uint64_t)seed, pts);
         for (d = 0; d < 6; d++) {
@@ -649,8 +654,10 @@ static void test_sq_fit_bad_input(void)
     sqffd_sq_fit_options o = sqffd_sq_fit_options_default();
     sqffd_superquadric truth, fit, untouched;
     double pts[3 * 200], bad[3 * 200];
-    size_t size = sqffd_sq_fit_workspace_size(200, NULL), i;
-    unsigned char *work = (unsigned char *)malloc(size + 64);
+    size_t size, i;
+    unsigned char *work;
+    CHECK_RESULT(sqffd_sq_fit_workspace_size(200, NULL, &size), SQFFD_OK);
+    work = (unsigned char *)malloc(size + 64);
     make_case(&rng, DATA_CLEAN, 200, &truth, pts);
     memset(&untouched, 0x5a, sizeof untouched);
     fit = untouched;
@@ -718,8 +725,9 @@ static void test_sq_fit_workspace(void)
     sqffd_superquadric truth, fit;
     double pts[3 * 1250];
     int variant;
-    size_t m = make_case(&rng, DATA_OUTLIERS, 1000, &truth, pts);
-    CHECK(sqffd_sq_fit_workspace_size((size_t)-1 / 2, NULL) == 0); /* not representable */
+    size_t m = make_case(&rng, DATA_OUTLIERS, 1000, &truth, pts), too_large = 1;
+    CHECK_RESULT(sqffd_sq_fit_workspace_size((size_t)-1 / 2, NULL, &too_large), SQFFD_ERROR_TOO_LARGE); /* not representable */
+    CHECK(too_large == 0);
     for (variant = 0; variant < 3; variant++) {
         sqffd_sq_fit_options o = sqffd_sq_fit_options_default();
         size_t size, k;
@@ -727,7 +735,7 @@ static void test_sq_fit_workspace(void)
         o.robust = variant == 1;
         o.optimizer = variant == 2 ? SQFFD_SQ_OPTIMIZER_CG : SQFFD_SQ_OPTIMIZER_LM;
         if (variant == 2) m = 300; /* keep the CG quick */
-        size = sqffd_sq_fit_workspace_size(m, &o);
+        CHECK_RESULT(sqffd_sq_fit_workspace_size(m, &o, &size), SQFFD_OK);
         CHECK(size > 0);
         block = (unsigned char *)malloc(size + 64 + 1);
         memset(block, 0xab, size + 64 + 1);

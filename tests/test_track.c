@@ -57,10 +57,12 @@ static void free_sequence(sequence *s)
 static sqffd_result run_track(const sequence *s, const sqffd_track_options *o, sqffd_model *models,
                               sqffd_fit_report *reports, size_t *done)
 {
-    size_t size = sqffd_track_workspace_size(s->counts, s->frames, o);
-    void *work = xmalloc(size);
-    sqffd_result r = sqffd_track((const double *const *)s->points, s->counts, s->frames, o, models, reports, done,
-                                 work, size);
+    size_t size;
+    void *work;
+    sqffd_result r = sqffd_track_workspace_size(s->counts, s->frames, o, &size);
+    if (r != SQFFD_OK) return r;
+    work = xmalloc(size);
+    r = sqffd_track((const double *const *)s->points, s->counts, s->frames, o, models, reports, done, work, size);
     free(work);
     return r;
 }
@@ -68,9 +70,12 @@ static sqffd_result run_track(const sequence *s, const sqffd_track_options *o, s
 static sqffd_result run_motion(const sqffd_model *models, size_t frames, const sqffd_motion_options *o,
                                const sqffd_motion_outputs *out, sqffd_motion_report *rep)
 {
-    size_t size = sqffd_motion_workspace_size(models, frames);
-    void *work = xmalloc(size);
-    sqffd_result r = sqffd_motion(models, frames, o, out, rep, work, size);
+    size_t size;
+    void *work;
+    sqffd_result r = sqffd_motion_workspace_size(models, frames, &size);
+    if (r != SQFFD_OK) return r;
+    work = xmalloc(size);
+    r = sqffd_motion(models, frames, o, out, rep, work, size);
     free(work);
     return r;
 }
@@ -92,11 +97,11 @@ static void test_track_prepared_system(void)
     int robust, k;
     phantom_lv_frame(&p, 0.0, N, 0.01, 11, ed, NULL);
     phantom_lv_frame(&p, 0.5, N, 0.01, 12, es, NULL);
-    ws = sqffd_fit_workspace_size(N, &o);
+    CHECK_RESULT(sqffd_fit_workspace_size(N, &o, &ws), SQFFD_OK);
     work = xmalloc(ws);
     CHECK_RESULT(sqffd_fit(ed, N, &o, &fitted, NULL, work, ws), SQFFD_OK);
     free(work);
-    size = sqffd_ffd_system_size(&fitted);
+    CHECK_RESULT(sqffd_ffd_system_size(&fitted, &size), SQFFD_OK);
     CHECK(size > 0);
     memory = xmalloc(size);
     CHECK_RESULT(sqffd_ffd_system_init(&sys, &fitted, &o, memory, size - 1), SQFFD_ERROR_WORKSPACE_TOO_SMALL);
@@ -105,11 +110,11 @@ static void test_track_prepared_system(void)
         o.sq.robust = robust;
         for (k = 0; k < 2; k++) { /* the same system twice: it is read-only */
             a = b = fitted;
-            ws = sqffd_fit_ffd_workspace_size(N, &a, &o);
+            CHECK_RESULT(sqffd_fit_ffd_workspace_size(N, &a, &o, &ws), SQFFD_OK);
             work = xmalloc(ws);
             CHECK_RESULT(sqffd_fit_ffd(es, N, &o, &a, &rep, work, ws), SQFFD_OK);
             free(work);
-            ws = sqffd_fit_prepared_workspace_size(N, &sys, &o);
+            CHECK_RESULT(sqffd_fit_prepared_workspace_size(N, &sys, &o, &ws), SQFFD_OK);
             work = xmalloc(ws);
             CHECK_RESULT(sqffd_fit_prepared(&sys, es, N, &o, &b, &rep2, work, ws - 1), SQFFD_ERROR_WORKSPACE_TOO_SMALL);
             CHECK_RESULT(sqffd_fit_prepared(&sys, es, N, &o, &b, &rep2, work, ws), SQFFD_OK);
@@ -124,7 +129,7 @@ static void test_track_prepared_system(void)
     /* the options' alpha is the system's: changing it in the run changes nothing */
     o.alpha = 1.0;
     b = fitted;
-    ws = sqffd_fit_prepared_workspace_size(N, &sys, &o);
+    CHECK_RESULT(sqffd_fit_prepared_workspace_size(N, &sys, &o, &ws), SQFFD_OK);
     work = xmalloc(ws);
     CHECK_RESULT(sqffd_fit_prepared(&sys, es, N, &o, &b, &rep2, work, ws), SQFFD_OK);
     o.alpha = sys.alpha;
@@ -177,7 +182,7 @@ static void test_track_bad_input(void)
     sqffd_model clean[F], models[F];
     sqffd_fit_report reports[F];
     double saved, *keep;
-    size_t done = 99, size, counts[F];
+    size_t done = 99, size, bad_size, counts[F];
     void *work;
     int frames = 0, t;
     o.frame_iterations = 5;
@@ -210,7 +215,7 @@ static void test_track_bad_input(void)
     CHECK(done == 3);
     s.points[3] = keep;
     /* no frames, NULL arrays, bad options, a zero count */
-    size = sqffd_track_workspace_size(s.counts, F, &o);
+    CHECK_RESULT(sqffd_track_workspace_size(s.counts, F, &o, &size), SQFFD_OK);
     work = xmalloc(size);
     CHECK_RESULT(sqffd_track((const double *const *)s.points, s.counts, 0, &o, models, reports, &done, work, size),
                  SQFFD_ERROR_INVALID_ARGUMENT);
@@ -226,8 +231,12 @@ static void test_track_bad_input(void)
     o.frame_iterations = 5;
     memcpy(counts, s.counts, sizeof counts);
     counts[1] = 0;
-    CHECK(sqffd_track_workspace_size(counts, F, &o) == 0);
-    CHECK(sqffd_track_workspace_size(s.counts, 0, &o) == 0);
+    bad_size = 1;
+    CHECK_RESULT(sqffd_track_workspace_size(counts, F, &o, &bad_size), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK(bad_size == 0);
+    bad_size = 1;
+    CHECK_RESULT(sqffd_track_workspace_size(s.counts, 0, &o, &bad_size), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK(bad_size == 0);
     /* a workspace one byte short: refused before any frame */
     CHECK_RESULT(sqffd_track((const double *const *)s.points, s.counts, F, &o, models, reports, &done, work, size - 1),
                  SQFFD_ERROR_WORKSPACE_TOO_SMALL);
@@ -237,8 +246,9 @@ static void test_track_bad_input(void)
     counts[0] = N;
     counts[3] = N;
     {
-        size_t small = sqffd_track_workspace_size(counts, 1, &o); /* frame 0's need only */
-        size_t big = sqffd_track_workspace_size(s.counts, F, &o);
+        size_t small, big;
+        CHECK_RESULT(sqffd_track_workspace_size(counts, 1, &o, &small), SQFFD_OK); /* frame 0's need only */
+        CHECK_RESULT(sqffd_track_workspace_size(s.counts, F, &o, &big), SQFFD_OK);
         CHECK(big >= small);
     }
     /* cancelled at frame 2 by the progress callback */
@@ -274,8 +284,10 @@ static void test_track_identical_frames(void)
         counts[t] = N;
     }
     {
-        size_t size = sqffd_track_workspace_size(counts, F, &o);
-        void *work = xmalloc(size);
+        size_t size;
+        void *work;
+        CHECK_RESULT(sqffd_track_workspace_size(counts, F, &o, &size), SQFFD_OK);
+        work = xmalloc(size);
         CHECK_RESULT(sqffd_track((const double *const *)frames, counts, F, &o, models, reports, &done, work, size),
                      SQFFD_OK);
         free(work);
@@ -416,6 +428,7 @@ static void test_motion_geometry(void)
     CHECK_RESULT(run_motion(models, 2, &mo, NULL, &rep), SQFFD_ERROR_INVALID_ARGUMENT);
     CHECK_RESULT(sqffd_motion(models, 2, NULL, NULL, &rep, mesh, 16), SQFFD_ERROR_WORKSPACE_TOO_SMALL);
     CHECK_RESULT(run_motion(NULL, 2, NULL, NULL, &rep), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(sqffd_motion(NULL, 2, NULL, NULL, &rep, mesh, 16), SQFFD_ERROR_INVALID_ARGUMENT);
     free(traj);
     free(mesh);
     free(segment);

@@ -93,11 +93,14 @@ static sphere_volume make_sphere(sqffd_voxel_type t, const size_t dims[3], const
 
 static sqffd_result iso(const sqffd_volume *v, const sqffd_iso_options *o, double **points, double **normals, size_t *count)
 {
-    size_t size = sqffd_iso_workspace_size(v, o), n = 0;
-    void *work = malloc(size ? size : 1);
-    sqffd_result r = sqffd_iso_points(v, o, NULL, NULL, 0, &n, work, size);
+    size_t size, n = 0;
+    void *work;
+    sqffd_result r = sqffd_iso_workspace_size(v, o, &size);
     *points = *normals = NULL;
     *count = 0;
+    if (r != SQFFD_OK) return r;
+    work = malloc(size ? size : 1);
+    r = sqffd_iso_points(v, o, NULL, NULL, 0, &n, work, size);
     if (r == SQFFD_OK) {
         *points = (double *)malloc(3 * n * sizeof(double) + 1);
         *normals = (double *)malloc(3 * n * sizeof(double) + 1);
@@ -156,7 +159,7 @@ static void test_iso_sphere(void)
         CHECK_MSG(worst <= 0.01, "type %d: a point %.4f of a voxel off", (int)types[t], worst);
         CHECK(grazing_wrong == 0 && wrong_side * 200 < n);
         /* a short capacity: the first points, and not one more written */
-        size = sqffd_iso_workspace_size(&s.v, &o);
+        CHECK_RESULT(sqffd_iso_workspace_size(&s.v, &o, &size), SQFFD_OK);
         work = malloc(size);
         part = (double *)malloc((3 * 100 + 3) * sizeof(double));
         part[300] = part[301] = part[302] = 12345.0;
@@ -342,7 +345,7 @@ static void test_volume_bad_input(void)
     float data[8] = {0, 1, 0, 1, 0, 1, 0, 1}, nan_data[8];
     double lo, hi, pts[3 * 8], out[9];
     sqffd_volume v, bad;
-    size_t n = 99, i;
+    size_t n = 99, i, size;
     char work[4096];
     memset(&v, 0, sizeof v);
     v.data = data;
@@ -370,12 +373,16 @@ static void test_volume_bad_input(void)
     CHECK_RESULT(sqffd_iso_points(&bad, NULL, pts, NULL, 8, &n, work, sizeof work), SQFFD_ERROR_NON_FINITE);
     bad = v; bad.dims[0] = bad.dims[1] = bad.dims[2] = (size_t)1 << 31;
     CHECK_RESULT(sqffd_volume_range(&bad, &lo, &hi), SQFFD_ERROR_TOO_LARGE);
-    CHECK(sqffd_iso_workspace_size(&bad, NULL) == 0);
+    size = 1;
+    CHECK_RESULT(sqffd_iso_workspace_size(&bad, NULL, &size), SQFFD_ERROR_TOO_LARGE);
+    CHECK(size == 0);
     bad = v; bad.dims[0] = (size_t)1 << 20; bad.dims[1] = (size_t)1 << 12; bad.dims[2] = 2; /* 2^33 voxels: no components */
     {
         sqffd_iso_options o = sqffd_iso_options_default();
         o.largest_component = 1;
-        CHECK(sqffd_iso_workspace_size(&bad, &o) == 0);
+        size = 1;
+        CHECK_RESULT(sqffd_iso_workspace_size(&bad, &o, &size), SQFFD_ERROR_TOO_LARGE);
+        CHECK(size == 0);
     }
     CHECK_RESULT(sqffd_iso_points(&v, NULL, pts, NULL, 8, NULL, work, sizeof work), SQFFD_ERROR_INVALID_ARGUMENT);
     CHECK_RESULT(sqffd_iso_points(&v, NULL, NULL, NULL, 8, &n, work, sizeof work), SQFFD_ERROR_INVALID_ARGUMENT);
@@ -385,8 +392,11 @@ static void test_volume_bad_input(void)
     CHECK_RESULT(sqffd_iso_points(&bad, NULL, pts, NULL, 8, &n, work, sizeof work), SQFFD_OK);
     CHECK(n == 0);
     for (i = 0; i < 24; i++) pts[i] = (double)i;
-    sqffd_points_subsample(pts, 8, 3, out);
+    CHECK_RESULT(sqffd_points_subsample(pts, 8, 3, out), SQFFD_OK);
     CHECK(out[0] == 0.0 && out[3] == pts[3 * 2] && out[6] == pts[3 * 5]); /* points 0, 2, 5 of 8 */
+    CHECK_RESULT(sqffd_points_subsample(pts, 2, 3, out), SQFFD_ERROR_INVALID_ARGUMENT); /* k > n */
+    CHECK_RESULT(sqffd_points_subsample(NULL, 8, 3, out), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(sqffd_points_subsample(pts, 8, 3, NULL), SQFFD_ERROR_INVALID_ARGUMENT);
 }
 
 void suite_volume(void)
