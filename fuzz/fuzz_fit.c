@@ -1,6 +1,6 @@
-/* libFuzzer target: bytes -> a small point set -> kd-tree build and queries
-   (checked against brute force), superquadric fit and the whole model fit
-   with small limits, so each input takes milliseconds.
+/* libFuzzer target: bytes -> a small point set -> the superquadric fit and
+   the whole model fit with small limits, so each input takes milliseconds
+   (the kd-tree has its own target, fuzz_kdtree.c).
 
    Layout: byte 0 options (bit 0 robust, 1 no taper, 2 model -> data weight 1, 3 SVD
    solver, 4 paper's regularisation, 5 radial cost, 6 CG optimiser, 7 alpha 0),
@@ -35,42 +35,6 @@ static size_t decode_points(const uint8_t *data, size_t size, int raw, int shift
             }
     }
     return n;
-}
-
-/* kd-tree: nearest of every point and of shifted queries must match brute force. */
-static void fuzz_kdtree(const double *points, size_t n)
-{
-    size_t size, i, j;
-    void *work;
-    sqffd_kdtree tree;
-    if (sqffd_kdtree_workspace_size(n, &size) != SQFFD_OK) return;
-    work = malloc(size);
-    if (!work) return;
-    if (sqffd_kdtree_build(&tree, points, n, work, size) == SQFFD_OK) {
-        for (i = 0; i < n; i++) {
-            double q[3], best = HUGE_VAL, d2, knn_d2[4];
-            size_t knn_idx[4], got, nearest;
-            q[0] = points[3 * i] + 0.25;
-            q[1] = points[3 * i + 1] - 0.125;
-            q[2] = points[3 * ((i * 7) % n) + 2];
-            for (j = 0; j < n; j++) {
-                double d = sqffd__dist2_3(q, points + 3 * j);
-                if (d < best) best = d;
-            }
-            if (sqffd_kdtree_nearest(&tree, q, &nearest, &d2) != SQFFD_OK || nearest >= n) abort();
-            if (d2 != best && !(isinf(best) && isinf(d2))) abort();
-            if (sqffd_kdtree_knn(&tree, q, 4, knn_idx, knn_d2, &got) != SQFFD_OK) abort();
-            if (got != (n < 4 ? n : 4) || knn_d2[0] != d2) abort();
-            for (j = 1; j < got; j++)
-                if (knn_d2[j] < knn_d2[j - 1]) abort();
-            if (isfinite(d2)) {
-                size_t within = 0;
-                if (sqffd_kdtree_radius(&tree, q, sqrt(d2) * 1.5 + 1e-9, NULL, NULL, 0, &within) != SQFFD_OK) abort();
-                if (within < 1 && d2 < 1e300) abort();
-            }
-        }
-    }
-    free(work);
 }
 
 static void fuzz_sq_fit(const double *points, size_t n, uint8_t flags)
@@ -145,7 +109,6 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     points = (double *)malloc(3 * MAX_POINTS * sizeof(double));
     if (!points) return 0;
     n = decode_points(data + 3, size - 3, encoding & 1, (encoding >> 1) & 15, points);
-    if (n > 0) fuzz_kdtree(points, n);
     fuzz_sq_fit(points, n, flags);
     fuzz_model_fit(points, n, flags, lattice);
     free(points);

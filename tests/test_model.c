@@ -3,6 +3,7 @@
    round trip, every byte flipped, truncation, other lattice builds). */
 #include "test.h"
 #include "../examples/sqffd_synth.h"
+#include "../examples/sqffd_phantom.h"
 #include <stdlib.h>
 #include <string.h>
 
@@ -361,6 +362,48 @@ static void test_model_other_lattice_build(void)
     CHECK(lattice6_round_trip(bytes, size, back, sizeof back) == SQFFD_ERROR_TOO_LARGE);
 }
 
+/* The header's failure rules for the fit. 1: errors found before the work
+   leave the model and the report as they were. 2: a cancel in the FFD stage
+   leaves a valid model (the last accepted iterate) and a report of the
+   iterations done. */
+static int cancel_ffd_at_three(void *user, int stage, int iteration, double error)
+{
+    (void)user; (void)error;
+    return stage == SQFFD_STAGE_FFD && iteration >= 3;
+}
+
+static void test_model_failure_rules(void)
+{
+    enum { N = 800 };
+    phantom_lv ph = phantom_lv_default();
+    sqffd_fit_options o = sqffd_fit_options_default(), bad;
+    sqffd_model m, before;
+    sqffd_fit_report rep, rep_before;
+    double *pts = (double *)malloc(3 * N * sizeof *pts);
+    size_t size = 0;
+    void *ws;
+    CHECK_RESULT(sqffd_fit_workspace_size(N, &o, &size), SQFFD_OK);
+    ws = malloc(size);
+    phantom_lv_sample(&ph, 0.0, N, pts);
+    memset(&m, 0x5A, sizeof m);
+    memset(&rep, 0x6B, sizeof rep);
+    before = m;
+    rep_before = rep;
+    CHECK_RESULT(sqffd_fit(pts, N, &o, &m, &rep, ws, size - 1), SQFFD_ERROR_WORKSPACE_TOO_SMALL);
+    bad = o; bad.alpha = -1.0;
+    CHECK_RESULT(sqffd_fit(pts, N, &bad, &m, &rep, ws, size), SQFFD_ERROR_INVALID_ARGUMENT);
+    pts[7] = NAN;
+    CHECK_RESULT(sqffd_fit(pts, N, &o, &m, &rep, ws, size), SQFFD_ERROR_NON_FINITE);
+    pts[7] = 0.25;
+    CHECK(memcmp(&m, &before, sizeof m) == 0 && memcmp(&rep, &rep_before, sizeof rep) == 0);
+    o.progress = cancel_ffd_at_three;
+    CHECK_RESULT(sqffd_fit(pts, N, &o, &m, &rep, ws, size), SQFFD_ERROR_CANCELLED);
+    CHECK_RESULT(sqffd_model_validate(&m), SQFFD_OK);
+    CHECK_MSG(rep.iterations == 3 && rep.history_count == 3, "iterations %d, history %d", rep.iterations, rep.history_count);
+    free(ws);
+    free(pts);
+}
+
 void suite_model(void)
 {
     RUN_TEST(test_model_validation);
@@ -370,4 +413,5 @@ void suite_model(void)
     RUN_TEST(test_model_load_every_byte_flipped);
     RUN_TEST(test_model_load_truncated_and_crafted);
     RUN_TEST(test_model_other_lattice_build);
+    RUN_TEST(test_model_failure_rules);
 }
