@@ -1078,7 +1078,7 @@ typedef struct sqffd_volume {
 
 /* Scaled value range of the finite voxels: INVALID_ARGUMENT (a bad view:
    NULL data, a zero dim or stride, an unknown type), NON_FINITE (affine or
-   scaling), TOO_LARGE (a voxel count beyond size_t), DEGENERATE (no finite
+   scaling, or an affine that takes a voxel's world coordinates past 1e300), TOO_LARGE (a voxel count beyond size_t), DEGENERATE (no finite
    voxel). Every function of this layer validates its view the same way. */
 SQFFD_DEF sqffd_result sqffd_volume_range(const sqffd_volume *volume, double *min, double *max);
 /* Otsu's threshold (the cut of a 256-bin histogram of the scaled values
@@ -5154,6 +5154,7 @@ static sqffd_result sqffd__fit_nearest_vertex(sqffd__fit_search *s, size_t i, co
     if (!sqffd__finite3(q)) return SQFFD_ERROR_NON_FINITE;
     count = sqffd__kd_query(&s->tree, q, HUGE_VAL, 0, near, d2,
                             s->anchor ? (SQFFD__FIT_KNN < s->tree.count ? SQFFD__FIT_KNN : s->tree.count) : 1);
+    if (count == 0) return SQFFD_ERROR_NON_FINITE; /* (a tree over the mesh always answers) */
     *nearest = near[0];
     if (s->anchor) {
         double rest = count == SQFFD__FIT_KNN ? sqrt(d2[count - 1]) : HUGE_VAL; /* the vertices not returned */
@@ -7386,6 +7387,12 @@ static sqffd_result sqffd__vol_check(const sqffd_volume *v, size_t *voxels)
     for (a = 0; a < 12; ++a)
         if (!isfinite(v->affine[a])) return SQFFD_ERROR_NON_FINITE;
     if (!isfinite(v->scale) || !isfinite(v->offset)) return SQFFD_ERROR_NON_FINITE;
+    for (a = 0; a < 3; ++a) { /* every voxel's world coordinates, and each term of them, stay far from overflow */
+        double reach = fabs(v->affine[4 * a + 3]);
+        int c;
+        for (c = 0; c < 3; ++c) reach += fabs(v->affine[4 * a + c]) * (double)(v->dims[c] - 1);
+        if (!(reach <= 1e300)) return SQFFD_ERROR_NON_FINITE;
+    }
     return SQFFD_OK;
 }
 

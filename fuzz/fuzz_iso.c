@@ -365,6 +365,12 @@ static void build_view(reader *r, built *out)
         for (a = 0; a < 12; a++)
             if (!isfinite(v->affine[a])) out->valid = 0;
         if (!isfinite(v->scale) || !isfinite(v->offset)) out->valid = 0;
+        for (a = 0; a < 3 && out->valid; a++) { /* world coordinates past 1e300 (the header's bound) */
+            long double reach = fabsl((long double)v->affine[4 * a + 3]);
+            int c;
+            for (c = 0; c < 3; c++) reach += fabsl((long double)v->affine[4 * a + c]) * (long double)(v->dims[c] - 1);
+            if (!(reach <= 1e300L)) out->valid = 0;
+        }
         if (!out->valid) out->expect = SQFFD_ERROR_NON_FINITE;
     }
 }

@@ -371,6 +371,10 @@ static void test_volume_bad_input(void)
     CHECK_RESULT(sqffd_volume_otsu(&bad, &lo), SQFFD_ERROR_INVALID_ARGUMENT);
     bad = v; bad.affine[3] = NAN;
     CHECK_RESULT(sqffd_iso_points(&bad, NULL, pts, NULL, 8, &n, work, sizeof work), SQFFD_ERROR_NON_FINITE);
+    bad = v; bad.affine[1] = 1e300; bad.affine[3] = 1e299; /* finite, but the world coordinates would overflow (fuzz_iso) */
+    CHECK_RESULT(sqffd_iso_points(&bad, NULL, pts, NULL, 8, &n, work, sizeof work), SQFFD_ERROR_NON_FINITE);
+    bad.affine[1] = 9e299 - 1e299; /* 8e299 + 1e299 = 9e299: within the bound */
+    CHECK_RESULT(sqffd_iso_points(&bad, NULL, pts, NULL, 8, &n, work, sizeof work), SQFFD_OK);
     bad = v; bad.dims[0] = bad.dims[1] = bad.dims[2] = (size_t)1 << 31;
     CHECK_RESULT(sqffd_volume_range(&bad, &lo, &hi), SQFFD_ERROR_TOO_LARGE);
     size = 1;
