@@ -7699,7 +7699,8 @@ SQFFD_DEF sqffd_result sqffd_iso_points(const sqffd_volume *volume, const sqffd_
                     }
                     if (found < capacity) {
                         double *out = points + 3 * found;
-                        t = (0.5 * o->level - 0.5 * here) / (0.5 * there - 0.5 * here); /* (halves: no overflow) */
+                        t = isfinite(there - here) ? (o->level - here) / (there - here) /* (|level - here| <= it) */
+                                                   : (0.5 * o->level - 0.5 * here) / (0.5 * there - 0.5 * here);
                         p[0] = (double)i + (d == 0 ? t : 0.0);
                         p[1] = (double)j + (d == 1 ? t : 0.0);
                         p[2] = (double)k + (d == 2 ? t : 0.0);
