@@ -7467,18 +7467,20 @@ SQFFD_DEF sqffd_result sqffd_volume_range(const sqffd_volume *volume, double *mi
 SQFFD_DEF sqffd_result sqffd_volume_otsu(const sqffd_volume *volume, double *threshold)
 {
     uint32_t hist[SQFFD__VOL_BINS];
-    double lo = 0.0, hi = 0.0, half_span, cut, total = 0.0, sum = 0.0, below = 0.0, below_sum = 0.0, best = -1.0;
+    double lo = 0.0, hi = 0.0, span, cut, total = 0.0, sum = 0.0, below = 0.0, below_sum = 0.0, best = -1.0;
     size_t first = 0, last = 0;
-    int b;
+    int b, halved;
     sqffd_result res = sqffd_volume_range(volume, &lo, &hi);
     if (res != SQFFD_OK) return res;
     if (!threshold) return SQFFD_ERROR_INVALID_ARGUMENT;
     if (!(hi > lo)) return SQFFD_ERROR_DEGENERATE;
     memset(hist, 0, sizeof hist);
-    half_span = 0.5 * hi - 0.5 * lo; /* (halves: finite for any finite range, and not 0 for a denormal one) */
+    span = hi - lo;
+    halved = !isfinite(span); /* a range wider than DBL_MAX: in halves (not always: half a denormal is 0) */
+    if (halved) span = 0.5 * hi - 0.5 * lo;
     SQFFD__VOL_EACH(volume, x, {
         if (isfinite(x)) {
-            double f = (0.5 * x - 0.5 * lo) / half_span * SQFFD__VOL_BINS;
+            double f = (halved ? 0.5 * x - 0.5 * lo : x - lo) / span * SQFFD__VOL_BINS;
             b = !(f >= 0.0) ? 0 : f >= SQFFD__VOL_BINS ? SQFFD__VOL_BINS - 1 : (int)f;
             if (hist[b] < UINT32_MAX) ++hist[b]; /* (beyond 2^32 - 1 voxels in a bin it saturates) */
         }
@@ -7502,7 +7504,7 @@ SQFFD_DEF sqffd_result sqffd_volume_otsu(const sqffd_volume *volume, double *thr
     }
     if (best < 0.0) return SQFFD_ERROR_DEGENERATE; /* one value only */
     cut = (0.5 * (double)(first + last) + 1.0) / SQFFD__VOL_BINS; /* of the range */
-    *threshold = lo + half_span * cut + half_span * cut;
+    *threshold = halved ? lo + span * cut + span * cut : lo + span * cut;
     return SQFFD_OK;
 }
 

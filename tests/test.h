@@ -13,6 +13,8 @@ void test_fail(const char *file, int line, const char *fmt, ...)
     __attribute__((format(printf, 3, 4)))
 #endif
     ;
+/* malloc that never returns NULL (the runner stops: a test cannot go on). */
+void *test_malloc(size_t size);
 /* Run one test case: it fails when any check inside it failed. */
 void test_run(const char *name, void (*fn)(void));
 

@@ -38,16 +38,6 @@ static const size_t offsets[] = {0, 1, 3, 7, 8, 15};
 static const unsigned char fills[] = {0x00, 0xFF, 0x5A, 0x7F, 0xC3, 0x81}; /* 0x7F..: NaN bits as doubles */
 #define N_OFFSETS (sizeof offsets / sizeof offsets[0])
 
-static void *xmalloc(size_t size)
-{
-    void *p = malloc(size ? size : 1);
-    if (!p) {
-        fprintf(stderr, "out of memory\n");
-        exit(2);
-    }
-    return p;
-}
-
 /* ---- hashing outputs bit for bit (FNV-1a), field by field ---------------- */
 
 #define HASH0 14695981039346656037ull
@@ -129,7 +119,7 @@ static sqffd_result run_fit_malloc(const double *pts, size_t n, const sqffd_fit_
     void *ws;
     sqffd_result r = sqffd_fit_workspace_size(n, o, &size);
     if (r != SQFFD_OK) return r;
-    ws = xmalloc(size);
+    ws = test_malloc(size);
     r = sqffd_fit(pts, n, o, m, NULL, ws, size);
     free(ws);
     return r;
@@ -159,7 +149,7 @@ static int setup(void)
     D.track.frame_iterations = 2;
     CHECK_RESULT(run_fit_malloc(D.ed, N_FIT, &D.fit, &D.model), SQFFD_OK);
     CHECK_RESULT(sqffd_track_workspace_size(D.counts, FRAMES, &D.track, &size), SQFFD_OK);
-    ws = xmalloc(size);
+    ws = test_malloc(size);
     CHECK_RESULT(sqffd_track(D.frames, D.counts, FRAMES, &D.track, D.tracked, NULL, NULL, ws, size), SQFFD_OK);
     free(ws);
     /* a ball of radius 4.5 voxels and a lone speck, values 0 / 200 */
@@ -211,7 +201,7 @@ static void check_workspace(const mem_op *op)
     size_t k, size = op->size;
     CHECK_MSG(size > 0, "%s: _workspace_size() is 0", op->name);
     if (!size) return;
-    raw = (unsigned char *)xmalloc(size + 2 * GUARD + 32);
+    raw = (unsigned char *)test_malloc(size + 2 * GUARD + 32);
     base = raw + (16 - (uintptr_t)raw % 16) % 16;
     for (k = 0; k < N_OFFSETS; k++) {
         unsigned char *ws = base + GUARD + offsets[k];
@@ -484,7 +474,7 @@ static uint64_t system_digest(void *c)
     sqffd_result r;
     x->use.system = &x->system;
     CHECK_RESULT(sqffd_fit_prepared_workspace_size(x->use.n, &x->system, x->use.opt, &size), SQFFD_OK);
-    ws = xmalloc(size);
+    ws = test_malloc(size);
     r = fit_prepared_run(&x->use, ws, size);
     free(ws);
     CHECK_MSG(r == SQFFD_OK, "sqffd_fit_prepared on a system prepared at an odd address: %s", sqffd_result_string(r));
@@ -576,6 +566,23 @@ static uint64_t iso_digest(void *c)
     return hash_bytes(hash_bytes(h, x->points, 3 * k * sizeof(double)), x->normals, 3 * k * sizeof(double));
 }
 
+/* Every output array of sqffd_motion for FRAMES frames of nv vertices. */
+static void motion_outputs_alloc(sqffd_motion_outputs *out, size_t nv)
+{
+    out->volumes = (double *)test_malloc(FRAMES * sizeof(double));
+    out->trajectories = (double *)test_malloc(3 * FRAMES * nv * sizeof(double));
+    out->displacement = (double *)test_malloc(nv * sizeof(double));
+    out->excursion = (double *)test_malloc(nv * sizeof(double));
+    out->low_motion = (unsigned char *)test_malloc(nv);
+    out->segment = (unsigned char *)test_malloc(nv);
+}
+
+static void motion_outputs_free(sqffd_motion_outputs *out)
+{
+    free(out->volumes); free(out->trajectories); free(out->displacement); free(out->excursion);
+    free(out->low_motion); free(out->segment);
+}
+
 static size_t grid_vertices(const sqffd_model *m)
 {
     size_t nv = 0, nt = 0;
@@ -586,7 +593,7 @@ static size_t grid_vertices(const sqffd_model *m)
 /* The digest of op with writable inputs (ctx as given). */
 static uint64_t rw_digest(const mem_op *op)
 {
-    void *ws = xmalloc(op->size);
+    void *ws = test_malloc(op->size);
     sqffd_result r = op->run(op->ctx, ws, op->size);
     uint64_t h = r == SQFFD_OK && op->digest ? op->digest(op->ctx) : 0;
     free(ws);
@@ -721,7 +728,7 @@ static void test_memory_distances_exact_workspace(void)
     c.points = D.es;
     c.n = N_FIT;
     c.m = grid_vertices(&D.model);
-    c.values = (double *)xmalloc((c.n > c.m ? c.n : c.m) * sizeof(double));
+    c.values = (double *)test_malloc((c.n > c.m ? c.n : c.m) * sizeof(double));
     op.name = "sqffd_model_distances"; op.run = dist_run; op.digest = dist_digest; op.ctx = &c;
     CHECK_RESULT(sqffd_model_distances_workspace_size(N_FIT, &D.model, &op.size), SQFFD_OK);
     check_workspace(&op);
@@ -752,7 +759,7 @@ static void test_memory_prepared_exact_workspace(void)
     check_workspace(&op);
     /* a run against a system */
     CHECK_RESULT(sqffd_ffd_system_size(&D.model, &size), SQFFD_OK);
-    memory = xmalloc(size);
+    memory = test_malloc(size);
     CHECK_RESULT(sqffd_ffd_system_init(&sys, &D.model, &D.fit, memory, size), SQFFD_OK);
     c.points = D.es;
     c.n = N_FIT;
@@ -767,7 +774,7 @@ static void test_memory_prepared_exact_workspace(void)
 
 static void test_memory_track_motion_exact_workspace(void)
 {
-    track_ctx *t = (track_ctx *)xmalloc(sizeof *t);
+    track_ctx *t = (track_ctx *)test_malloc(sizeof *t);
     motion_ctx m;
     sqffd_motion_options mo = sqffd_motion_options_default();
     sqffd_motion_outputs out;
@@ -781,12 +788,7 @@ static void test_memory_track_motion_exact_workspace(void)
     CHECK_RESULT(sqffd_track_workspace_size(D.counts, FRAMES, &D.track, &op.size), SQFFD_OK);
     check_workspace(&op);
     nv = grid_vertices(&D.tracked[0]);
-    out.volumes = (double *)xmalloc(FRAMES * sizeof(double));
-    out.trajectories = (double *)xmalloc(3 * FRAMES * nv * sizeof(double));
-    out.displacement = (double *)xmalloc(nv * sizeof(double));
-    out.excursion = (double *)xmalloc(nv * sizeof(double));
-    out.low_motion = (unsigned char *)xmalloc(nv);
-    out.segment = (unsigned char *)xmalloc(nv);
+    motion_outputs_alloc(&out, nv);
     m.models = D.tracked;
     m.opt = &mo;
     m.out = &out;
@@ -794,8 +796,7 @@ static void test_memory_track_motion_exact_workspace(void)
     op.name = "sqffd_motion"; op.run = motion_run; op.digest = motion_digest; op.ctx = &m;
     CHECK_RESULT(sqffd_motion_workspace_size(D.tracked, FRAMES, &op.size), SQFFD_OK);
     check_workspace(&op);
-    free(out.volumes); free(out.trajectories); free(out.displacement); free(out.excursion);
-    free(out.low_motion); free(out.segment);
+    motion_outputs_free(&out);
     free(t);
 }
 
@@ -807,8 +808,8 @@ static void test_memory_iso_exact_workspace(void)
     int largest;
     if (!setup()) return;
     c.capacity = 2000;
-    c.points = (double *)xmalloc(3 * c.capacity * sizeof(double));
-    c.normals = (double *)xmalloc(3 * c.capacity * sizeof(double));
+    c.points = (double *)test_malloc(3 * c.capacity * sizeof(double));
+    c.normals = (double *)test_malloc(3 * c.capacity * sizeof(double));
     c.volume = &D.volume;
     c.opt = &o;
     o.level = 100.0;
@@ -902,7 +903,7 @@ static void ro_on_fault(int sig)
 static uint64_t ro_run(const mem_op *op)
 {
     struct sigaction sa, old_segv, old_bus;
-    void *ws = xmalloc(op->size);
+    void *ws = test_malloc(op->size);
     volatile uint64_t h = 0;
     volatile sqffd_result r = SQFFD_ERROR_INVALID_ARGUMENT;
     volatile int faulted = 0;
@@ -948,7 +949,7 @@ static void test_memory_read_only_inputs(void)
     fit_ctx fit;
     dist_ctx dist;
     system_ctx sys;
-    track_ctx *tr = (track_ctx *)xmalloc(sizeof *tr);
+    track_ctx *tr = (track_ctx *)test_malloc(sizeof *tr);
     motion_ctx mot;
     iso_ctx iso;
     mem_op op;
@@ -1041,7 +1042,7 @@ static void test_memory_read_only_inputs(void)
     dist.points = D.es;
     dist.n = N_FIT;
     dist.m = nv;
-    dist.values = (double *)xmalloc((N_FIT > nv ? N_FIT : nv) * sizeof(double));
+    dist.values = (double *)test_malloc((N_FIT > nv ? N_FIT : nv) * sizeof(double));
     op.name = "sqffd_model_distances"; op.run = dist_run; op.digest = dist_digest; op.ctx = &dist;
     CHECK_RESULT(sqffd_model_distances_workspace_size(N_FIT, &D.model, &op.size), SQFFD_OK);
     want = rw_digest(&op);
@@ -1110,12 +1111,7 @@ static void test_memory_read_only_inputs(void)
 
     /* motion: the models, the options, the outputs struct (its arrays are written) */
     nv = grid_vertices(&D.tracked[0]);
-    out.volumes = (double *)xmalloc(FRAMES * sizeof(double));
-    out.trajectories = (double *)xmalloc(3 * FRAMES * nv * sizeof(double));
-    out.displacement = (double *)xmalloc(nv * sizeof(double));
-    out.excursion = (double *)xmalloc(nv * sizeof(double));
-    out.low_motion = (unsigned char *)xmalloc(nv);
-    out.segment = (unsigned char *)xmalloc(nv);
+    motion_outputs_alloc(&out, nv);
     mot.models = D.tracked;
     mot.opt = &mo;
     mot.out = &out;
@@ -1127,15 +1123,14 @@ static void test_memory_read_only_inputs(void)
     mot.opt = (const sqffd_motion_options *)ro_copy(&b_motion, &mo, sizeof mo);
     mot.out = (const sqffd_motion_outputs *)ro_copy(&b_out, &out, sizeof out);
     CHECK(ro_run(&op) == want);
-    free(out.volumes); free(out.trajectories); free(out.displacement); free(out.excursion);
-    free(out.low_motion); free(out.segment);
+    motion_outputs_free(&out);
 
     /* iso points: the voxels, the view, the options */
     io.level = 100.0;
     io.largest_component = 1;
     iso.capacity = 2000;
-    iso.points = (double *)xmalloc(3 * iso.capacity * sizeof(double));
-    iso.normals = (double *)xmalloc(3 * iso.capacity * sizeof(double));
+    iso.points = (double *)test_malloc(3 * iso.capacity * sizeof(double));
+    iso.normals = (double *)test_malloc(3 * iso.capacity * sizeof(double));
     iso.volume = &D.volume;
     iso.opt = &io;
     op.name = "sqffd_iso_points"; op.run = iso_run; op.digest = iso_digest; op.ctx = &iso;
@@ -1181,8 +1176,8 @@ static void test_memory_fit_twice_bit_identical(void)
         o = D.fit;
         o.sq.robust = robust;
         CHECK_RESULT(sqffd_fit_workspace_size(N_FIT, &o, &size), SQFFD_OK);
-        w1 = (unsigned char *)xmalloc(size);
-        w2 = (unsigned char *)xmalloc(size + 3);
+        w1 = (unsigned char *)test_malloc(size);
+        w2 = (unsigned char *)test_malloc(size + 3);
         memset(w1, 0x00, size);
         memset(w2, 0xFF, size + 3);
         memset(&m1, 0x11, sizeof m1);
@@ -1205,7 +1200,7 @@ static void test_memory_fit_twice_bit_identical(void)
 
 static void test_memory_track_twice_bit_identical(void)
 {
-    track_ctx *a = (track_ctx *)xmalloc(sizeof *a), *b = (track_ctx *)xmalloc(sizeof *b);
+    track_ctx *a = (track_ctx *)test_malloc(sizeof *a), *b = (track_ctx *)test_malloc(sizeof *b);
     size_t size;
     void *ws;
     int t;
@@ -1214,7 +1209,7 @@ static void test_memory_track_twice_bit_identical(void)
     a->counts = b->counts = D.counts;
     a->opt = b->opt = &D.track;
     CHECK_RESULT(sqffd_track_workspace_size(D.counts, FRAMES, &D.track, &size), SQFFD_OK);
-    ws = xmalloc(size);
+    ws = test_malloc(size);
     memset(ws, 0x00, size);
     CHECK_RESULT(track_run(a, ws, size), SQFFD_OK);
     memset(ws, 0xFF, size);
@@ -1247,7 +1242,7 @@ static void test_memory_sq_fit_failure_writes_nothing(void)
     size_t size = 0, i;
     void *ws;
     CHECK_RESULT(sqffd_sq_fit_workspace_size(N_FIT, &o, &size), SQFFD_OK);
-    ws = xmalloc(size);
+    ws = test_malloc(size);
     if (!setup()) { free(ws); return; }
     memset(&sentinel_sq, 0x5A, sizeof sentinel_sq);
     memset(&sentinel_rep, 0x5A, sizeof sentinel_rep);
@@ -1302,13 +1297,13 @@ static int tree_is_zeroed(const sqffd_kdtree *t)
 static void test_memory_kdtree_failure_outputs(void)
 {
     enum { N = 300 };
-    double *p = (double *)xmalloc(3 * N * sizeof *p), *moved = (double *)xmalloc(3 * N * sizeof *moved);
+    double *p = (double *)test_malloc(3 * N * sizeof *p), *moved = (double *)test_malloc(3 * N * sizeof *moved);
     size_t size = 0, i;
     unsigned char *ws, *nodes_before;
     uint32_t *index_before;
     sqffd_kdtree tree, before;
     CHECK_RESULT(sqffd_kdtree_workspace_size(N, &size), SQFFD_OK);
-    ws = (unsigned char *)xmalloc(size);
+    ws = (unsigned char *)test_malloc(size);
     if (!setup()) { free(p); free(moved); free(ws); return; }
     memcpy(p, D.ed, 3 * 200 * sizeof *p);
     for (i = 200; i < N; i++) { p[3 * i] = 100.0; p[3 * i + 1] = 100.0; p[3 * i + 2] = 100.0; } /* a pile: one big leaf */
@@ -1330,8 +1325,8 @@ static void test_memory_kdtree_failure_outputs(void)
 #undef BUILD_FAILS
     CHECK_RESULT(sqffd_kdtree_build(&tree, p, N, ws, size), SQFFD_OK);
     before = tree;
-    index_before = (uint32_t *)xmalloc(N * sizeof *index_before);
-    nodes_before = (unsigned char *)xmalloc(tree.node_count * sizeof *tree.nodes);
+    index_before = (uint32_t *)test_malloc(N * sizeof *index_before);
+    nodes_before = (unsigned char *)test_malloc(tree.node_count * sizeof *tree.nodes);
     memcpy(index_before, tree.index, N * sizeof *index_before);
     memcpy(nodes_before, tree.nodes, tree.node_count * sizeof *tree.nodes);
     memcpy(moved, p, 3 * N * sizeof *moved);
@@ -1381,7 +1376,7 @@ static void test_memory_ncg_cancel_last_point(void)
     sqffd_ncg_options o = sqffd_ncg_options_default();
     int i, it = 0;
     CHECK_RESULT(sqffd_ncg_workspace_size(NCG_N, &size), SQFFD_OK);
-    ws = xmalloc(size);
+    ws = test_malloc(size);
     o.max_iterations = 200;
     o.tolerance = 1e-12;
     o.project = ncg_box;
@@ -1405,7 +1400,7 @@ static void test_memory_cg_limit_last_iterate(void)
     double b[CG_N], x[CG_N], y[CG_N], r2 = 0.0, b2 = 0.0, rel = -1.0;
     int i, it = 0;
     CHECK_RESULT(sqffd_cg_workspace_size(CG_N, &size), SQFFD_OK);
-    ws = xmalloc(size);
+    ws = test_malloc(size);
     for (i = 0; i < CG_N; i++) {
         b[i] = cos(0.9 * i);
         x[i] = 0.0;
@@ -1428,12 +1423,12 @@ static void test_memory_cg_limit_last_iterate(void)
    frame", so frames_done = 0 frames fitted. */
 static void test_memory_track_short_workspace_no_frame(void)
 {
-    sqffd_model *models = (sqffd_model *)xmalloc(FRAMES * sizeof *models);
+    sqffd_model *models = (sqffd_model *)test_malloc(FRAMES * sizeof *models);
     size_t size, done = 99;
     void *ws;
     if (!setup()) { free(models); return; }
     CHECK_RESULT(sqffd_track_workspace_size(D.counts, FRAMES, &D.track, &size), SQFFD_OK);
-    ws = xmalloc(size);
+    ws = test_malloc(size);
     CHECK_RESULT(sqffd_track(D.frames, D.counts, FRAMES, &D.track, models, NULL, &done, ws, size - 1),
                  SQFFD_ERROR_WORKSPACE_TOO_SMALL);
     CHECK_MSG(done == 0, "frames_done %zu", done);
@@ -1449,7 +1444,7 @@ static int tail_intact(const void *array, size_t bytes)
 
 static void *with_tail(size_t bytes)
 {
-    unsigned char *p = (unsigned char *)xmalloc(bytes + GUARD);
+    unsigned char *p = (unsigned char *)test_malloc(bytes + GUARD);
     memset(p, CANARY, bytes + GUARD);
     return p;
 }
@@ -1468,14 +1463,14 @@ static void test_memory_output_arrays_exact(void)
     /* distances: n per point; reverse: one per grid vertex */
     nv = grid_vertices(&D.model);
     CHECK_RESULT(sqffd_model_distances_workspace_size(N_FIT, &D.model, &size), SQFFD_OK);
-    ws = xmalloc(size);
+    ws = test_malloc(size);
     values = (double *)with_tail(N_FIT * sizeof(double));
     CHECK_RESULT(sqffd_model_distances(&D.model, D.es, N_FIT, values, NULL, ws, size), SQFFD_OK);
     CHECK_MSG(tail_intact(values, N_FIT * sizeof(double)), "sqffd_model_distances wrote past per_point[n]");
     free(values);
     free(ws);
     CHECK_RESULT(sqffd_model_reverse_distances_workspace_size(N_FIT, &D.model, &size), SQFFD_OK);
-    ws = xmalloc(size);
+    ws = test_malloc(size);
     values = (double *)with_tail(nv * sizeof(double));
     CHECK_RESULT(sqffd_model_reverse_distances(&D.model, D.es, N_FIT, values, NULL, ws, size), SQFFD_OK);
     CHECK_MSG(tail_intact(values, nv * sizeof(double)), "sqffd_model_reverse_distances wrote past per_vertex[M]");
@@ -1493,7 +1488,7 @@ static void test_memory_output_arrays_exact(void)
     /* iso points with room for half of them */
     io.level = 100.0;
     CHECK_RESULT(sqffd_iso_workspace_size(&D.volume, &io, &size), SQFFD_OK);
-    ws = xmalloc(size);
+    ws = test_malloc(size);
     CHECK_RESULT(sqffd_iso_points(&D.volume, &io, NULL, NULL, 0, &count, ws, size), SQFFD_OK);
     CHECK(count > 10);
     k = count / 2;
@@ -1509,7 +1504,7 @@ static void test_memory_output_arrays_exact(void)
     free(ws);
     /* kd-tree queries: k and capacity */
     CHECK_RESULT(sqffd_kdtree_workspace_size(N_FIT, &size), SQFFD_OK);
-    ws = xmalloc(size);
+    ws = test_malloc(size);
     CHECK_RESULT(sqffd_kdtree_build(&tree, D.ed, N_FIT, ws, size), SQFFD_OK);
     idx = (size_t *)with_tail(7 * sizeof(size_t));
     dist2 = (double *)with_tail(7 * sizeof(double));
@@ -1530,7 +1525,7 @@ static void test_memory_output_arrays_exact(void)
         double *s = (double *)with_tail(SVD_N * sizeof(double)), *v = (double *)with_tail(SVD_N * SVD_N * sizeof(double));
         svd_matrix(a);
         CHECK_RESULT(sqffd_svd_workspace_size(SVD_M, SVD_N, &size), SQFFD_OK);
-        ws = xmalloc(size);
+        ws = test_malloc(size);
         CHECK_RESULT(sqffd_svd(a, SVD_M, SVD_N, u, s, v, ws, size), SQFFD_OK);
         CHECK(tail_intact(u, SVD_M * SVD_N * sizeof(double)) && tail_intact(s, SVD_N * sizeof(double)) &&
               tail_intact(v, SVD_N * SVD_N * sizeof(double)));
@@ -1543,7 +1538,7 @@ static void test_memory_output_arrays_exact(void)
         sqffd_motion_outputs out;
         sqffd_motion_report rep;
         CHECK_RESULT(sqffd_track_workspace_size(D.counts, FRAMES, &D.track, &size), SQFFD_OK);
-        ws = xmalloc(size);
+        ws = test_malloc(size);
         CHECK_RESULT(sqffd_track(D.frames, D.counts, FRAMES, &D.track, models, reports, NULL, ws, size), SQFFD_OK);
         CHECK_MSG(tail_intact(models, FRAMES * sizeof(sqffd_model)) &&
                   tail_intact(reports, FRAMES * sizeof(sqffd_fit_report)), "sqffd_track wrote past its frames");
@@ -1556,7 +1551,7 @@ static void test_memory_output_arrays_exact(void)
         out.low_motion = (unsigned char *)with_tail(nv);
         out.segment = (unsigned char *)with_tail(nv);
         CHECK_RESULT(sqffd_motion_workspace_size(models, FRAMES, &size), SQFFD_OK);
-        ws = xmalloc(size);
+        ws = test_malloc(size);
         CHECK_RESULT(sqffd_motion(models, FRAMES, NULL, &out, &rep, ws, size), SQFFD_OK);
         CHECK_MSG(tail_intact(out.volumes, FRAMES * sizeof(double)) &&
                   tail_intact(out.trajectories, 3 * FRAMES * nv * sizeof(double)) &&

@@ -6,16 +6,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-static void *xmalloc(size_t size)
-{
-    void *p = malloc(size ? size : 1);
-    if (!p) {
-        fprintf(stderr, "out of memory\n");
-        exit(2);
-    }
-    return p;
-}
-
 /* A phantom sequence: frames point sets of n points, one cycle, noise x scale. */
 typedef struct sequence {
     size_t frames, n;
@@ -30,12 +20,12 @@ static sequence make_sequence(const phantom_lv *p, size_t frames, size_t n, doub
     size_t t;
     s.frames = frames;
     s.n = n;
-    s.points = (double **)xmalloc(frames * sizeof *s.points);
-    s.labels = (unsigned char **)xmalloc(frames * sizeof *s.labels);
-    s.counts = (size_t *)xmalloc(frames * sizeof *s.counts);
+    s.points = (double **)test_malloc(frames * sizeof *s.points);
+    s.labels = (unsigned char **)test_malloc(frames * sizeof *s.labels);
+    s.counts = (size_t *)test_malloc(frames * sizeof *s.counts);
     for (t = 0; t < frames; t++) {
-        s.points[t] = (double *)xmalloc(3 * n * sizeof(double));
-        s.labels[t] = (unsigned char *)xmalloc(n);
+        s.points[t] = (double *)test_malloc(3 * n * sizeof(double));
+        s.labels[t] = (unsigned char *)test_malloc(n);
         s.counts[t] = n;
         phantom_lv_frame(p, (double)t / (double)frames, n, noise, seed + t, s.points[t], s.labels[t]);
     }
@@ -61,7 +51,7 @@ static sqffd_result run_track(const sequence *s, const sqffd_track_options *o, s
     void *work;
     sqffd_result r = sqffd_track_workspace_size(s->counts, s->frames, o, &size);
     if (r != SQFFD_OK) return r;
-    work = xmalloc(size);
+    work = test_malloc(size);
     r = sqffd_track((const double *const *)s->points, s->counts, s->frames, o, models, reports, done, work, size);
     free(work);
     return r;
@@ -74,7 +64,7 @@ static sqffd_result run_motion(const sqffd_model *models, size_t frames, const s
     void *work;
     sqffd_result r = sqffd_motion_workspace_size(models, frames, &size);
     if (r != SQFFD_OK) return r;
-    work = xmalloc(size);
+    work = test_malloc(size);
     r = sqffd_motion(models, frames, o, out, rep, work, size);
     free(work);
     return r;
@@ -91,19 +81,19 @@ static void test_track_prepared_system(void)
     sqffd_fit_report rep, rep2;
     sqffd_model fitted, a, b;
     sqffd_ffd_system sys;
-    double *ed = (double *)xmalloc(3 * N * sizeof *ed), *es = (double *)xmalloc(3 * N * sizeof *es);
+    double *ed = (double *)test_malloc(3 * N * sizeof *ed), *es = (double *)test_malloc(3 * N * sizeof *es);
     size_t size, ws;
     void *memory, *work;
     int robust, k;
     phantom_lv_frame(&p, 0.0, N, 0.01, 11, ed, NULL);
     phantom_lv_frame(&p, 0.5, N, 0.01, 12, es, NULL);
     CHECK_RESULT(sqffd_fit_workspace_size(N, &o, &ws), SQFFD_OK);
-    work = xmalloc(ws);
+    work = test_malloc(ws);
     CHECK_RESULT(sqffd_fit(ed, N, &o, &fitted, NULL, work, ws), SQFFD_OK);
     free(work);
     CHECK_RESULT(sqffd_ffd_system_size(&fitted, &size), SQFFD_OK);
     CHECK(size > 0);
-    memory = xmalloc(size);
+    memory = test_malloc(size);
     CHECK_RESULT(sqffd_ffd_system_init(&sys, &fitted, &o, memory, size - 1), SQFFD_ERROR_WORKSPACE_TOO_SMALL);
     CHECK_RESULT(sqffd_ffd_system_init(&sys, &fitted, &o, memory, size), SQFFD_OK);
     for (robust = 0; robust < 2; robust++) {
@@ -111,11 +101,11 @@ static void test_track_prepared_system(void)
         for (k = 0; k < 2; k++) { /* the same system twice: it is read-only */
             a = b = fitted;
             CHECK_RESULT(sqffd_fit_ffd_workspace_size(N, &a, &o, &ws), SQFFD_OK);
-            work = xmalloc(ws);
+            work = test_malloc(ws);
             CHECK_RESULT(sqffd_fit_ffd(es, N, &o, &a, &rep, work, ws), SQFFD_OK);
             free(work);
             CHECK_RESULT(sqffd_fit_prepared_workspace_size(N, &sys, &o, &ws), SQFFD_OK);
-            work = xmalloc(ws);
+            work = test_malloc(ws);
             CHECK_RESULT(sqffd_fit_prepared(&sys, es, N, &o, &b, &rep2, work, ws - 1), SQFFD_ERROR_WORKSPACE_TOO_SMALL);
             CHECK_RESULT(sqffd_fit_prepared(&sys, es, N, &o, &b, &rep2, work, ws), SQFFD_OK);
             free(work);
@@ -130,7 +120,7 @@ static void test_track_prepared_system(void)
     o.alpha = 1.0;
     b = fitted;
     CHECK_RESULT(sqffd_fit_prepared_workspace_size(N, &sys, &o, &ws), SQFFD_OK);
-    work = xmalloc(ws);
+    work = test_malloc(ws);
     CHECK_RESULT(sqffd_fit_prepared(&sys, es, N, &o, &b, &rep2, work, ws), SQFFD_OK);
     o.alpha = sys.alpha;
     a = fitted;
@@ -205,7 +195,7 @@ static void test_track_bad_input(void)
     s.points[1][7] = saved;
     /* every point of frame 3 in one place */
     keep = s.points[3];
-    s.points[3] = (double *)xmalloc(3 * N * sizeof(double));
+    s.points[3] = (double *)test_malloc(3 * N * sizeof(double));
     for (t = 0; t < 3 * N; t++) s.points[3][t] = 1.0;
     CHECK_RESULT(run_track(&s, &o, models, reports, &done), SQFFD_ERROR_DEGENERATE);
     CHECK(done == 3);
@@ -216,7 +206,7 @@ static void test_track_bad_input(void)
     s.points[3] = keep;
     /* no frames, NULL arrays, bad options, a zero count */
     CHECK_RESULT(sqffd_track_workspace_size(s.counts, F, &o, &size), SQFFD_OK);
-    work = xmalloc(size);
+    work = test_malloc(size);
     CHECK_RESULT(sqffd_track((const double *const *)s.points, s.counts, 0, &o, models, reports, &done, work, size),
                  SQFFD_ERROR_INVALID_ARGUMENT);
     CHECK(done == 0);
@@ -287,14 +277,14 @@ static void test_track_identical_frames(void)
         size_t size;
         void *work;
         CHECK_RESULT(sqffd_track_workspace_size(counts, F, &o, &size), SQFFD_OK);
-        work = xmalloc(size);
+        work = test_malloc(size);
         CHECK_RESULT(sqffd_track((const double *const *)frames, counts, F, &o, models, reports, &done, work, size),
                      SQFFD_OK);
         free(work);
     }
     diagonal = reports[0].error.diagonal;
     m = (size_t)models[0].grid[0] * (size_t)models[0].grid[1] + 2;
-    traj = (double *)xmalloc(3 * m * F * sizeof *traj);
+    traj = (double *)test_malloc(3 * m * F * sizeof *traj);
     memset(&out, 0, sizeof out);
     out.volumes = volumes;
     out.trajectories = traj;
@@ -367,9 +357,9 @@ static void test_motion_geometry(void)
     mo.septum_direction[1] = 1.0;
     mo.septum_direction[2] = 0.3; /* (only the part across the axis counts) */
     m = (size_t)o.grid[0] * (size_t)o.grid[1] + 2;
-    traj = (double *)xmalloc(2 * 3 * m * sizeof *traj);
-    mesh = (double *)xmalloc(3 * m * sizeof *mesh);
-    segment = (unsigned char *)xmalloc(m);
+    traj = (double *)test_malloc(2 * 3 * m * sizeof *traj);
+    mesh = (double *)test_malloc(3 * m * sizeof *mesh);
+    segment = (unsigned char *)test_malloc(m);
     memset(&out, 0, sizeof out);
     out.volumes = volumes;
     out.trajectories = traj;
@@ -447,7 +437,7 @@ static void test_track_phantom(void)
     sequence s = make_sequence(&p, F, N, 0.01, 2026);
     sqffd_track_options o = sqffd_track_options_default();
     sqffd_motion_options mo = sqffd_motion_options_default();
-    sqffd_model *models = (sqffd_model *)xmalloc(F * sizeof *models);
+    sqffd_model *models = (sqffd_model *)test_malloc(F * sizeof *models);
     sqffd_fit_report reports[F];
     phantom_score score;
     size_t done;
