@@ -952,6 +952,8 @@ static inline int sqffd_export__json_model(sqffd_export__json *j, sqffd_model *m
         snprintf(path, sizeof path, "ffd.control[%llu]", (unsigned long long)i);
         if (sqffd_export__json_array_numbers(j, c - 1, path, 3, m->ffd.control[i])) return 1;
     }
+    res = sqffd_model_validate(m); /* the library's own rule, whatever the fields' checks above let through */
+    if (res != SQFFD_OK) return sqffd_io__fail(j->err, j->err_size, j->name, "the model: %s", sqffd_result_string(res));
     return 0;
 }
 

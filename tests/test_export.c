@@ -549,6 +549,7 @@ static void test_export_json_malformed(void)
         {"\"center\": [", "\"center\": [0 0, ", "expected ',' or ']' in an array, found '0'"},
         {"\"center\": [", "\"center\": [null, 0, 0], \"x\": [", "superquadric.center[0]: expected a number, found null"},
         {"\"edges\": [", "\"edges\": [0, 0, 0, 0, 0, 0, 0, 0, 0], \"x\": [", "ffd.edges: the box is flat"},
+        {"\"origin\": [", "\"origin\": [1e200, 0, 0], \"x\": [", "the model: superquadric, lattice or model out of range"},
         {"\"grid\": [", "\"grid\": [1, 2], \"grid\": [", "\"grid\" appears twice"},
         {"\"ffd\": {", "\"ffd\": [], \"x\": {", "ffd: expected an object, found an array"},
         {"\"origin\": [", "\"origin\": [1, ", "expected 3 numbers, found 4"},
