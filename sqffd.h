@@ -1,4 +1,4 @@
-/* sqffd.h - v0.5.0 - superquadric + free-form deformation shape fitting
+/* sqffd.h - v0.6.0 - superquadric + free-form deformation shape fitting
    Public domain or MIT, your choice (see the end of this file).
 
    Turns 3-D points into a compact global shape model: a superquadric with
@@ -82,9 +82,17 @@
        if (sqffd_fit(points, n, &opt, &model, &report, ws, size) == SQFFD_OK)
            printf("relative RMS error %g\n", report.error.rms_relative);
 
+   POINTS
+       Points go in as packed doubles (x0 y0 z0 x1 y1 z1 ...) or, through
+       every function's _view form, as a sqffd_points view read in place:
+       float or double x y z at any byte stride and alignment, e.g. inside a
+       scanner's records, without a copy. A float view gives the same
+       results, to the bit, as its values copied into doubles.
+
    API BY LAYER (each layer uses only the ones above it)
    Common
        sqffd_result_string             description of a result code
+       sqffd_points_packed/_strided    a view of points (float or double, any stride)
    1. Linear algebra
        sqffd_sym3_eigen                symmetric 3x3 eigen-decomposition (Jacobi)
        sqffd_cholesky_factor/_solve    Cholesky of an SPD matrix, and solve
@@ -95,8 +103,8 @@
        sqffd_ncg_minimize(_workspace_size), sqffd_ncg_options_default
                                        nonlinear conjugate gradient with bounds
    2. kd-tree
-       sqffd_kdtree_build(_workspace_size)   static 3-D tree over your points
-       sqffd_kdtree_refit              the same tree over moved points, O(n)
+       sqffd_kdtree_build(_view, _workspace_size)   static 3-D tree over your points
+       sqffd_kdtree_refit(_view)       the same tree over moved points, O(n)
        sqffd_kdtree_nearest / _knn / _radius queries
    3. Superquadric
        sqffd_sq_validate               a stored superquadric's check
@@ -106,7 +114,7 @@
        sqffd_sq_sample_grid            regular (eta, omega) sampling
        sqffd_sq_sample_uniform         near-equal-distance sampling
        sqffd_sq_volume, sqffd_sq_iou   volume (closed form), volumetric IoU
-       sqffd_sq_fit(_workspace_size), sqffd_sq_fit_options_default
+       sqffd_sq_fit(_view, _workspace_size), sqffd_sq_fit_options_default
                                        the fit (LM or the paper's CG, robust mode)
    4. Free-form deformation
        sqffd_ffd_init                  regular lattice in a box
@@ -114,22 +122,22 @@
        sqffd_ffd_local / _eval / _deform / _weights
                                        local coordinates, Bernstein evaluation
    5. Model fit
-       sqffd_fit(_workspace_size), sqffd_fit_options_default
+       sqffd_fit(_view, _workspace_size), sqffd_fit_options_default
                                        superquadric + FFD two-step fit
-       sqffd_model_init, sqffd_fit_ffd(_workspace_size)
+       sqffd_model_init, sqffd_fit_ffd(_view, _workspace_size)
                                        FFD stage alone from a given model
        sqffd_model_point, sqffd_model_mesh(_size)
                                        model surface point, triangle mesh
        sqffd_model_validate, sqffd_model_save(_size), sqffd_model_load
                                        a stored model's check; the byte form
-       sqffd_model_distances(_workspace_size)
+       sqffd_model_distances(_view, _workspace_size)
                                        data-to-model distances ("the error")
-       sqffd_model_reverse_distances(_workspace_size)
+       sqffd_model_reverse_distances(_view, _workspace_size)
                                        model-to-data distances
    6. Tracking and motion
-       sqffd_ffd_system_size/_init, sqffd_fit_prepared(_workspace_size)
+       sqffd_ffd_system_size/_init, sqffd_fit_prepared(_view, _workspace_size)
                                        the FFD stage against a system prepared once
-       sqffd_track(_workspace_size), sqffd_track_options_default
+       sqffd_track(_view, _workspace_size), sqffd_track_options_default
                                        a sequence: frame 0 whole, then frame to frame
        sqffd_motion(_workspace_size), sqffd_motion_options_default
                                        volumes, EF, motion, low-motion zones, 17 segments
@@ -139,9 +147,17 @@
                                        value range, automatic threshold
        sqffd_iso_points(_workspace_size), sqffd_iso_options_default
                                        iso-surface crossing points (largest component)
-       sqffd_points_subsample          an even subsample of points
+       sqffd_points_subsample(_view)   an even subsample of points
 
    CHANGES
+       0.6.0 (2026-11)  point views: sqffd_points (float or double x y z,
+                        any byte stride and alignment, read in place),
+                        sqffd_points_packed/_strided, and a _view form of
+                        every function taking points (kdtree_build, _refit,
+                        sq_fit, fit, fit_ffd, fit_prepared, track,
+                        model_distances, model_reverse_distances,
+                        points_subsample); breaking: sqffd_kdtree.points is
+                        a sqffd_points view (was const double *)
        0.5.0 (2026-11)  toward the 1.0 contract (breaking):
                         - every _workspace_size returns sqffd_result and the
                           size through a last size_t *size (was: size_t, 0
@@ -193,9 +209,9 @@
 #include <stdint.h>
 
 #define SQFFD_VERSION_MAJOR 0
-#define SQFFD_VERSION_MINOR 5
+#define SQFFD_VERSION_MINOR 6
 #define SQFFD_VERSION_PATCH 0
-#define SQFFD_VERSION_STRING "0.5.0"
+#define SQFFD_VERSION_STRING "0.6.0"
 
 #ifndef SQFFD_DEF
 #ifdef SQFFD_STATIC
@@ -250,6 +266,34 @@ typedef enum sqffd_stage {
 /* Called by long operations once per iteration; return non-zero to cancel
    (the operation then returns SQFFD_ERROR_CANCELLED). */
 typedef int (*sqffd_progress_fn)(void *user, int stage, int iteration, double error);
+
+/* Points as they lie in the caller's memory, read in place (never copied):
+   x, y and z consecutive scalars of one type, one point every `stride`
+   bytes from `xyz` (so xyz inside larger records, e.g. a scanner's
+   x y z intensity or PCL's x y z _ rgb, is read where it is), at any
+   alignment. Every function that takes points has a simple form over packed
+   doubles (x0 y0 z0 x1 y1 z1 ...) and a _view form over one of these; a
+   float coordinate is widened to double exactly, so a float view gives the
+   same results as its values copied into doubles. A view is refused with
+   INVALID_ARGUMENT (xyz NULL, an unknown type, a stride below 3 scalars)
+   or TOO_LARGE (its last byte beyond what a size_t can address). */
+typedef enum sqffd_scalar {
+    SQFFD_SCALAR_DOUBLE = 0,
+    SQFFD_SCALAR_FLOAT = 1
+} sqffd_scalar;
+
+typedef struct sqffd_points {
+    const void *xyz;   /* point 0's x; its y and z follow it */
+    size_t count;      /* number of points */
+    size_t stride;     /* bytes from one point's x to the next one's */
+    sqffd_scalar type; /* of x, y and z */
+} sqffd_points;
+
+/* The view of n packed double triples (stride 24). */
+SQFFD_DEF sqffd_points sqffd_points_packed(const double *xyz, size_t n);
+/* The view of n points of any layout (not checked here: the functions
+   taking the view check it). */
+SQFFD_DEF sqffd_points sqffd_points_strided(const void *xyz, size_t n, size_t stride, sqffd_scalar type);
 
 /* ======================================================================
    Layer 1: linear algebra
@@ -422,7 +466,7 @@ typedef struct sqffd_kdtree_node {
 #define SQFFD_KDTREE_LEAF 3u
 
 typedef struct sqffd_kdtree {
-    const double *points;    /* the caller's points (not copied) */
+    sqffd_points points;     /* the caller's points (read in place, not copied) */
     size_t count;            /* number of points */
     uint32_t *index;         /* permutation of 0..count-1; every leaf's points are one range */
     sqffd_kdtree_node *nodes;/* node 0 is the root */
@@ -444,6 +488,9 @@ SQFFD_DEF sqffd_result sqffd_kdtree_workspace_size(size_t n, size_t *size);
    on error *tree is zeroed. Deterministic: the same points give the same tree. */
 SQFFD_DEF sqffd_result sqffd_kdtree_build(sqffd_kdtree *tree, const double *points, size_t n,
                                           void *workspace, size_t workspace_size);
+/* The same over a view (read in place for the tree's life; n = its count). */
+SQFFD_DEF sqffd_result sqffd_kdtree_build_view(sqffd_kdtree *tree, sqffd_points points, void *workspace,
+                                               size_t workspace_size);
 
 /* Moves a built tree to new positions of its points: points[3i .. 3i+3) is
    point i as at the build (the array may be another one, of the same count).
@@ -456,6 +503,9 @@ SQFFD_DEF sqffd_result sqffd_kdtree_build(sqffd_kdtree *tree, const double *poin
    SQFFD_ERROR_DEGENERATE (a leaf of once-identical points that are no longer
    identical: rebuild instead); on error the tree is unchanged. */
 SQFFD_DEF sqffd_result sqffd_kdtree_refit(sqffd_kdtree *tree, const double *points);
+/* The same over a view, which must hold the tree's count of points
+   (INVALID_ARGUMENT otherwise). */
+SQFFD_DEF sqffd_result sqffd_kdtree_refit_view(sqffd_kdtree *tree, sqffd_points points);
 
 /* The queries. Each answers by increasing distance (indices into the
    caller's points, squared distances), and returns INVALID_ARGUMENT for a
@@ -615,6 +665,10 @@ SQFFD_DEF sqffd_result sqffd_sq_fit_workspace_size(size_t n, const sqffd_sq_fit_
 SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_sq_fit_options *options,
                                     sqffd_superquadric *sq, sqffd_sq_fit_report *report,
                                     void *workspace, size_t workspace_size);
+/* The same over a view (n = its count). */
+SQFFD_DEF sqffd_result sqffd_sq_fit_view(sqffd_points points, const sqffd_sq_fit_options *options,
+                                         sqffd_superquadric *sq, sqffd_sq_fit_report *report, void *workspace,
+                                         size_t workspace_size);
 /* ======================================================================
    Layer 4: free-form deformation (Bernstein lattice)
    ====================================================================== */
@@ -805,6 +859,9 @@ SQFFD_DEF sqffd_result sqffd_fit_workspace_size(size_t n, const sqffd_fit_option
 SQFFD_DEF sqffd_result sqffd_fit(const double *points, size_t n, const sqffd_fit_options *options,
                                  sqffd_model *model, sqffd_fit_report *report,
                                  void *workspace, size_t workspace_size);
+/* The same over a view (n = its count). */
+SQFFD_DEF sqffd_result sqffd_fit_view(sqffd_points points, const sqffd_fit_options *options, sqffd_model *model,
+                                      sqffd_fit_report *report, void *workspace, size_t workspace_size);
 
 /* A model around a given superquadric: the box, the regular lattice P0
    (options->lattice, box_margin) and the grid (options->grid); the model
@@ -818,6 +875,8 @@ SQFFD_DEF sqffd_result sqffd_fit_ffd_workspace_size(size_t n, const sqffd_model 
                                                     size_t *size);
 SQFFD_DEF sqffd_result sqffd_fit_ffd(const double *points, size_t n, const sqffd_fit_options *options, sqffd_model *model,
                                      sqffd_fit_report *report, void *workspace, size_t workspace_size);
+SQFFD_DEF sqffd_result sqffd_fit_ffd_view(sqffd_points points, const sqffd_fit_options *options, sqffd_model *model,
+                                          sqffd_fit_report *report, void *workspace, size_t workspace_size);
 
 /* The model surface point at (eta, omega). Checks the model as the per-point
    FFD functions check a lattice (the superquadric and the dims); NON_FINITE
@@ -864,6 +923,8 @@ SQFFD_DEF sqffd_result sqffd_model_distances_workspace_size(size_t n, const sqff
 SQFFD_DEF sqffd_result sqffd_model_distances(const sqffd_model *model, const double *points, size_t n,
                                              double *per_point, sqffd_distance_stats *stats,
                                              void *workspace, size_t workspace_size);
+SQFFD_DEF sqffd_result sqffd_model_distances_view(const sqffd_model *model, sqffd_points points, double *per_point,
+                                                  sqffd_distance_stats *stats, void *workspace, size_t workspace_size);
 /* Model-to-data: for each vertex of the model's grid mesh (in
    sqffd_model_mesh's order), the distance to the nearest data point
    (per_vertex may be NULL), statistics relative to the data's diagonal.
@@ -874,6 +935,9 @@ SQFFD_DEF sqffd_result sqffd_model_reverse_distances_workspace_size(size_t n, co
 SQFFD_DEF sqffd_result sqffd_model_reverse_distances(const sqffd_model *model, const double *points, size_t n,
                                                      double *per_vertex, sqffd_distance_stats *stats,
                                                      void *workspace, size_t workspace_size);
+SQFFD_DEF sqffd_result sqffd_model_reverse_distances_view(const sqffd_model *model, sqffd_points points,
+                                                          double *per_vertex, sqffd_distance_stats *stats,
+                                                          void *workspace, size_t workspace_size);
 
 /* ======================================================================
    Layer 6: tracking and motion
@@ -920,6 +984,9 @@ SQFFD_DEF sqffd_result sqffd_fit_prepared_workspace_size(size_t n, const sqffd_f
 SQFFD_DEF sqffd_result sqffd_fit_prepared(const sqffd_ffd_system *system, const double *points, size_t n,
                                           const sqffd_fit_options *options, sqffd_model *model,
                                           sqffd_fit_report *report, void *workspace, size_t workspace_size);
+SQFFD_DEF sqffd_result sqffd_fit_prepared_view(const sqffd_ffd_system *system, sqffd_points points,
+                                               const sqffd_fit_options *options, sqffd_model *model,
+                                               sqffd_fit_report *report, void *workspace, size_t workspace_size);
 
 /* Tracking a sequence (the paper's section 4.2). Frame 0 gets the whole fit
    (sqffd_fit). Every later frame keeps frame 0's superquadric, box, lattice
@@ -957,6 +1024,13 @@ SQFFD_DEF sqffd_result sqffd_track(const double *const *frames, const size_t *co
                                    const sqffd_track_options *options, sqffd_model *models,
                                    sqffd_fit_report *reports, size_t *frames_done,
                                    void *workspace, size_t workspace_size);
+/* The same over views, one per frame (the workspace's counts are their
+   counts; INVALID_ARGUMENT for NULL frames, a frame's bad view as in
+   sqffd_points). */
+SQFFD_DEF sqffd_result sqffd_track_view(const sqffd_points *frames, size_t frame_count,
+                                        const sqffd_track_options *options, sqffd_model *models,
+                                        sqffd_fit_report *reports, size_t *frames_done, void *workspace,
+                                        size_t workspace_size);
 
 /* Motion and function of a tracked left ventricle, from the frames' models
    (sqffd_track's; all with the same superquadric, lattice and grid). Per
@@ -1114,6 +1188,8 @@ SQFFD_DEF sqffd_result sqffd_iso_points(const sqffd_volume *volume, const sqffd_
 /* An even, deterministic subsample of k of n points (3 doubles each): point
    floor(i n / k) for i < k. INVALID_ARGUMENT for k > n or NULL arrays. */
 SQFFD_DEF sqffd_result sqffd_points_subsample(const double *points, size_t n, size_t k, double *out);
+/* The same from a view (n = its count), into packed doubles. */
+SQFFD_DEF sqffd_result sqffd_points_subsample_view(sqffd_points points, size_t k, double *out);
 
 #ifdef __cplusplus
 }
@@ -1235,6 +1311,46 @@ static int sqffd__finite3(const double *p)
     return isfinite(p[0]) && isfinite(p[1]) && isfinite(p[2]);
 }
 
+/* ---- Point views ---------------------------------------------------------- */
+
+SQFFD_DEF sqffd_points sqffd_points_strided(const void *xyz, size_t n, size_t stride, sqffd_scalar type)
+{
+    sqffd_points v;
+    v.xyz = xyz;
+    v.count = n;
+    v.stride = stride;
+    v.type = type;
+    return v;
+}
+
+SQFFD_DEF sqffd_points sqffd_points_packed(const double *xyz, size_t n)
+{
+    return sqffd_points_strided(xyz, n, 3 * sizeof(double), SQFFD_SCALAR_DOUBLE);
+}
+
+/* A view's own checks (its count is each function's to judge). */
+static sqffd_result sqffd__points_check(const sqffd_points *v)
+{
+    size_t scalar = v->type == SQFFD_SCALAR_FLOAT ? sizeof(float) : sizeof(double);
+    if (!v->xyz || (v->type != SQFFD_SCALAR_DOUBLE && v->type != SQFFD_SCALAR_FLOAT) || v->stride < 3 * scalar)
+        return SQFFD_ERROR_INVALID_ARGUMENT;
+    if (v->count > 1 && v->count - 1 > ((size_t)-1 - 3 * scalar) / v->stride) return SQFFD_ERROR_TOO_LARGE;
+    return SQFFD_OK;
+}
+
+/* Point i of a view, as doubles (memcpy: the records may be unaligned). */
+static void sqffd__points_get(const sqffd_points *v, size_t i, double p[3])
+{
+    const unsigned char *at = (const unsigned char *)v->xyz + i * v->stride;
+    if (v->type == SQFFD_SCALAR_FLOAT) {
+        float f[3];
+        memcpy(f, at, sizeof f);
+        p[0] = f[0]; p[1] = f[1]; p[2] = f[2];
+    } else {
+        memcpy(p, at, 3 * sizeof(double));
+    }
+}
+
 /* A stored superquadric's or lattice's numbers are at most this in
    magnitude, so that their squares and products stay far from overflow;
    data the fit takes, at most SQFFD__MAX_DATA, so that a fitted model
@@ -1250,10 +1366,10 @@ static int sqffd__bounded3(const double *p)
 
 /* An even, deterministic subsample of k of the n points (k <= n): point
    floor(i n / k), computed without forming i n, which could overflow. */
-static void sqffd__subsample(const double *points, size_t n, size_t k, double *out)
+static void sqffd__subsample(const sqffd_points *points, size_t k, double *out)
 {
-    size_t i;
-    for (i = 0; i < k; ++i) memcpy(out + 3 * i, points + 3 * (i * (n / k) + i * (n % k) / k), 3 * sizeof(double));
+    size_t i, n = points->count;
+    for (i = 0; i < k; ++i) sqffd__points_get(points, i * (n / k) + i * (n % k) / k, out + 3 * i);
 }
 
 /* ======================================================================
@@ -2232,12 +2348,24 @@ static void sqffd__kd_empty_box(double box[2][3])
 }
 
 /* Tight bounding box of the points index[begin..end). */
-static void sqffd__kd_bounds(const double *points, const uint32_t *index, size_t begin, size_t end,
+static void sqffd__kd_bounds(const sqffd_points *points, const uint32_t *index, size_t begin, size_t end,
                              double box[2][3])
 {
     size_t i;
+    double p[3];
     sqffd__kd_empty_box(box);
-    for (i = begin; i < end; i++) sqffd__kd_extend(box, points + 3 * (size_t)index[i]);
+    for (i = begin; i < end; i++) {
+        sqffd__points_get(points, index[i], p);
+        sqffd__kd_extend(box, p);
+    }
+}
+
+/* Coordinate `axis` of point i. */
+static double sqffd__kd_coord(const sqffd_points *points, uint32_t i, int axis)
+{
+    double p[3];
+    sqffd__points_get(points, i, p);
+    return p[axis];
 }
 
 /* Moves index[begin..end) so that position t holds the element of rank t
@@ -2245,7 +2373,7 @@ static void sqffd__kd_bounds(const double *points, const uint32_t *index, size_t
    Quickselect with Hoare partitions around a pivot at a pseudo-random
    position (a fixed xorshift sequence: deterministic, yet no ordering of the
    input makes it quadratic short of being built against that sequence). */
-static void sqffd__kd_select(const double *points, uint32_t *index, size_t begin, size_t end,
+static void sqffd__kd_select(const sqffd_points *points, uint32_t *index, size_t begin, size_t end,
                              size_t t, int axis)
 {
     ptrdiff_t lo = (ptrdiff_t)begin, hi = (ptrdiff_t)end - 1, target = (ptrdiff_t)t;
@@ -2253,12 +2381,12 @@ static void sqffd__kd_select(const double *points, uint32_t *index, size_t begin
     while (lo < hi) {
         double pivot;
         random ^= random << 13; random ^= random >> 17; random ^= random << 5;
-        pivot = points[3 * (size_t)index[lo + (ptrdiff_t)(random % (uint32_t)(hi - lo + 1))] + (size_t)axis];
+        pivot = sqffd__kd_coord(points, index[lo + (ptrdiff_t)(random % (uint32_t)(hi - lo + 1))], axis);
         ptrdiff_t i = lo, j = hi;
         while (i <= j) {
             uint32_t tmp;
-            while (points[3 * (size_t)index[i] + (size_t)axis] < pivot) i++;
-            while (points[3 * (size_t)index[j] + (size_t)axis] > pivot) j--;
+            while (sqffd__kd_coord(points, index[i], axis) < pivot) i++;
+            while (sqffd__kd_coord(points, index[j], axis) > pivot) j--;
             if (i > j) break;
             tmp = index[i]; index[i] = index[j]; index[j] = tmp;
             i++; j--;
@@ -2274,7 +2402,7 @@ static void sqffd__kd_select(const double *points, uint32_t *index, size_t begin
    middle of the box (or the median), moved where needed so both children get
    MIN_CHILD points. Returns the size of the low part; fills both children's
    tight boxes. */
-static size_t sqffd__kd_split(const double *points, uint32_t *index, const sqffd__kd_pending *node,
+static size_t sqffd__kd_split(const sqffd_points *points, uint32_t *index, const sqffd__kd_pending *node,
                               int axis, int median, double low_box[2][3], double high_box[2][3])
 {
     size_t count = node->end - node->begin, low_count = count / 2;
@@ -2288,7 +2416,7 @@ static size_t sqffd__kd_split(const double *points, uint32_t *index, const sqffd
             uint32_t p = index[i];
             index[i] = index[k];
             index[k] = p;
-            k += (size_t)(points[3 * (size_t)p + (size_t)axis] < cut);
+            k += (size_t)(sqffd__kd_coord(points, p, axis) < cut);
         }
         low_count = k - node->begin;
         by_rank = low_count < SQFFD__KD_MIN_CHILD || count - low_count < SQFFD__KD_MIN_CHILD;
@@ -2300,18 +2428,21 @@ static size_t sqffd__kd_split(const double *points, uint32_t *index, const sqffd
     return low_count;
 }
 
-SQFFD_DEF sqffd_result sqffd_kdtree_build(sqffd_kdtree *tree, const double *points, size_t n,
-                                          void *workspace, size_t workspace_size)
+SQFFD_DEF sqffd_result sqffd_kdtree_build_view(sqffd_kdtree *tree, sqffd_points points, void *workspace,
+                                               size_t workspace_size)
 {
     sqffd__arena a;
     uint32_t *index;
     sqffd_kdtree_node *nodes;
     sqffd__kd_pending *stack;
     void *scratch;
-    size_t top = 0, node_count = 0, i;
+    size_t top = 0, node_count = 0, i, n = points.count;
+    sqffd_result r;
 
     if (tree) memset(tree, 0, sizeof *tree);
-    if (!tree || !points || n == 0) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if (!tree || n == 0) return SQFFD_ERROR_INVALID_ARGUMENT;
+    r = sqffd__points_check(&points);
+    if (r != SQFFD_OK) return r;
     if (n > (size_t)UINT32_MAX) return SQFFD_ERROR_TOO_LARGE;
     sqffd__arena_init(&a, workspace, workspace_size);
     sqffd__kd_layout(&a, n, &index, &nodes, &scratch);
@@ -2320,8 +2451,10 @@ SQFFD_DEF sqffd_result sqffd_kdtree_build(sqffd_kdtree *tree, const double *poin
 
     sqffd__kd_empty_box(stack[0].box);
     for (i = 0; i < n; i++) {
-        if (!sqffd__finite3(points + 3 * i)) return SQFFD_ERROR_NON_FINITE;
-        sqffd__kd_extend(stack[0].box, points + 3 * i);
+        double p[3];
+        sqffd__points_get(&points, i, p);
+        if (!sqffd__finite3(p)) return SQFFD_ERROR_NON_FINITE;
+        sqffd__kd_extend(stack[0].box, p);
         index[i] = (uint32_t)i;
     }
     stack[0].begin = 0;
@@ -2355,7 +2488,7 @@ SQFFD_DEF sqffd_result sqffd_kdtree_build(sqffd_kdtree *tree, const double *poin
            median, whose subtree needs only ceil(log2(count)) more levels. */
         median = cur.depth + 1 + sqffd__kd_log2_ceil(count) > SQFFD_KDTREE_MAX_DEPTH;
         SQFFD_ASSERT(top + 2 <= SQFFD_KDTREE_MAX_DEPTH + 1);
-        low_count = sqffd__kd_split(points, index, &cur, axis, median, stack[top + 1].box, stack[top].box);
+        low_count = sqffd__kd_split(&points, index, &cur, axis, median, stack[top + 1].box, stack[top].box);
         node->axis = (uint32_t)axis;
         node->u.split.low = stack[top + 1].box[1][axis];
         node->u.split.high = stack[top].box[0][axis]; /* high_child is set when that child is built */
@@ -2379,25 +2512,36 @@ SQFFD_DEF sqffd_result sqffd_kdtree_build(sqffd_kdtree *tree, const double *poin
     return SQFFD_OK;
 }
 
+SQFFD_DEF sqffd_result sqffd_kdtree_build(sqffd_kdtree *tree, const double *points, size_t n,
+                                          void *workspace, size_t workspace_size)
+{
+    return sqffd_kdtree_build_view(tree, sqffd_points_packed(points, n), workspace, workspace_size);
+}
+
 /* Refit, in reverse node order: preorder numbers every node before its low
    subtree and that before its high subtree, so walking backwards finishes
    both subtrees of a node before it, and a stack of their boxes (the low
    child's on top) suffices. */
-SQFFD_DEF sqffd_result sqffd_kdtree_refit(sqffd_kdtree *tree, const double *points)
+SQFFD_DEF sqffd_result sqffd_kdtree_refit_view(sqffd_kdtree *tree, sqffd_points points)
 {
     sqffd__kd_box *stack;
     size_t top = 0, i, k;
-    if (!tree || !tree->nodes || !tree->scratch || !points) return SQFFD_ERROR_INVALID_ARGUMENT;
+    double p[3], first[3];
+    sqffd_result r;
+    if (!tree || !tree->nodes || !tree->scratch || points.count != tree->count) return SQFFD_ERROR_INVALID_ARGUMENT;
+    r = sqffd__points_check(&points);
+    if (r != SQFFD_OK) return r;
     stack = (sqffd__kd_box *)tree->scratch;
-    for (i = 0; i < tree->count; i++)
-        if (!sqffd__finite3(points + 3 * i)) return SQFFD_ERROR_NON_FINITE;
+    for (i = 0; i < tree->count; i++) {
+        sqffd__points_get(&points, i, p);
+        if (!sqffd__finite3(p)) return SQFFD_ERROR_NON_FINITE;
+    }
     for (i = 0; i < tree->node_count; i++) { /* the scan's shortcut for big leaves needs them identical */
         const sqffd_kdtree_node *n = &tree->nodes[i];
-        const double *first;
         if (n->axis != SQFFD_KDTREE_LEAF || n->u.leaf.end - n->u.leaf.begin <= SQFFD__KD_LEAF_SIZE) continue;
-        first = points + 3 * (size_t)tree->index[n->u.leaf.begin];
+        sqffd__points_get(&points, tree->index[n->u.leaf.begin], first);
         for (k = n->u.leaf.begin + 1; k < n->u.leaf.end; k++) {
-            const double *p = points + 3 * (size_t)tree->index[k];
+            sqffd__points_get(&points, tree->index[k], p);
             if (p[0] != first[0] || p[1] != first[1] || p[2] != first[2]) return SQFFD_ERROR_DEGENERATE;
         }
     }
@@ -2405,7 +2549,7 @@ SQFFD_DEF sqffd_result sqffd_kdtree_refit(sqffd_kdtree *tree, const double *poin
         sqffd_kdtree_node *n = &tree->nodes[i];
         if (n->axis == SQFFD_KDTREE_LEAF) {
             SQFFD_ASSERT(top <= SQFFD_KDTREE_MAX_DEPTH);
-            sqffd__kd_bounds(points, tree->index, n->u.leaf.begin, n->u.leaf.end, stack[top++]);
+            sqffd__kd_bounds(&points, tree->index, n->u.leaf.begin, n->u.leaf.end, stack[top++]);
             continue;
         }
         SQFFD_ASSERT(top >= 2);
@@ -2419,6 +2563,11 @@ SQFFD_DEF sqffd_result sqffd_kdtree_refit(sqffd_kdtree *tree, const double *poin
     memcpy(tree->bbox, stack[0], sizeof tree->bbox);
     tree->points = points;
     return SQFFD_OK;
+}
+
+SQFFD_DEF sqffd_result sqffd_kdtree_refit(sqffd_kdtree *tree, const double *points)
+{
+    return sqffd_kdtree_refit_view(tree, sqffd_points_packed(points, tree ? tree->count : 0));
 }
 
 /* ---- Queries --------------------------------------------------------------
@@ -2481,13 +2630,21 @@ static void sqffd__kd_offer(sqffd__kd_results *r, size_t point, double d)
 
 /* Scans a leaf. A leaf bigger than the leaf size holds identical points only:
    one distance serves them all, and offering stops once it cannot be kept. */
+static double sqffd__kd_dist2(const sqffd_points *points, uint32_t i, const double q[3])
+{
+    double p[3];
+    sqffd__points_get(points, i, p);
+    return sqffd__dist2_3(p, q);
+}
+
 static void sqffd__kd_scan_leaf(const sqffd_kdtree *tree, const sqffd_kdtree_node *leaf, const double q[3],
                                 sqffd__kd_results *r)
 {
+    const sqffd_points points = tree->points; /* (a copy the offers' stores cannot alias: kept in registers) */
     const uint32_t *index = tree->index;
     size_t i, begin = leaf->u.leaf.begin, end = leaf->u.leaf.end;
     if (end - begin > SQFFD__KD_LEAF_SIZE) {
-        double d = sqffd__dist2_3(tree->points + 3 * (size_t)index[begin], q);
+        double d = sqffd__kd_dist2(&points, index[begin], q);
         if (!(d <= r->reach)) return;
         r->within += end - begin;
         for (i = begin; i < end && (r->size < r->capacity || (r->size && d < r->dist2[r->worst])); i++)
@@ -2495,7 +2652,7 @@ static void sqffd__kd_scan_leaf(const sqffd_kdtree *tree, const sqffd_kdtree_nod
         return;
     }
     for (i = begin; i < end; i++) {
-        double d = sqffd__dist2_3(tree->points + 3 * (size_t)index[i], q);
+        double d = sqffd__kd_dist2(&points, index[i], q);
         if (d <= r->reach) {
             r->within++;
             sqffd__kd_offer(r, index[i], d);
@@ -3901,11 +4058,12 @@ static double sqffd__sq_closing_stats(const sqffd__sq_fit *fit, const sqffd_supe
     return sum_w > 0.0 ? sum / sum_w : 0.0;
 }
 
-/* Normalise: centroid, then scale to unit RMS radius (dividing by the
-   largest offset first so that squares cannot overflow). Returns 0 when all
-   points coincide. */
-static int sqffd__sq_normalize(const double *points, size_t n, double *out, double centroid[3], double *scale)
+/* Normalise in place: centroid, then scale to unit RMS radius (dividing by
+   the largest offset first so that squares cannot overflow). Returns 0 when
+   all points coincide. */
+static int sqffd__sq_normalize(double *points, size_t n, double centroid[3], double *scale)
 {
+    double *out = points;
     double big = 0.0, sum2 = 0.0;
     size_t i;
     int k;
@@ -4217,10 +4375,11 @@ static double sqffd__sq_rank(sqffd__sq_fit *fit, sqffd_superquadric *sq, const s
     return cost;
 }
 
-SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_sq_fit_options *options,
-                                    sqffd_superquadric *sq, sqffd_sq_fit_report *report,
-                                    void *workspace, size_t workspace_size)
+SQFFD_DEF sqffd_result sqffd_sq_fit_view(sqffd_points points, const sqffd_sq_fit_options *options,
+                                         sqffd_superquadric *sq, sqffd_sq_fit_report *report, void *workspace,
+                                         size_t workspace_size)
 {
+    size_t n = points.count;
     sqffd_sq_fit_options defaults = sqffd_sq_fit_options_default();
     const sqffd_sq_fit_options *o = options ? options : &defaults;
     size_t m_polish = n < SQFFD__SQ_POLISH ? n : SQFFD__SQ_POLISH, m_final = n < SQFFD__SQ_FINAL ? n : SQFFD__SQ_FINAL;
@@ -4234,17 +4393,22 @@ SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_
     sqffd__sq_mixture mix; /* robust mode's mixture */
     double centroid[3], scale, centre[3], cov[9], values[3], axes[9], best_cost = 0.0;
     const double *start_pts, *final_pts, *weights;
+    sqffd_points all, starts;
     double rms, mean_d2 = 0.0, final_cost = 0.0;
     int k, best_start = 0, converged = 0;
-    if (!points || !sq || !sqffd__sq_options_valid(o)) return SQFFD_ERROR_INVALID_ARGUMENT;
+    sqffd_result r = sqffd__points_check(&points);
+    if (r == SQFFD_OK && (!sq || !sqffd__sq_options_valid(o))) r = SQFFD_ERROR_INVALID_ARGUMENT;
+    if (r != SQFFD_OK) return r;
     if (n < SQFFD_SQ_FIT_MIN_POINTS) return SQFFD_ERROR_TOO_FEW_POINTS;
     sqffd__arena_init(&arena, workspace, workspace_size);
     sqffd__sq_fit_layout(&arena, n, o, &w);
     if (arena.overflow) return sqffd__arena_error(&arena);
     list = w.list;
-    for (i = 0; i < n; i++)
-        if (!sqffd__finite3(points + 3 * i)) return SQFFD_ERROR_NON_FINITE;
-    if (!sqffd__sq_normalize(points, n, w.points, centroid, &scale)) return SQFFD_ERROR_DEGENERATE;
+    for (i = 0; i < n; i++) { /* the points as doubles, normalised below */
+        sqffd__points_get(&points, i, w.points + 3 * i);
+        if (!sqffd__finite3(w.points + 3 * i)) return SQFFD_ERROR_NON_FINITE;
+    }
+    if (!sqffd__sq_normalize(w.points, n, centroid, &scale)) return SQFFD_ERROR_DEGENERATE;
     sqffd__sq_moments(w.points, n, centre, cov);
     sqffd_sym3_eigen(cov, values, axes);
     if (!(values[0] > SQFFD__SQ_FLAT_RATIO * values[2])) return SQFFD_ERROR_DEGENERATE; /* coplanar or collinear */
@@ -4276,10 +4440,11 @@ SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_
        small subsample, the best few are ranked on a larger one (polish),
        and the winner runs to convergence there, then on the final set (all
        points, or an even subsample of SQFFD__SQ_FINAL). */
-    sqffd__subsample(w.points, n, m_polish, w.polish);
+    all = sqffd_points_packed(w.points, n);
+    sqffd__subsample(&all, m_polish, w.polish);
     final_pts = w.points;
     if (m_final < n) {
-        sqffd__subsample(w.points, n, m_final, w.final);
+        sqffd__subsample(&all, m_final, w.final);
         final_pts = w.final;
     }
     start_pts = w.points;
@@ -4293,7 +4458,8 @@ SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_
     }
     memcpy(fit.cov, cov, sizeof cov);
     m_screen = m_start < SQFFD__SQ_SCREEN ? m_start : SQFFD__SQ_SCREEN;
-    sqffd__subsample(start_pts, m_start, m_screen, w.screen);
+    starts = sqffd_points_packed(start_pts, m_start);
+    sqffd__subsample(&starts, m_screen, w.screen);
     sqffd__sq_screen(&fit, start_pts, m_start, centre, values, axes, w.screen, m_screen, w.hist, list);
 
     sets.polish = w.polish;
@@ -4368,6 +4534,13 @@ SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_
     }
     return SQFFD_OK;
 }
+SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_sq_fit_options *options,
+                                    sqffd_superquadric *sq, sqffd_sq_fit_report *report,
+                                    void *workspace, size_t workspace_size)
+{
+    return sqffd_sq_fit_view(sqffd_points_packed(points, n), options, sq, report, workspace, workspace_size);
+}
+
 /* ======================================================================
    Layer 4: free-form deformation (Bernstein lattice)
    ====================================================================== */
@@ -5398,14 +5571,14 @@ static double sqffd__fit_moves(sqffd__fit_search *s, const double *x, const doub
 /* ---- statistics ---------------------------------------------------------- */
 
 /* Diagonal of the points' bounding box; NON_FINITE for NaN/Inf. */
-static sqffd_result sqffd__fit_diagonal(const double *points, size_t n, double *diagonal)
+static sqffd_result sqffd__fit_diagonal(const sqffd_points *points, double *diagonal)
 {
-    double lo[3], hi[3], d2 = 0.0;
+    double lo[3], hi[3], d2 = 0.0, p[3];
     size_t i;
     int a;
     for (a = 0; a < 3; ++a) { lo[a] = HUGE_VAL; hi[a] = -HUGE_VAL; }
-    for (i = 0; i < n; ++i) {
-        const double *p = points + 3 * i;
+    for (i = 0; i < points->count; ++i) {
+        sqffd__points_get(points, i, p);
         if (!sqffd__finite3(p)) return SQFFD_ERROR_NON_FINITE;
         for (a = 0; a < 3; ++a) {
             if (p[a] < lo[a]) lo[a] = p[a];
@@ -5465,23 +5638,25 @@ typedef struct sqffd__fit_step1 {
    20.8 -> 19.9 ms on the 6,000-point fit). */
 #define SQFFD__FIT_BATCH 8
 
-static sqffd_result sqffd__fit_pass(const double *points, size_t n, sqffd__fit_search *search, double diagonal,
+static sqffd_result sqffd__fit_pass(const sqffd_points *points, sqffd__fit_search *search, double diagonal,
                                     double *per_point, sqffd__fit_step1 *step1, sqffd_distance_stats *stats)
 {
     const double *x = search->x;
     double sum = 0.0, sum2 = 0.0, max = 0.0, energy = 0.0, nu2 = step1 ? step1->nu2 : 0.0;
     double *sums = step1 ? step1->sums : NULL;
-    size_t first, j;
+    size_t first, j, n = points->count;
     int k;
     for (first = 0; first < n; first += SQFFD__FIT_BATCH) {
         size_t count = n - first < SQFFD__FIT_BATCH ? n - first : SQFFD__FIT_BATCH, tri[SQFFD__FIT_BATCH][3];
-        double w[SQFFD__FIT_BATCH][3], dist2[SQFFD__FIT_BATCH];
+        double w[SQFFD__FIT_BATCH][3], dist2[SQFFD__FIT_BATCH], data[SQFFD__FIT_BATCH][3];
         for (j = 0; j < count; ++j) {
-            sqffd_result res = sqffd__fit_closest(search, first + j, points + 3 * (first + j), dist2 + j, tri[j], w[j]);
+            sqffd_result res;
+            sqffd__points_get(points, first + j, data[j]);
+            res = sqffd__fit_closest(search, first + j, data[j], dist2 + j, tri[j], w[j]);
             if (res != SQFFD_OK) return res;
         }
         for (j = 0; j < count; ++j) {
-            const double *q = points + 3 * (first + j), *wj = w[j];
+            const double *q = data[j], *wj = w[j];
             double d = sqrt(dist2[j]), robust = nu2 > 0.0 ? exp(-dist2[j] / nu2) : 1.0;
             energy += nu2 > 0.0 ? nu2 * (1.0 - robust) : dist2[j];
             sum += d; sum2 += dist2[j];
@@ -5795,18 +5970,18 @@ SQFFD_DEF sqffd_result sqffd_model_reverse_distances_workspace_size(size_t n, co
 /* Shared by both directions: validates, lays out and samples the model mesh;
    the tree's workspace is for the mesh vertices (forward) or the data
    (reverse). */
-static sqffd_result sqffd__fit_distances_setup(const sqffd_model *model, const double *points, size_t n, int reverse,
+static sqffd_result sqffd__fit_distances_setup(const sqffd_model *model, const sqffd_points *points, int reverse,
                                               void *workspace, size_t workspace_size, sqffd__fit_mesh_work *w,
                                               double *diagonal)
 {
     sqffd__arena a;
-    size_t m;
-    sqffd_result r;
-    if (!model || !points) return SQFFD_ERROR_INVALID_ARGUMENT;
-    r = sqffd_model_validate(model);
+    size_t m, n = points->count;
+    sqffd_result r = sqffd__points_check(points);
+    if (r == SQFFD_OK && !model) r = SQFFD_ERROR_INVALID_ARGUMENT;
+    if (r == SQFFD_OK) r = sqffd_model_validate(model);
     if (r != SQFFD_OK) return r;
     if (n == 0) return SQFFD_ERROR_TOO_FEW_POINTS;
-    r = sqffd__fit_diagonal(points, n, diagonal);
+    r = sqffd__fit_diagonal(points, diagonal);
     if (r != SQFFD_OK) return r;
     m = sqffd__fit_grid_count(model->grid);
     sqffd__arena_init(&a, workspace, workspace_size);
@@ -5817,32 +5992,39 @@ static sqffd_result sqffd__fit_distances_setup(const sqffd_model *model, const d
     return SQFFD_OK;
 }
 
-SQFFD_DEF sqffd_result sqffd_model_distances(const sqffd_model *model, const double *points, size_t n,
-                                             double *per_point, sqffd_distance_stats *stats,
-                                             void *workspace, size_t workspace_size)
+SQFFD_DEF sqffd_result sqffd_model_distances_view(const sqffd_model *model, sqffd_points points, double *per_point,
+                                                  sqffd_distance_stats *stats, void *workspace, size_t workspace_size)
 {
     sqffd__fit_search search;
     sqffd__fit_mesh_work w;
     sqffd_distance_stats s;
     double diagonal = 0.0;
-    sqffd_result r = sqffd__fit_distances_setup(model, points, n, 0, workspace, workspace_size, &w, &diagonal);
+    sqffd_result r = sqffd__fit_distances_setup(model, &points, 0, workspace, workspace_size, &w, &diagonal);
     if (r != SQFFD_OK) return r;
     sqffd__fit_search_init(&search, w.x, model->grid, w.rings, w.tree_ws, w.tree_size, &w.bvh);
-    r = sqffd__fit_pass(points, n, &search, diagonal, per_point, NULL, &s);
+    r = sqffd__fit_pass(&points, &search, diagonal, per_point, NULL, &s);
     if (r == SQFFD_OK && stats) *stats = s;
     return r;
 }
 
-SQFFD_DEF sqffd_result sqffd_model_reverse_distances(const sqffd_model *model, const double *points, size_t n,
-                                                     double *per_vertex, sqffd_distance_stats *stats,
-                                                     void *workspace, size_t workspace_size)
+SQFFD_DEF sqffd_result sqffd_model_distances(const sqffd_model *model, const double *points, size_t n,
+                                             double *per_point, sqffd_distance_stats *stats,
+                                             void *workspace, size_t workspace_size)
+{
+    return sqffd_model_distances_view(model, sqffd_points_packed(points, n), per_point, stats, workspace,
+                                      workspace_size);
+}
+
+SQFFD_DEF sqffd_result sqffd_model_reverse_distances_view(const sqffd_model *model, sqffd_points points,
+                                                          double *per_vertex, sqffd_distance_stats *stats,
+                                                          void *workspace, size_t workspace_size)
 {
     sqffd_kdtree tree;
     sqffd__fit_mesh_work w;
     double diagonal = 0.0, sum = 0.0, sum2 = 0.0, max = 0.0;
     size_t v, m;
-    sqffd_result r = sqffd__fit_distances_setup(model, points, n, 1, workspace, workspace_size, &w, &diagonal);
-    if (r == SQFFD_OK) r = sqffd_kdtree_build(&tree, points, n, w.tree_ws, w.tree_size);
+    sqffd_result r = sqffd__fit_distances_setup(model, &points, 1, workspace, workspace_size, &w, &diagonal);
+    if (r == SQFFD_OK) r = sqffd_kdtree_build_view(&tree, points, w.tree_ws, w.tree_size);
     if (r != SQFFD_OK) return r;
     m = sqffd__fit_grid_count(model->grid);
     for (v = 0; v < m; ++v) {
@@ -5857,6 +6039,14 @@ SQFFD_DEF sqffd_result sqffd_model_reverse_distances(const sqffd_model *model, c
     }
     if (stats) sqffd__fit_stats(sum, sum2, max, m, diagonal, stats);
     return SQFFD_OK;
+}
+
+SQFFD_DEF sqffd_result sqffd_model_reverse_distances(const sqffd_model *model, const double *points, size_t n,
+                                                     double *per_vertex, sqffd_distance_stats *stats,
+                                                     void *workspace, size_t workspace_size)
+{
+    return sqffd_model_reverse_distances_view(model, sqffd_points_packed(points, n), per_vertex, stats, workspace,
+                                              workspace_size);
 }
 
 /* ---- options and the box ------------------------------------------------- */
@@ -6381,7 +6571,6 @@ static size_t sqffd__fit_holding(const int grid[2])
    the nearest of all. Else a fresh query. */
 static size_t sqffd__fit_nearest_data(const sqffd_kdtree *tree, sqffd__fit_work *w, const double y[3], size_t v)
 {
-    const double *points = tree->points;
     uint32_t *near = w->data_near + SQFFD__FIT_DATA_KNN * v;
     size_t found[SQFFD__FIT_DATA_KNN], count, k, best;
     double d2[SQFFD__FIT_DATA_KNN], best2;
@@ -6389,9 +6578,9 @@ static size_t sqffd__fit_nearest_data(const sqffd_kdtree *tree, sqffd__fit_work 
     if (near[0] != UINT32_MAX) {
         double reach = w->data_far[v] - sqrt(sqffd__dist2_3(y, w->data_at + 3 * v));
         best = near[0];
-        best2 = limit = sqffd__dist2_3(y, points + 3 * (size_t)near[0]);
+        best2 = limit = sqffd__kd_dist2(&tree->points, near[0], y);
         for (k = 1; k < SQFFD__FIT_DATA_KNN && near[k] != UINT32_MAX; ++k) {
-            double e = sqffd__dist2_3(y, points + 3 * (size_t)near[k]);
+            double e = sqffd__kd_dist2(&tree->points, near[k], y);
             if (e < best2) { best2 = e; best = near[k]; }
             limit = e > limit ? e : limit;
         }
@@ -6416,11 +6605,11 @@ static size_t sqffd__fit_nearest_data(const sqffd_kdtree *tree, sqffd__fit_work 
    cannot be higher; should rounding make even that rise, the loop ends on
    the accepted ones. The first and the last pass are exact; rep->sq_error
    receives the error of the starting model. */
-static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double diagonal, const sqffd_fit_options *o,
+static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagonal, const sqffd_fit_options *o,
                                        const sqffd__fit_system *s, const sqffd_kdtree *data_tree, sqffd__fit_work *w,
                                        int exact_start, sqffd_model *model, sqffd_fit_report *rep)
 {
-    size_t m = s->count, l = s->lattice, size = 3 * l, v, p, i;
+    size_t m = s->count, l = s->lattice, size = 3 * l, v, p, i, n = points->count;
     double *x = w->x, *next = w->next, *t = w->target, *control = &model->ffd.control[0][0], *swap;
     size_t holding = sqffd__fit_holding(s->grid);
     double magnitude = 0.0, scale = (double)m / (double)n, accepted = HUGE_VAL, omega = SQFFD__FIT_RELAX;
@@ -6450,7 +6639,9 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
         w->matched[i][0] = UINT32_MAX;
         w->outside[i] = w->vertex_slack[i] = w->far_slack[i] = -HUGE_VAL;
         w->triangle[i][0] = UINT32_MAX;
-        for (p = 0; p < 3; ++p) magnitude = fabs(points[3 * i + p]) > magnitude ? fabs(points[3 * i + p]) : magnitude;
+        double q[3];
+        sqffd__points_get(points, i, q);
+        for (p = 0; p < 3; ++p) magnitude = fabs(q[p]) > magnitude ? fabs(q[p]) : magnitude;
     }
     search.margin = 1e-10 * (magnitude + diagonal); /* far above the rounding of distances between such points */
     if (data_tree)
@@ -6472,7 +6663,7 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
         }
         search.x = x;
         search.exact = (it == 0 && !scaled_now && exact_start) || last; /* (the redo after scaling: nothing moved) */
-        res = sqffd__fit_pass(points, n, &search, diagonal, scaled ? NULL : w->distance, &step1, &stats);
+        res = sqffd__fit_pass(points, &search, diagonal, scaled ? NULL : w->distance, &step1, &stats);
         if (res != SQFFD_OK) return res;
         if (!scaled) { /* robust mode: the Welsch scale from the starting model, then that pass again */
             step1.nu2 = sqffd__fit_welsch_nu2(w->distance, n); /* (0 for an exact start: plain squares) */
@@ -6483,7 +6674,8 @@ static sqffd_result sqffd__fit_iterate(const double *points, size_t n, double di
         if (data_tree) /* model -> data: each holding model point's nearest data point (into next, free until step 2) */
             for (v = 0; v < m; ++v)
                 if (sqffd__fit_holds(s->grid, v)) {
-                    const double *q = data_tree->points + 3 * sqffd__fit_nearest_data(data_tree, w, x + 3 * v, v);
+                    double q[3];
+                    sqffd__points_get(&data_tree->points, sqffd__fit_nearest_data(data_tree, w, x + 3 * v, v), q);
                     reverse += sqffd__dist2_3(q, x + 3 * v);
                     memcpy(next + 3 * v, q, 3 * sizeof(double));
                 }
@@ -6598,17 +6790,21 @@ static void sqffd__fit_state_layout(sqffd__arena *a, const int dims[3], const in
 }
 
 /* The checks every fit makes of its data: enough points, finite, not all in one place. */
-static sqffd_result sqffd__fit_check_data(const double *points, size_t n, double *diagonal)
+static sqffd_result sqffd__fit_check_data(const sqffd_points *points, double *diagonal)
 {
-    sqffd_result res;
+    sqffd_result res = sqffd__points_check(points);
     size_t i;
-    if (!points) return SQFFD_ERROR_INVALID_ARGUMENT;
-    if (n < SQFFD__FIT_MIN_POINTS) return SQFFD_ERROR_TOO_FEW_POINTS;
-    res = sqffd__fit_diagonal(points, n, diagonal);
+    double p[3];
+    if (res != SQFFD_OK) return res;
+    if (points->count < SQFFD__FIT_MIN_POINTS) return SQFFD_ERROR_TOO_FEW_POINTS;
+    res = sqffd__fit_diagonal(points, diagonal);
     if (res != SQFFD_OK) return res;
     if (*diagonal > 0.0)
-        for (i = 0; i < 3 * n; ++i)
-            if (!(fabs(points[i]) <= SQFFD__MAX_DATA)) return SQFFD_ERROR_NON_FINITE;
+        for (i = 0; i < points->count; ++i) {
+            sqffd__points_get(points, i, p);
+            if (!(fabs(p[0]) <= SQFFD__MAX_DATA && fabs(p[1]) <= SQFFD__MAX_DATA && fabs(p[2]) <= SQFFD__MAX_DATA))
+                return SQFFD_ERROR_NON_FINITE;
+        }
     return *diagonal > 0.0 ? SQFFD_OK : SQFFD_ERROR_DEGENERATE;
 }
 
@@ -6665,47 +6861,54 @@ SQFFD_DEF sqffd_result sqffd_fit_ffd_workspace_size(size_t n, const sqffd_model 
 
 /* The error of the model over all n points (the iterations may run on a
    subsample). */
-static sqffd_result sqffd__fit_error(const double *points, size_t n, double diagonal, const sqffd__fit_system *s,
+static sqffd_result sqffd__fit_error(const sqffd_points *points, double diagonal, const sqffd__fit_system *s,
                                      sqffd__fit_work *w, const sqffd_model *model, sqffd_distance_stats *stats)
 {
     sqffd__fit_search search;
     sqffd__fit_evaluate(s, model->ffd.control, (double (*)[4])w->block, w->x);
     sqffd__fit_search_init(&search, w->x, s->grid, s->rings, w->tree_ws, w->tree_size, &w->bvh);
-    return sqffd__fit_pass(points, n, &search, diagonal, NULL, NULL, stats);
+    return sqffd__fit_pass(points, &search, diagonal, NULL, NULL, stats);
 }
 
 /* Stage 2 with the system prepared (tracking prepares once for frame 0's
    superquadric, box and grid, then runs this per frame from the previous
    frame's control points): take the subsample, build the data tree when
    there is a model -> data term, iterate; the start and final errors over all points. */
-static sqffd_result sqffd__fit_run(const double *points, size_t n, double diagonal, const sqffd_fit_options *o,
+static sqffd_result sqffd__fit_run(const sqffd_points *points, double diagonal, const sqffd_fit_options *o,
                                    const sqffd__fit_system *s, sqffd__fit_work *w, int exact_start, sqffd_model *model,
                                    sqffd_fit_report *rep)
 {
     sqffd_kdtree data_tree;
     sqffd_distance_stats start;
-    const double *data = w->sample ? w->sample : points;
+    sqffd_points data = w->sample ? sqffd_points_packed(w->sample, w->sample_count) : *points;
     sqffd_result res = SQFFD_OK;
     if (w->sample) {
-        sqffd__subsample(points, n, w->sample_count, w->sample);
-        res = sqffd__fit_error(points, n, diagonal, s, w, model, &start);
+        sqffd__subsample(points, w->sample_count, w->sample);
+        res = sqffd__fit_error(points, diagonal, s, w, model, &start);
     }
     if (res == SQFFD_OK && o->model_to_data > 0.0) {
-        if (w->data) sqffd__subsample(data, w->sample_count, w->data_count, w->data);
-        res = sqffd_kdtree_build(&data_tree, w->data ? w->data : data, w->data_count, w->data_ws, w->data_size);
+        if (w->data) sqffd__subsample(&data, w->data_count, w->data);
+        res = sqffd_kdtree_build_view(&data_tree, w->data ? sqffd_points_packed(w->data, w->data_count) : data,
+                                      w->data_ws, w->data_size);
     }
     if (res == SQFFD_OK)
-        res = sqffd__fit_iterate(data, w->sample_count, diagonal, o, s, o->model_to_data > 0.0 ? &data_tree : NULL, w,
-                                 exact_start, model, rep);
+        res = sqffd__fit_iterate(&data, diagonal, o, s, o->model_to_data > 0.0 ? &data_tree : NULL, w, exact_start,
+                                 model, rep);
     if (res == SQFFD_OK && w->sample) {
         rep->sq_error = start;
-        res = sqffd__fit_error(points, n, diagonal, s, w, model, &rep->error);
+        res = sqffd__fit_error(points, diagonal, s, w, model, &rep->error);
     }
     return res;
 }
 
 SQFFD_DEF sqffd_result sqffd_fit_ffd(const double *points, size_t n, const sqffd_fit_options *options, sqffd_model *model,
                                      sqffd_fit_report *report, void *workspace, size_t workspace_size)
+{
+    return sqffd_fit_ffd_view(sqffd_points_packed(points, n), options, model, report, workspace, workspace_size);
+}
+
+SQFFD_DEF sqffd_result sqffd_fit_ffd_view(sqffd_points points, const sqffd_fit_options *options, sqffd_model *model,
+                                          sqffd_fit_report *report, void *workspace, size_t workspace_size)
 {
     sqffd__arena a;
     sqffd__fit_system s;
@@ -6715,19 +6918,19 @@ SQFFD_DEF sqffd_result sqffd_fit_ffd(const double *points, size_t n, const sqffd
     double diagonal = 0.0;
     sqffd_result res;
     if (!options) options = &defaults;
-    if (!points || !model) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if (!points.xyz || !model) return SQFFD_ERROR_INVALID_ARGUMENT;
     res = sqffd_model_validate(model);
     if (res == SQFFD_OK) res = sqffd__fit_check_options(options);
-    if (res == SQFFD_OK) res = sqffd__fit_check_data(points, n, &diagonal);
+    if (res == SQFFD_OK) res = sqffd__fit_check_data(&points, &diagonal);
     if (res != SQFFD_OK) return res;
     sqffd__arena_init(&a, workspace, workspace_size);
     sqffd__fit_system_layout(&a, model->ffd.dims, model->grid, &s);
-    sqffd__fit_frame_layout(&a, n, model->ffd.dims, model->grid, options, 0, &f);
+    sqffd__fit_frame_layout(&a, points.count, model->ffd.dims, model->grid, options, 0, &f);
     if (a.overflow) return sqffd__arena_error(&a);
     rep = report ? report : f.report;
     memset(rep, 0, sizeof *rep);
     res = sqffd__fit_prepare(model, options->alpha, options->tether, options->regularization, &s);
-    return res == SQFFD_OK ? sqffd__fit_run(points, n, diagonal, options, &s, &f.w, 1, model, rep) : res;
+    return res == SQFFD_OK ? sqffd__fit_run(&points, diagonal, options, &s, &f.w, 1, model, rep) : res;
 }
 
 /* Stage 1's guard by the error itself: the superquadric's error (its grid
@@ -6736,9 +6939,10 @@ SQFFD_DEF sqffd_result sqffd_fit_ffd(const double *points, size_t n, const sqffd
    mode the third quartile (outliers do not count). */
 #define SQFFD__FIT_GUARD 512
 
-static sqffd_result sqffd__fit_sq_error(const sqffd_superquadric *sq, const double *points, size_t n, double diagonal,
+static sqffd_result sqffd__fit_sq_error(const sqffd_superquadric *sq, const sqffd_points *points, double diagonal,
                                         int robust, sqffd__fit_system *s, sqffd__fit_work *w, double *error)
 {
+    size_t n = points->count;
     sqffd__fit_search search;
     sqffd_distance_stats stats;
     size_t m = sqffd__fit_grid_count(s->grid), v;
@@ -6747,7 +6951,7 @@ static sqffd_result sqffd__fit_sq_error(const sqffd_superquadric *sq, const doub
     for (v = 0; v < m; ++v)
         if (!sqffd__finite3(w->x + 3 * v)) return SQFFD_ERROR_NON_FINITE;
     sqffd__fit_search_init(&search, w->x, s->grid, s->rings, w->tree_ws, w->tree_size, &w->bvh);
-    res = sqffd__fit_pass(points, n, &search, diagonal, robust ? w->next : NULL, NULL, &stats);
+    res = sqffd__fit_pass(points, &search, diagonal, robust ? w->next : NULL, NULL, &stats);
     *error = robust ? sqffd__sq_select(w->next, n, n * 3 / 4) : stats.rms;
     return res;
 }
@@ -6755,17 +6959,19 @@ static sqffd_result sqffd__fit_sq_error(const sqffd_superquadric *sq, const doub
 /* The fitted superquadric, or the best start where that is nearer the data
    (by the error, on the guard subsample): stage 1's cost is no distance, and
    on shapes that are no superquadric it can end farther than it began. */
-static sqffd_result sqffd__fit_guard(const double *points, size_t n, double diagonal, int robust, sqffd__fit_system *s,
+static sqffd_result sqffd__fit_guard(const sqffd_points *points, double diagonal, int robust, sqffd__fit_system *s,
                                      sqffd__fit_work *w, sqffd_superquadric *sq, sqffd_sq_fit_report *rep)
 {
-    size_t m = sqffd__fit_grid_count(s->grid), k = n < SQFFD__FIT_GUARD ? n : SQFFD__FIT_GUARD;
+    size_t m = sqffd__fit_grid_count(s->grid), n = points->count, k = n < SQFFD__FIT_GUARD ? n : SQFFD__FIT_GUARD;
     double fitted, start;
+    sqffd_points guard;
     sqffd_result res;
     k = k < m ? k : m; /* (the subsample lives in the model-sized target) */
-    sqffd__subsample(points, n, k, w->target);
+    sqffd__subsample(points, k, w->target);
+    guard = sqffd_points_packed(w->target, k);
     sqffd__fit_rings(s->grid, s->rings);
-    res = sqffd__fit_sq_error(sq, w->target, k, diagonal, robust, s, w, &fitted);
-    if (res == SQFFD_OK) res = sqffd__fit_sq_error(&rep->best_start, w->target, k, diagonal, robust, s, w, &start);
+    res = sqffd__fit_sq_error(sq, &guard, diagonal, robust, s, w, &fitted);
+    if (res == SQFFD_OK) res = sqffd__fit_sq_error(&rep->best_start, &guard, diagonal, robust, s, w, &start);
     if (res == SQFFD_OK && start < fitted) {
         *sq = rep->best_start;
         rep->fallback = 1;
@@ -6775,30 +6981,36 @@ static sqffd_result sqffd__fit_guard(const double *points, size_t n, double diag
 
 /* The whole fit into a laid-out system and frame: stage 1 (guarded), the
    model around it, the system prepared for it, stage 2. */
-static sqffd_result sqffd__fit_whole(const double *points, size_t n, double diagonal, const sqffd_fit_options *o,
+static sqffd_result sqffd__fit_whole(const sqffd_points *points, double diagonal, const sqffd_fit_options *o,
                                      sqffd__fit_system *s, sqffd__fit_frame *f, sqffd_model *model, sqffd_fit_report *rep)
 {
     sqffd_sq_fit_options sq_options = o->sq;
     sqffd_superquadric sq;
-    size_t k = sqffd__fit_cap(n, o->sq_max_points);
-    const double *stage1 = f->sample ? f->sample : points;
+    size_t k = sqffd__fit_cap(points->count, o->sq_max_points);
+    sqffd_points stage1 = f->sample ? sqffd_points_packed(f->sample, k) : *points;
     sqffd_result res;
-    if (f->sample) sqffd__subsample(points, n, k, f->sample);
+    if (f->sample) sqffd__subsample(points, k, f->sample);
     if (!sq_options.progress) {
         sq_options.progress = o->progress;
         sq_options.progress_user = o->progress_user;
     }
-    res = sqffd_sq_fit(stage1, k, &sq_options, &sq, &rep->sq, f->sq_ws, f->sq_size);
-    if (res == SQFFD_OK) res = sqffd__fit_guard(stage1, k, diagonal, sq_options.robust, s, &f->w, &sq, &rep->sq);
+    res = sqffd_sq_fit_view(stage1, &sq_options, &sq, &rep->sq, f->sq_ws, f->sq_size);
+    if (res == SQFFD_OK) res = sqffd__fit_guard(&stage1, diagonal, sq_options.robust, s, &f->w, &sq, &rep->sq);
     if (res == SQFFD_OK) res = sqffd_model_init(model, &sq, o);
     if (res == SQFFD_OK) res = sqffd__fit_prepare(model, o->alpha, o->tether, o->regularization, s);
-    if (res == SQFFD_OK) res = sqffd__fit_run(points, n, diagonal, o, s, &f->w, 1, model, rep);
+    if (res == SQFFD_OK) res = sqffd__fit_run(points, diagonal, o, s, &f->w, 1, model, rep);
     return res;
 }
 
 SQFFD_DEF sqffd_result sqffd_fit(const double *points, size_t n, const sqffd_fit_options *options,
                                  sqffd_model *model, sqffd_fit_report *report,
                                  void *workspace, size_t workspace_size)
+{
+    return sqffd_fit_view(sqffd_points_packed(points, n), options, model, report, workspace, workspace_size);
+}
+
+SQFFD_DEF sqffd_result sqffd_fit_view(sqffd_points points, const sqffd_fit_options *options, sqffd_model *model,
+                                      sqffd_fit_report *report, void *workspace, size_t workspace_size)
 {
     sqffd__arena a;
     sqffd__fit_system s;
@@ -6808,17 +7020,17 @@ SQFFD_DEF sqffd_result sqffd_fit(const double *points, size_t n, const sqffd_fit
     double diagonal = 0.0;
     sqffd_result res;
     if (!options) options = &defaults;
-    if (!points || !model) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if (!points.xyz || !model) return SQFFD_ERROR_INVALID_ARGUMENT;
     res = sqffd__fit_check_whole_options(options);
-    if (res == SQFFD_OK) res = sqffd__fit_check_data(points, n, &diagonal);
+    if (res == SQFFD_OK) res = sqffd__fit_check_data(&points, &diagonal);
     if (res != SQFFD_OK) return res;
     sqffd__arena_init(&a, workspace, workspace_size);
     sqffd__fit_system_layout(&a, options->lattice, options->grid, &s);
-    sqffd__fit_frame_layout(&a, n, options->lattice, options->grid, options, 1, &f);
+    sqffd__fit_frame_layout(&a, points.count, options->lattice, options->grid, options, 1, &f);
     if (a.overflow) return sqffd__arena_error(&a);
     rep = report ? report : f.report;
     memset(rep, 0, sizeof *rep);
-    return sqffd__fit_whole(points, n, diagonal, options, &s, &f, model, rep);
+    return sqffd__fit_whole(&points, diagonal, options, &s, &f, model, rep);
 }
 
 /* ======================================================================
@@ -6928,6 +7140,14 @@ SQFFD_DEF sqffd_result sqffd_fit_prepared(const sqffd_ffd_system *system, const 
                                           const sqffd_fit_options *options, sqffd_model *model,
                                           sqffd_fit_report *report, void *workspace, size_t workspace_size)
 {
+    return sqffd_fit_prepared_view(system, sqffd_points_packed(points, n), options, model, report, workspace,
+                                   workspace_size);
+}
+
+SQFFD_DEF sqffd_result sqffd_fit_prepared_view(const sqffd_ffd_system *system, sqffd_points points,
+                                               const sqffd_fit_options *options, sqffd_model *model,
+                                               sqffd_fit_report *report, void *workspace, size_t workspace_size)
+{
     sqffd__arena a;
     sqffd__fit_frame f;
     sqffd_fit_options o;
@@ -6939,14 +7159,14 @@ SQFFD_DEF sqffd_result sqffd_fit_prepared(const sqffd_ffd_system *system, const 
         return SQFFD_ERROR_INVALID_ARGUMENT;
     o = sqffd__fit_system_options(system, options);
     res = sqffd__fit_check_options(&o);
-    if (res == SQFFD_OK) res = sqffd__fit_check_data(points, n, &diagonal);
+    if (res == SQFFD_OK) res = sqffd__fit_check_data(&points, &diagonal);
     if (res != SQFFD_OK) return res;
     sqffd__arena_init(&a, workspace, workspace_size);
-    sqffd__fit_frame_layout(&a, n, system->dims, system->grid, &o, 0, &f);
+    sqffd__fit_frame_layout(&a, points.count, system->dims, system->grid, &o, 0, &f);
     if (a.overflow) return sqffd__arena_error(&a);
     rep = report ? report : f.report;
     memset(rep, 0, sizeof *rep);
-    return sqffd__fit_run(points, n, diagonal, &o, (const sqffd__fit_system *)system->state, &f.w, 1, model, rep);
+    return sqffd__fit_run(&points, diagonal, &o, (const sqffd__fit_system *)system->state, &f.w, 1, model, rep);
 }
 
 /* ---- tracking ------------------------------------------------------------ */
@@ -6993,10 +7213,10 @@ SQFFD_DEF sqffd_result sqffd_track_workspace_size(const size_t *counts, size_t f
     return SQFFD_OK;
 }
 
-SQFFD_DEF sqffd_result sqffd_track(const double *const *frames, const size_t *counts, size_t frame_count,
-                                   const sqffd_track_options *options, sqffd_model *models,
-                                   sqffd_fit_report *reports, size_t *frames_done,
-                                   void *workspace, size_t workspace_size)
+/* The sequence from packed frames (frames, counts) or from views. */
+static sqffd_result sqffd__track(const double *const *frames, const size_t *counts, const sqffd_points *views,
+                                 size_t frame_count, const sqffd_track_options *options, sqffd_model *models,
+                                 sqffd_fit_report *reports, size_t *frames_done, void *workspace, size_t workspace_size)
 {
     sqffd_track_options defaults = sqffd_track_options_default();
     const sqffd_track_options *opt = options ? options : &defaults;
@@ -7008,7 +7228,7 @@ SQFFD_DEF sqffd_result sqffd_track(const double *const *frames, const size_t *co
     size_t t = 0;
     sqffd_result res = SQFFD_ERROR_INVALID_ARGUMENT;
     if (frames_done) *frames_done = 0;
-    if (!frames || !counts || !models || frame_count == 0 || opt->frame_iterations < 0) return res;
+    if ((!views && (!frames || !counts)) || !models || frame_count == 0 || opt->frame_iterations < 0) return res;
     o.progress = opt->progress;
     o.progress_user = opt->progress_user;
     res = sqffd__fit_check_whole_options(&o);
@@ -7018,29 +7238,48 @@ SQFFD_DEF sqffd_result sqffd_track(const double *const *frames, const size_t *co
     if (!state) return sqffd__arena_error(&a);
     for (t = 0; t < frame_count; ++t) {
         sqffd_fit_report *rep;
+        sqffd_points points = views ? views[t] : sqffd_points_packed(frames[t], counts[t]);
         double diagonal = 0.0;
         if (opt->progress && opt->progress(opt->progress_user, SQFFD_STAGE_FRAME, (int)(t < INT32_MAX ? t : INT32_MAX), previous)) {
             res = SQFFD_ERROR_CANCELLED;
             break;
         }
-        res = sqffd__fit_check_data(frames[t], counts[t], &diagonal);
+        res = sqffd__fit_check_data(&points, &diagonal);
         if (res != SQFFD_OK) break;
         frame = a; /* every frame's scratch starts after the system */
         o.max_iterations = t == 0 ? opt->fit.max_iterations : opt->frame_iterations;
-        sqffd__fit_frame_layout(&frame, counts[t], o.lattice, o.grid, &o, t == 0, &f);
+        sqffd__fit_frame_layout(&frame, points.count, o.lattice, o.grid, &o, t == 0, &f);
         if (frame.overflow) { res = sqffd__arena_error(&frame); break; }
         rep = reports ? reports + t : f.report;
         memset(rep, 0, sizeof *rep);
-        if (t == 0) res = sqffd__fit_whole(frames[t], counts[t], diagonal, &o, state, &f, models, rep);
+        if (t == 0) res = sqffd__fit_whole(&points, diagonal, &o, state, &f, models, rep);
         else {
             models[t] = models[t - 1];
-            res = sqffd__fit_run(frames[t], counts[t], diagonal, &o, state, &f.w, 0, models + t, rep);
+            res = sqffd__fit_run(&points, diagonal, &o, state, &f.w, 0, models + t, rep);
         }
         if (res != SQFFD_OK) break;
         previous = rep->error.rms_relative;
     }
     if (frames_done) *frames_done = t;
     return res;
+}
+
+SQFFD_DEF sqffd_result sqffd_track(const double *const *frames, const size_t *counts, size_t frame_count,
+                                   const sqffd_track_options *options, sqffd_model *models,
+                                   sqffd_fit_report *reports, size_t *frames_done,
+                                   void *workspace, size_t workspace_size)
+{
+    return sqffd__track(frames, counts, NULL, frame_count, options, models, reports, frames_done, workspace,
+                        workspace_size);
+}
+
+SQFFD_DEF sqffd_result sqffd_track_view(const sqffd_points *frames, size_t frame_count,
+                                        const sqffd_track_options *options, sqffd_model *models,
+                                        sqffd_fit_report *reports, size_t *frames_done, void *workspace,
+                                        size_t workspace_size)
+{
+    return sqffd__track(NULL, NULL, frames, frame_count, options, models, reports, frames_done, workspace,
+                        workspace_size);
 }
 
 /* ---- motion -------------------------------------------------------------- */
@@ -7355,11 +7594,19 @@ SQFFD_DEF sqffd_result sqffd_motion(const sqffd_model *models, size_t frame_coun
    Layer 7: volumes to points
    ====================================================================== */
 
+SQFFD_DEF sqffd_result sqffd_points_subsample_view(sqffd_points points, size_t k, double *out)
+{
+    sqffd_result r;
+    if (k > points.count || (k > 0 && !out)) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if (k == 0) return SQFFD_OK;
+    r = sqffd__points_check(&points);
+    if (r == SQFFD_OK) sqffd__subsample(&points, k, out);
+    return r;
+}
+
 SQFFD_DEF sqffd_result sqffd_points_subsample(const double *points, size_t n, size_t k, double *out)
 {
-    if (k > n || (k > 0 && (!points || !out))) return SQFFD_ERROR_INVALID_ARGUMENT;
-    if (k > 0) sqffd__subsample(points, n, k, out);
-    return SQFFD_OK;
+    return sqffd_points_subsample_view(sqffd_points_packed(points, n), k, out);
 }
 
 static size_t sqffd__vol_type_size(sqffd_voxel_type type)

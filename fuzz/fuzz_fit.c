@@ -5,8 +5,10 @@
    Layout: byte 0 options (bit 0 robust, 1 no taper, 2 model -> data weight 1, 3 SVD
    solver, 4 paper's regularisation, 5 radial cost, 6 CG optimiser, 7 alpha 0),
    byte 1 encoding (bit 0: raw little-endian doubles, may be NaN or huge;
-   else int16 triples scaled by 2^-(byte 1 >> 1 & 15)), byte 2 lattice size
-   2..4, then the points (at most 64). */
+   else int16 triples scaled by 2^-(byte 1 >> 1 & 15); bit 5: the points
+   rounded to float, and the model fit run a second time on a float view of
+   them, 16-byte records at an odd address, which must give the same result
+   code and model bytes), byte 2 lattice size 2..4, then the points (at most 64). */
 #define SQFFD_IMPLEMENTATION
 #include "../sqffd.h"
 #include <stdint.h>
@@ -60,11 +62,38 @@ static void fuzz_sq_fit(const double *points, size_t n, uint8_t flags)
     free(work);
 }
 
-static void fuzz_model_fit(const double *points, size_t n, uint8_t flags, int lattice)
+/* The same fit on a float view of the (float-valued) points. */
+static void fuzz_view_fit(const double *points, size_t n, const sqffd_fit_options *o, sqffd_result expected,
+                          const sqffd_model *model, void *work, size_t size)
+{
+    unsigned char *records = (unsigned char *)malloc(16 * n + 1);
+    sqffd_model again;
+    size_t i;
+    if (!records) return;
+    memset(records, 0xEE, 16 * n + 1);
+    for (i = 0; i < n; i++) {
+        float f[3] = {(float)points[3 * i], (float)points[3 * i + 1], (float)points[3 * i + 2]};
+        memcpy(records + 1 + 16 * i, f, sizeof f);
+    }
+    if (sqffd_fit_view(sqffd_points_strided(records + 1, n, 16, SQFFD_SCALAR_FLOAT), o, &again, NULL, work, size) !=
+        expected)
+        abort();
+    if (expected == SQFFD_OK) {
+        unsigned char a[4096], b[4096];
+        size_t bytes = sqffd_model_save_size(model);
+        if (sqffd_model_save(model, a, sizeof a) != SQFFD_OK || sqffd_model_save(&again, b, sizeof b) != SQFFD_OK ||
+            memcmp(a, b, bytes) != 0)
+            abort();
+    }
+    free(records);
+}
+
+static void fuzz_model_fit(const double *points, size_t n, uint8_t flags, int lattice, int view)
 {
     sqffd_fit_options o = sqffd_fit_options_default();
     sqffd_model model;
     sqffd_fit_report report;
+    sqffd_result result;
     size_t size;
     void *work;
     o.sq.robust = flags & 1;
@@ -82,7 +111,8 @@ static void fuzz_model_fit(const double *points, size_t n, uint8_t flags, int la
     if (sqffd_fit_workspace_size(n, &o, &size) != SQFFD_OK) return;
     work = malloc(size);
     if (!work) return;
-    if (sqffd_fit(points, n, &o, &model, &report, work, size) == SQFFD_OK) {
+    result = sqffd_fit(points, n, &o, &model, &report, work, size);
+    if (result == SQFFD_OK) {
         double p[3];
         unsigned char saved[4096];
         sqffd_model back;
@@ -92,6 +122,7 @@ static void fuzz_model_fit(const double *points, size_t n, uint8_t flags, int la
         if (sqffd_model_load(&back, saved, sqffd_model_save_size(&model)) != SQFFD_OK) abort();
         if (!isfinite(report.error.rms) || report.iterations < 0 || report.iterations > 3) abort();
     }
+    if (view) fuzz_view_fit(points, n, &o, result, &model, work, size);
     free(work);
 }
 
@@ -109,8 +140,12 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     points = (double *)malloc(3 * MAX_POINTS * sizeof(double));
     if (!points) return 0;
     n = decode_points(data + 3, size - 3, encoding & 1, (encoding >> 1) & 15, points);
+    if (encoding & 32) {
+        size_t i;
+        for (i = 0; i < 3 * n; i++) points[i] = (double)(float)points[i]; /* (huge doubles become infinite) */
+    }
     fuzz_sq_fit(points, n, flags);
-    fuzz_model_fit(points, n, flags, lattice);
+    fuzz_model_fit(points, n, flags, lattice, encoding & 32);
     free(points);
     return 0;
 }

@@ -126,9 +126,9 @@ static void check_node(walk *w, uint32_t node, unsigned depth, double box[2][3])
         if (nd->u.leaf.begin != w->next_begin || nd->u.leaf.end <= nd->u.leaf.begin || nd->u.leaf.end > t->count)
             abort();
         w->next_begin = nd->u.leaf.end;
-        first = t->points + 3 * (size_t)t->index[nd->u.leaf.begin];
+        first = (const double *)t->points.xyz + 3 * (size_t)t->index[nd->u.leaf.begin];
         for (i = nd->u.leaf.begin; i < nd->u.leaf.end; i++) {
-            const double *p = t->points + 3 * (size_t)t->index[i];
+            const double *p = (const double *)t->points.xyz + 3 * (size_t)t->index[i];
             for (d = 0; d < 3; d++) {
                 if (p[d] < box[0][d]) box[0][d] = p[d];
                 if (p[d] > box[1][d]) box[1][d] = p[d];
@@ -162,7 +162,7 @@ static void check_tree(const sqffd_kdtree *t, const double *points, size_t n, in
     double box[2][3];
     walk w;
     int d;
-    if (t->points != points || t->count != n || !t->index || !t->nodes) abort();
+    if (t->points.xyz != points || t->count != n || !t->index || !t->nodes) abort();
     if (t->node_count < 1 || t->node_count > (n <= 10 ? 1 : 2 * (n / 5) - 1)) abort();
     memset(seen, 0, n);
     for (i = 0; i < n; i++) {
@@ -379,7 +379,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         memset(&tree, 0xAB, sizeof tree);
         res = sqffd_kdtree_build(&tree, points, n, ws, ws_size - 1);
         if (res != SQFFD_ERROR_WORKSPACE_TOO_SMALL) abort();
-        if (tree.count != 0 || tree.nodes != NULL || tree.points != NULL) abort();
+        if (tree.count != 0 || tree.nodes != NULL || tree.points.xyz != NULL) abort();
         {
             double q[3] = {0.0, 0.0, 0.0};
             check_nothing(&tree, q, SQFFD_ERROR_INVALID_ARGUMENT, &s);

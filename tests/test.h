@@ -47,5 +47,6 @@ void suite_export(void);
 void suite_volume(void);
 void suite_model(void);
 void suite_memory(void);
+void suite_points(void);
 
 #endif

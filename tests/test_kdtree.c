@@ -64,13 +64,13 @@ static void kd_check_node(const sqffd_kdtree *t, uint32_t node, unsigned depth, 
     if (depth > *max_depth) *max_depth = depth;
     if (nd->axis == SQFFD_KDTREE_LEAF) {
         size_t i, count = nd->u.leaf.end - nd->u.leaf.begin;
-        const double *first = t->points + 3 * (size_t)t->index[nd->u.leaf.begin];
+        const double *first = (const double *)t->points.xyz + 3 * (size_t)t->index[nd->u.leaf.begin];
         int identical = 1;
         CHECK(nd->u.leaf.begin == *next_begin);
         CHECK(nd->u.leaf.end > nd->u.leaf.begin);
         *next_begin = nd->u.leaf.end;
         for (i = nd->u.leaf.begin; i < nd->u.leaf.end; i++) {
-            const double *p = t->points + 3 * (size_t)t->index[i];
+            const double *p = (const double *)t->points.xyz + 3 * (size_t)t->index[i];
             int d;
             for (d = 0; d < 3; d++) CHECK(p[d] >= lo[d] && p[d] <= hi[d]);
             if (memcmp(p, first, 3 * sizeof(double)) != 0) identical = 0;
@@ -355,7 +355,7 @@ static void test_kdtree_refit(void)
         for (m = 0; m < 5; m++) {
             for (i = 0; i < 3 * n; i++) moved[i] = p[i] + moves[m] * (2.0 * kd_uniform() - 1.0);
             CHECK_RESULT(sqffd_kdtree_refit(&f.tree, moved), SQFFD_OK);
-            CHECK(f.tree.points == moved);
+            CHECK(f.tree.points.xyz == moved);
             kd_check_tree(&f.tree, 1);
             for (queries = 0; queries < 60; queries++) {
                 double q[3];
@@ -394,7 +394,7 @@ static void test_kdtree_refit_errors(void)
         CHECK_RESULT(sqffd_kdtree_refit(&f.tree, moved), SQFFD_ERROR_NON_FINITE);
         moved[3 * 700 + 1] = INFINITY;
         CHECK_RESULT(sqffd_kdtree_refit(&f.tree, moved), SQFFD_ERROR_NON_FINITE);
-        CHECK(f.tree.points == p);
+        CHECK(f.tree.points.xyz == p);
         CHECK_RESULT(sqffd_kdtree_nearest(&f.tree, q, &nearest, &d_after), SQFFD_OK);
         CHECK(d_after == d_before);
     }

@@ -63,6 +63,7 @@ int main(int argc, char **argv)
     suite_volume();
     suite_model();
     suite_memory();
+    suite_points();
     printf("%d passed, %d failed\n", passed, failed);
     return failed ? 1 : 0;
 }

@@ -1289,7 +1289,7 @@ static int tree_is_zeroed(const sqffd_kdtree *t)
     for (a = 0; a < 2; a++)
         for (c = 0; c < 3; c++)
             if (t->bbox[a][c] != 0.0) return 0;
-    return !t->points && t->count == 0 && !t->index && !t->nodes && t->node_count == 0;
+    return !t->points.xyz && t->count == 0 && !t->index && !t->nodes && t->node_count == 0;
 }
 
 /* sqffd_kdtree_build: "on error *tree is zeroed"; sqffd_kdtree_refit: "on
