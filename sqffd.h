@@ -138,6 +138,8 @@
        sqffd_ffd_system_size/_init, sqffd_fit_prepared(_view, _workspace_size)
                                        the FFD stage against a system prepared once
        sqffd_track(_view, _workspace_size), sqffd_track_options_default
+       sqffd_track_frame(_workspace_size)
+                                       a stream: one later frame at a time, as sqffd_track
                                        a sequence: frame 0 whole, then frame to frame
        sqffd_motion(_workspace_size), sqffd_motion_options_default
                                        volumes, EF, motion, low-motion zones, 17 segments
@@ -157,7 +159,9 @@
                         sq_fit, fit, fit_ffd, fit_prepared, track,
                         model_distances, model_reverse_distances,
                         points_subsample); breaking: sqffd_kdtree.points is
-                        a sqffd_points view (was const double *)
+                        a sqffd_points view (was const double *);
+                        sqffd_track_frame(_workspace_size): a stream's later
+                        frames one at a time, as sqffd_track runs them
        0.5.0 (2026-11)  toward the 1.0 contract (breaking):
                         - every _workspace_size returns sqffd_result and the
                           size through a last size_t *size (was: size_t, 0
@@ -1031,6 +1035,21 @@ SQFFD_DEF sqffd_result sqffd_track_view(const sqffd_points *frames, size_t frame
                                         const sqffd_track_options *options, sqffd_model *models,
                                         sqffd_fit_report *reports, size_t *frames_done, void *workspace,
                                         size_t workspace_size);
+/* A stream, one frame at a time as it arrives: frame 0 by sqffd_fit_view
+   with options->fit, then sqffd_ffd_system_init on its model, then every
+   later frame by sqffd_track_frame against that system, with *model the
+   previous frame's model on entry (its control points are the start) and
+   this frame's on success. Each later frame is what sqffd_track makes of
+   it, to the bit: at most options->frame_iterations iterations, no exact
+   first pass (a frame starts from its predecessor), options->progress for
+   the iterations. The model must be the system's (as in
+   sqffd_fit_prepared); the workspace size depends on the point count and
+   options->fit's lattice, grid and limits, not on a system, so a stream
+   can size its memory once at start-up. */
+SQFFD_DEF sqffd_result sqffd_track_frame_workspace_size(size_t n, const sqffd_track_options *options, size_t *size);
+SQFFD_DEF sqffd_result sqffd_track_frame(const sqffd_ffd_system *system, sqffd_points points,
+                                         const sqffd_track_options *options, sqffd_model *model,
+                                         sqffd_fit_report *report, void *workspace, size_t workspace_size);
 
 /* Motion and function of a tracked left ventricle, from the frames' models
    (sqffd_track's; all with the same superquadric, lattice and grid). Per
@@ -7144,9 +7163,12 @@ SQFFD_DEF sqffd_result sqffd_fit_prepared(const sqffd_ffd_system *system, const 
                                    workspace_size);
 }
 
-SQFFD_DEF sqffd_result sqffd_fit_prepared_view(const sqffd_ffd_system *system, sqffd_points points,
-                                               const sqffd_fit_options *options, sqffd_model *model,
-                                               sqffd_fit_report *report, void *workspace, size_t workspace_size)
+/* The FFD stage against a system, from the model's control points, with
+   the system's options merged in; exact_start 0: a tracking frame's start
+   (no exact first pass). */
+static sqffd_result sqffd__fit_prepared(const sqffd_ffd_system *system, const sqffd_points *points,
+                                        const sqffd_fit_options *options, int exact_start, sqffd_model *model,
+                                        sqffd_fit_report *report, void *workspace, size_t workspace_size)
 {
     sqffd__arena a;
     sqffd__fit_frame f;
@@ -7159,14 +7181,22 @@ SQFFD_DEF sqffd_result sqffd_fit_prepared_view(const sqffd_ffd_system *system, s
         return SQFFD_ERROR_INVALID_ARGUMENT;
     o = sqffd__fit_system_options(system, options);
     res = sqffd__fit_check_options(&o);
-    if (res == SQFFD_OK) res = sqffd__fit_check_data(&points, &diagonal);
+    if (res == SQFFD_OK) res = sqffd__fit_check_data(points, &diagonal);
     if (res != SQFFD_OK) return res;
     sqffd__arena_init(&a, workspace, workspace_size);
-    sqffd__fit_frame_layout(&a, points.count, system->dims, system->grid, &o, 0, &f);
+    sqffd__fit_frame_layout(&a, points->count, system->dims, system->grid, &o, 0, &f);
     if (a.overflow) return sqffd__arena_error(&a);
     rep = report ? report : f.report;
     memset(rep, 0, sizeof *rep);
-    return sqffd__fit_run(&points, diagonal, &o, (const sqffd__fit_system *)system->state, &f.w, 1, model, rep);
+    return sqffd__fit_run(points, diagonal, &o, (const sqffd__fit_system *)system->state, &f.w, exact_start, model,
+                          rep);
+}
+
+SQFFD_DEF sqffd_result sqffd_fit_prepared_view(const sqffd_ffd_system *system, sqffd_points points,
+                                               const sqffd_fit_options *options, sqffd_model *model,
+                                               sqffd_fit_report *report, void *workspace, size_t workspace_size)
+{
+    return sqffd__fit_prepared(system, &points, options, 1, model, report, workspace, workspace_size);
 }
 
 /* ---- tracking ------------------------------------------------------------ */
@@ -7280,6 +7310,45 @@ SQFFD_DEF sqffd_result sqffd_track_view(const sqffd_points *frames, size_t frame
 {
     return sqffd__track(NULL, NULL, frames, frame_count, options, models, reports, frames_done, workspace,
                         workspace_size);
+}
+
+/* A later frame's options: the fit's, capped at frame_iterations, with the track's progress. */
+static sqffd_fit_options sqffd__track_frame_options(const sqffd_track_options *opt)
+{
+    sqffd_fit_options o = opt->fit;
+    o.max_iterations = opt->frame_iterations;
+    o.progress = opt->progress;
+    o.progress_user = opt->progress_user;
+    return o;
+}
+
+SQFFD_DEF sqffd_result sqffd_track_frame_workspace_size(size_t n, const sqffd_track_options *options, size_t *size)
+{
+    sqffd_track_options defaults = sqffd_track_options_default();
+    const sqffd_track_options *opt = options ? options : &defaults;
+    sqffd_fit_options o = sqffd__track_frame_options(opt);
+    sqffd__arena a;
+    sqffd__fit_frame f;
+    sqffd_result r;
+    if (!size) return SQFFD_ERROR_INVALID_ARGUMENT;
+    *size = 0;
+    if (n == 0 || opt->frame_iterations < 0) return SQFFD_ERROR_INVALID_ARGUMENT;
+    r = sqffd__fit_check_whole_options(&o);
+    if (r != SQFFD_OK) return r;
+    sqffd__arena_measure(&a);
+    sqffd__fit_frame_layout(&a, n, o.lattice, o.grid, &o, 0, &f);
+    return sqffd__arena_size(&a, size);
+}
+
+SQFFD_DEF sqffd_result sqffd_track_frame(const sqffd_ffd_system *system, sqffd_points points,
+                                         const sqffd_track_options *options, sqffd_model *model,
+                                         sqffd_fit_report *report, void *workspace, size_t workspace_size)
+{
+    sqffd_track_options defaults = sqffd_track_options_default();
+    const sqffd_track_options *opt = options ? options : &defaults;
+    sqffd_fit_options o = sqffd__track_frame_options(opt);
+    if (opt->frame_iterations < 0) return SQFFD_ERROR_INVALID_ARGUMENT;
+    return sqffd__fit_prepared(system, &points, &o, 0, model, report, workspace, workspace_size);
 }
 
 /* ---- motion -------------------------------------------------------------- */

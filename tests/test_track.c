@@ -463,9 +463,69 @@ static void test_track_phantom(void)
     free_sequence(&s);
 }
 
+/* A stream, one frame at a time (sqffd_fit, the system, then
+   sqffd_track_frame per later frame), makes sqffd_track's models and
+   reports to the bit; its workspace is sized without a system. */
+static void test_track_frame_stream(void)
+{
+    enum { FRAMES = 4, N = 1500 };
+    phantom_lv p = phantom_lv_default();
+    sequence s = make_sequence(&p, FRAMES, N, 0.01, 70);
+    sqffd_track_options opt = sqffd_track_options_default();
+    sqffd_model tracked[FRAMES], streamed, other;
+    sqffd_fit_report reports[FRAMES], rep;
+    sqffd_ffd_system sys;
+    size_t size = 0, frame_size = 0, sys_size = 0, done = 0, t;
+    void *work, *frame_work, *memory;
+    opt.fit.max_iterations = 20;
+    opt.frame_iterations = 6;
+    CHECK_RESULT(sqffd_track_workspace_size(s.counts, FRAMES, &opt, &size), SQFFD_OK);
+    work = test_malloc(size);
+    CHECK_RESULT(sqffd_track((const double *const *)s.points, s.counts, FRAMES, &opt, tracked, reports, &done, work,
+                             size), SQFFD_OK);
+    CHECK(done == FRAMES);
+    free(work);
+
+    CHECK_RESULT(sqffd_fit_workspace_size(N, &opt.fit, &size), SQFFD_OK);
+    work = test_malloc(size);
+    CHECK_RESULT(sqffd_fit(s.points[0], N, &opt.fit, &streamed, &rep, work, size), SQFFD_OK);
+    free(work);
+    CHECK(memcmp(&streamed, &tracked[0], sizeof streamed) == 0);
+    CHECK_RESULT(sqffd_ffd_system_size(&streamed, &sys_size), SQFFD_OK);
+    memory = test_malloc(sys_size);
+    CHECK_RESULT(sqffd_ffd_system_init(&sys, &streamed, &opt.fit, memory, sys_size), SQFFD_OK);
+    CHECK_RESULT(sqffd_track_frame_workspace_size(N, &opt, &frame_size), SQFFD_OK);
+    frame_work = test_malloc(frame_size);
+    for (t = 1; t < FRAMES; t++) {
+        sqffd_points frame = sqffd_points_packed(s.points[t], N);
+        other = streamed;
+        CHECK_RESULT(sqffd_track_frame(&sys, frame, &opt, &other, &rep, frame_work, frame_size - 1),
+                     SQFFD_ERROR_WORKSPACE_TOO_SMALL);
+        CHECK(memcmp(&other, &streamed, sizeof other) == 0);
+        CHECK_RESULT(sqffd_track_frame(&sys, frame, &opt, &streamed, &rep, frame_work, frame_size), SQFFD_OK);
+        CHECK_MSG(memcmp(&streamed.ffd.control, &tracked[t].ffd.control, sizeof streamed.ffd.control) == 0,
+                  "frame %zu: streamed control points differ from sqffd_track's", t);
+        CHECK(rep.error.rms == reports[t].error.rms && rep.iterations == reports[t].iterations);
+        CHECK(rep.iterations <= opt.frame_iterations);
+    }
+    /* a model of another box is refused; a negative cap too */
+    other = streamed;
+    other.ffd.origin[1] += 1e-6;
+    CHECK_RESULT(sqffd_track_frame(&sys, sqffd_points_packed(s.points[1], N), &opt, &other, NULL, frame_work,
+                                   frame_size), SQFFD_ERROR_INVALID_ARGUMENT);
+    opt.frame_iterations = -1;
+    CHECK_RESULT(sqffd_track_frame_workspace_size(N, &opt, &frame_size), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(sqffd_track_frame(&sys, sqffd_points_packed(s.points[1], N), &opt, &streamed, NULL, frame_work,
+                                   frame_size), SQFFD_ERROR_INVALID_ARGUMENT);
+    free(frame_work);
+    free(memory);
+    free_sequence(&s);
+}
+
 void suite_track(void)
 {
     RUN_TEST(test_track_prepared_system);
+    RUN_TEST(test_track_frame_stream);
     RUN_TEST(test_track_bad_input);
     RUN_TEST(test_track_identical_frames);
     RUN_TEST(test_track_phantom);
