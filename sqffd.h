@@ -6837,7 +6837,8 @@ static sqffd_result sqffd__fit_check_whole_options(const sqffd_fit_options *o)
     if (!sqffd__ffd_dims_valid(o->lattice)) return SQFFD_ERROR_INVALID_ARGUMENT;
     res = sqffd__fit_grid_check(o->grid);
     if (res == SQFFD_OK) res = sqffd__fit_check_options(o);
-    if (res == SQFFD_OK && (!(o->box_margin >= 0.0) || !isfinite(o->box_margin))) res = SQFFD_ERROR_INVALID_ARGUMENT;
+    if (res == SQFFD_OK && (!(o->box_margin >= 0.0) || !isfinite(o->box_margin) || !sqffd__sq_options_valid(&o->sq)))
+        res = SQFFD_ERROR_INVALID_ARGUMENT;
     return res;
 }
 

@@ -392,6 +392,17 @@ static void test_model_failure_rules(void)
     CHECK_RESULT(sqffd_fit(pts, N, &o, &m, &rep, ws, size - 1), SQFFD_ERROR_WORKSPACE_TOO_SMALL);
     bad = o; bad.alpha = -1.0;
     CHECK_RESULT(sqffd_fit(pts, N, &bad, &m, &rep, ws, size), SQFFD_ERROR_INVALID_ARGUMENT);
+    { /* bad stage-1 options: INVALID_ARGUMENT from the size calls and the fit, not TOO_LARGE */
+        sqffd_track_options t = sqffd_track_options_default();
+        size_t other = 1, counts[1] = {N};
+        bad = o; bad.sq.taper_max = 1.5;
+        CHECK_RESULT(sqffd_fit_workspace_size(N, &bad, &other), SQFFD_ERROR_INVALID_ARGUMENT);
+        CHECK(other == 0);
+        CHECK_RESULT(sqffd_fit(pts, N, &bad, &m, &rep, ws, size), SQFFD_ERROR_INVALID_ARGUMENT);
+        t.fit.sq.shape_min = 0.0;
+        CHECK_RESULT(sqffd_track_workspace_size(counts, 1, &t, &other), SQFFD_ERROR_INVALID_ARGUMENT);
+        CHECK_RESULT(sqffd_track_frame_workspace_size(N, &t, &other), SQFFD_ERROR_INVALID_ARGUMENT);
+    }
     pts[7] = NAN;
     CHECK_RESULT(sqffd_fit(pts, N, &o, &m, &rep, ws, size), SQFFD_ERROR_NON_FINITE);
     pts[7] = 0.25;
