@@ -62,7 +62,7 @@ static const cli_command commands[] = {
      "sqffd phantom -o DIR [--frames N] [--points N] [--noise S] [--low-motion U,THETA,RADIUS,FACTOR] [--seed N]",
      phantom_details,
      cmd_phantom},
-    {"info", "what a file holds: a volume's dims, spacing, type, value range and affine; a point file's count and box",
+    {"info", "what a file holds: a volume's dims, spacing, type, value range and affine; a point file's format, count and box",
      "sqffd info FILE", NULL, cmd_info},
     {"demo", "the paper end to end on a beating phantom: fit, Table 1, Fig. 3, tracking, EF, 17 segments, SVGs",
      "sqffd demo [-o DIR] [--quiet]", NULL, cmd_demo},
@@ -298,6 +298,7 @@ typedef struct input_summary {
     double level;         /* the iso level used */
     size_t crossings;     /* iso-surface points before the sample */
     size_t points;        /* kept */
+    size_t dropped_nan;   /* points left out of a PCD file for NaN coordinates */
 } input_summary;
 
 /* The input options fit and track share; 1 when name is one of them (*status: 0 or a usage error's). */
@@ -429,7 +430,9 @@ static int read_input(const char *path, const input_args *in, int first_only, do
     *counts = NULL;
     if (!is_volume(path)) {
         double *points = NULL;
-        if (sqffd_io_read_file(path, &points, &n, err, err_size)) return 1;
+        sqffd_io_info info;
+        if (sqffd_io_read_file_info(path, &points, &n, &info, err, err_size)) return 1;
+        sum->dropped_nan = info.dropped_nan;
         if (in->sample_set && in->sample < n) {
             double *kept = (double *)malloc(3 * in->sample * sizeof *kept);
             sqffd_result r;
@@ -579,11 +582,12 @@ static void fit_details(FILE *f)
 {
     fprintf(f,
             "INPUT is a point file: PLY (ascii, binary little or big endian; vertex x y z read,\n"
-            "other properties and elements skipped), OFF, OBJ vertices, or XYZ (x y z per line,\n"
-            "extra columns ignored, '#' comments), any of them gzip-compressed (.gz); or a volume:\n"
-            "NIfTI-1 (.nii, .nii.gz, .hdr/.img), MetaImage (.mha, .mhd) or NRRD (.nrrd, .nhdr),\n"
-            "whose iso-surface gives the points (a 4-D volume: its first frame). The format is\n"
-            "found from the content, then the extension.\n"
+            "other properties and elements skipped), PCD (ascii, binary, binary_compressed; points\n"
+            "with NaN coordinates, PCL's invalid depth, dropped and counted), OFF, OBJ vertices, or\n"
+            "XYZ (x y z per line, extra columns ignored, '#' comments), any of them gzip-compressed\n"
+            "(.gz); or a volume: NIfTI-1 (.nii, .nii.gz, .hdr/.img), MetaImage (.mha, .mhd) or NRRD\n"
+            "(.nrrd, .nhdr), whose iso-surface gives the points (a 4-D volume: its first frame).\n"
+            "The format is found from the content, then the extension.\n"
             "\n"
             "  -o, --output OUT.ply   the model surface as a triangle mesh (required), with a\n"
             "                         per-vertex float 'error': the distance from that model\n"
@@ -624,6 +628,8 @@ static void fit_report(const fit_args *a, const input_summary *in, size_t n, con
                a->in.all_components ? "" : " of the largest component", (unsigned long)n);
     } else {
         printf("  points read      %lu\n", (unsigned long)n);
+        if (in->dropped_nan)
+            printf("  dropped          %lu points with NaN coordinates (invalid depth)\n", (unsigned long)in->dropped_nan);
     }
     printf("  superquadric%s\n", r->sq.fallback ? "     the best start (the optimised fit ended farther from the data)" : "");
     print_vec3("    size", sq->size);
@@ -820,6 +826,7 @@ typedef struct track_args {
     sqffd_track_options options;
     sqffd_motion_options motion;
     int ascii, quiet;
+    size_t dropped_nan, dropped_frames; /* PCD points dropped for NaN coordinates, and the frames that had some */
 } track_args;
 
 /* "X,Y,Z" (count numbers, any sign) into v; 0 on success. */
@@ -954,6 +961,9 @@ static void track_report(const track_args *a, const size_t *counts, const sqffd_
     size_t t;
     int k;
     printf("sqffd track: %lu frames -> %s\n", (unsigned long)a->frame_count, a->output);
+    if (a->dropped_nan)
+        printf("  dropped          %lu points with NaN coordinates (invalid depth) in %lu frame%s\n",
+               (unsigned long)a->dropped_nan, (unsigned long)a->dropped_frames, a->dropped_frames == 1 ? "" : "s");
     printf("  frame  points      error %%  iterations  volume\n");
     for (t = 0; t < a->frame_count; t++)
         printf("  %5lu  %8lu  %9.4f  %10d  %.6g%s\n", (unsigned long)t, (unsigned long)counts[t],
@@ -1182,6 +1192,8 @@ static int cmd_track(int argc, char **argv)
             a.frames[total + t] = a.inputs[i];
         }
         a.frame_count = total + got_count;
+        a.dropped_nan += sum.dropped_nan;
+        a.dropped_frames += sum.dropped_nan > 0;
         free(got);
         free(got_counts);
     }
@@ -1379,8 +1391,10 @@ static int cmd_info(int argc, char **argv)
     } else {
         double *points = NULL, lo[3], hi[3];
         size_t n = 0;
+        sqffd_io_info io;
+        const sqffd_io_pcd_header *pcd = &io.pcd;
         int k;
-        if (sqffd_io_read_file(argv[1], &points, &n, err, sizeof err)) {
+        if (sqffd_io_read_file_info(argv[1], &points, &n, &io, err, sizeof err)) {
             fprintf(stderr, "%s\n", err);
             return EXIT_BAD_INPUT;
         }
@@ -1390,7 +1404,20 @@ static int cmd_info(int argc, char **argv)
                 lo[k] = points[3 * i + k] < lo[k] ? points[3 * i + k] : lo[k];
                 hi[k] = points[3 * i + k] > hi[k] ? points[3 * i + k] : hi[k];
             }
-        printf("%s\n  points      %lu\n", argv[1], (unsigned long)n);
+        printf("%s\n  format      %s", argv[1], sqffd_io_format_name(io.format));
+        if (io.format == SQFFD_IO_PCD) printf("%s%s, %s", pcd->version[0] ? " " : "", pcd->version, pcd->encoding);
+        printf("%s\n", io.gzip ? ", gzip-compressed" : "");
+        if (io.format == SQFFD_IO_PCD) {
+            printf("  fields      %s\n", pcd->fields);
+            printf("  layout      %llu x %llu (%s)\n", (unsigned long long)pcd->width, (unsigned long long)pcd->height,
+                   pcd->height > 1 ? "organised" : "unorganised");
+            printf("  viewpoint   origin %g %g %g, orientation (w x y z) %g %g %g %g, not applied to the points\n",
+                   pcd->viewpoint[0], pcd->viewpoint[1], pcd->viewpoint[2], pcd->viewpoint[3], pcd->viewpoint[4],
+                   pcd->viewpoint[5], pcd->viewpoint[6]);
+        }
+        printf("  points      %lu\n", (unsigned long)n);
+        if (io.dropped_nan)
+            printf("  dropped     %lu points with NaN coordinates (invalid depth)\n", (unsigned long)io.dropped_nan);
         printf("  box         %g %g %g .. %g %g %g\n", lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]);
         printf("  diagonal    %g\n", sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
                                           (hi[2] - lo[2]) * (hi[2] - lo[2])));

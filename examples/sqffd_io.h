@@ -3,15 +3,18 @@
    Header-only, every function `static inline`; plain C99 plus the C library
    (stdio, stdlib) and sqffd_inflate.h beside it. Independent of sqffd.h.
 
-   Reading: XYZ, PLY (ascii, binary_little_endian, binary_big_endian), OFF
-   and the vertices of Wavefront OBJ.
+   Reading: XYZ, PLY (ascii, binary_little_endian, binary_big_endian), OFF,
+   the vertices of Wavefront OBJ, and PCD (the Point Cloud Library's format:
+   ascii, binary, binary_compressed).
    Every reader takes a memory buffer and its size, checks every count and
    offset against that size before using or allocating anything, and returns
      0  with *points = malloc'd x y z triples (free() them) and *count, or
      1  with *points = NULL, *count = 0 and a message "NAME: what is wrong"
         in err (NAME is the file name the caller passed, for messages only).
    A file that holds no points is an error; so are NaN and infinite
-   coordinates. gzip-compressed input (any of these formats) is decompressed
+   coordinates, except that a PCD point with a NaN coordinate (PCL's mark
+   of an invalid depth pixel) is dropped and counted in sqffd_io_info
+   (sqffd_io_read_points_info, sqffd_io_read_file_info). gzip-compressed input (any of these formats) is decompressed
    first, with sqffd_inflate.h, up to SQFFD_IO_MAX_FILE_SIZE bytes (the
    format then comes from the content, or the name without its .gz).
    Element indices in messages count from 0 (like PLY face
@@ -46,8 +49,27 @@ typedef enum sqffd_io_format {
     SQFFD_IO_XYZ = 0,
     SQFFD_IO_PLY = 1,
     SQFFD_IO_OFF = 2,
-    SQFFD_IO_OBJ = 3
+    SQFFD_IO_OBJ = 3,
+    SQFFD_IO_PCD = 4
 } sqffd_io_format;
+
+/* A PCD file's header, as sqffd_io_read_pcd read it. */
+typedef struct sqffd_io_pcd_header {
+    char version[8];        /* "0.7" or "0.6" (".7" reads as "0.7"); "" when the file has no VERSION line */
+    const char *encoding;   /* "ascii", "binary" or "binary_compressed" */
+    char fields[256];       /* each field as NAME TYPE SIZE [xCOUNT]: "x F4, y F4, z F4, rgba U4" ("..." when cut) */
+    uint64_t width, height; /* height > 1: an organised cloud, an image of width x height pixels */
+    uint64_t points;        /* POINTS, invalid (NaN) points included */
+    double viewpoint[7];    /* VIEWPOINT tx ty tz qw qx qy qz (0 0 0 1 0 0 0 when absent); not applied */
+} sqffd_io_pcd_header;
+
+/* What a read found besides the points; filled on success. */
+typedef struct sqffd_io_info {
+    sqffd_io_format format;  /* the format read */
+    int gzip;                /* the file was gzip-compressed */
+    size_t dropped_nan;      /* PCD points left out for a NaN coordinate (invalid depth); other formats refuse NaN */
+    sqffd_io_pcd_header pcd; /* format SQFFD_IO_PCD: its header */
+} sqffd_io_info;
 
 /* One per-vertex scalar for the writer: `name` becomes a float property. */
 typedef struct sqffd_io_scalar {
@@ -96,7 +118,8 @@ enum { SQFFD_IO__NUMBER = 0, SQFFD_IO__NOT_NUMBER = 1, SQFFD_IO__NOT_FINITE = 2 
 
 /* Parses exactly [text, text + len) as a double (strtod on a bounded copy:
    the buffer is not NUL-terminated). NaN, infinities and overflow are
-   SQFFD_IO__NOT_FINITE. */
+   SQFFD_IO__NOT_FINITE (with the value in *out, so a caller can tell NaN
+   from infinity). */
 static inline int sqffd_io__parse_double(const char *text, size_t len, double *out)
 {
     char buf[128];
@@ -107,9 +130,8 @@ static inline int sqffd_io__parse_double(const char *text, size_t len, double *o
     buf[len] = '\0';
     v = strtod(buf, &stop);
     if (stop != buf + len) return SQFFD_IO__NOT_NUMBER;
-    if (!isfinite(v)) return SQFFD_IO__NOT_FINITE;
     *out = v;
-    return SQFFD_IO__NUMBER;
+    return isfinite(v) ? SQFFD_IO__NUMBER : SQFFD_IO__NOT_FINITE;
 }
 
 /* Parses exactly [text, text + len) as an unsigned decimal integer; 0 on success. */
@@ -513,15 +535,16 @@ static inline float sqffd_io__to_float(double value)
     return (float)value;
 }
 
+/* Binary value types; the 64-bit integers occur in PCD only. */
 enum { SQFFD_IO__I8, SQFFD_IO__U8, SQFFD_IO__I16, SQFFD_IO__U16, SQFFD_IO__I32, SQFFD_IO__U32,
-       SQFFD_IO__F32, SQFFD_IO__F64 };
+       SQFFD_IO__F32, SQFFD_IO__F64, SQFFD_IO__I64, SQFFD_IO__U64 };
 enum { SQFFD_IO__PLY_ASCII, SQFFD_IO__PLY_LE, SQFFD_IO__PLY_BE };
 #define SQFFD_IO__PLY_MAX_ELEMENTS 64
 #define SQFFD_IO__PLY_MAX_PROPERTIES 1024
 
 static inline size_t sqffd_io__type_size(int type)
 {
-    static const unsigned char sizes[] = {1, 1, 2, 2, 4, 4, 4, 8};
+    static const unsigned char sizes[] = {1, 1, 2, 2, 4, 4, 4, 8, 8, 8};
     return sizes[type];
 }
 
@@ -670,7 +693,8 @@ static inline int sqffd_io__ply_header(const char *text, size_t size, sqffd_io__
     }
 }
 
-/* A binary scalar at p as a double (exact for every PLY type). */
+/* A binary scalar at p as a double (exact for every PLY type; 64-bit
+   integers are rounded to the nearest double). */
 static inline double sqffd_io__ply_load(const unsigned char *p, int type, int big_endian)
 {
     size_t size = sqffd_io__type_size(type), i;
@@ -680,6 +704,7 @@ static inline double sqffd_io__ply_load(const unsigned char *p, int type, int bi
     case SQFFD_IO__I8: return (double)u - (u >= 0x80u ? 256.0 : 0.0);
     case SQFFD_IO__I16: return (double)u - (u >= 0x8000u ? 65536.0 : 0.0);
     case SQFFD_IO__I32: return (double)u - (u >= 0x80000000u ? 4294967296.0 : 0.0);
+    case SQFFD_IO__I64: return u >> 63 ? -(double)(~u) - 1.0 : (double)u;
     case SQFFD_IO__F32: {
         uint32_t bits = (uint32_t)u;
         float f;
@@ -876,6 +901,549 @@ static inline int sqffd_io_read_ply(const void *data, size_t size, const char *n
     return sqffd_io__finish(&pts, points, count, name, err, err_size);
 }
 
+/* ---- PCD ----------------------------------------------------------------- */
+
+/* PCD, the Point Cloud Library's format (versions 0.6 and 0.7): header lines
+   VERSION, FIELDS, SIZE, TYPE, COUNT, WIDTH, HEIGHT, VIEWPOINT, POINTS (any
+   order, FIELDS before SIZE, TYPE and COUNT), then DATA and the points:
+     ascii              a line per point, COUNT values for each field;
+     binary             point after point, each field's values in turn, little endian;
+     binary_compressed  uint32 compressed size, uint32 uncompressed size (little
+                        endian), then LZF data that decompress to the fields one
+                        after the other (all points' values of field 0, then of
+                        field 1, ...); padding fields '_' take no bytes there, as
+                        PCL writes and reads them. */
+
+enum { SQFFD_IO__PCD_ASCII, SQFFD_IO__PCD_BINARY, SQFFD_IO__PCD_COMPRESSED };
+#define SQFFD_IO__PCD_MAX_FIELDS 1024
+/* The most an LZF stream expands: a 3-byte back-reference gives 264 bytes. */
+#define SQFFD_IO__LZF_MAX_EXPANSION 88
+
+typedef struct sqffd_io__pcd_field {
+    const char *name; /* in the header text */
+    size_t name_len;
+    unsigned size;    /* SIZE: 1, 2, 4 or 8 */
+    char kind;        /* TYPE: 'I', 'U' or 'F' */
+    int type;         /* SQFFD_IO__I8 ... SQFFD_IO__U64, from SIZE and TYPE */
+    uint64_t count;   /* COUNT: values a point holds */
+    int role;         /* 1..3: x, y, z; 0: skipped */
+} sqffd_io__pcd_field;
+
+typedef struct sqffd_io__pcd {
+    int encoding, fields;
+    sqffd_io__pcd_field field[SQFFD_IO__PCD_MAX_FIELDS];
+    sqffd_io__text body; /* the text after the DATA line; line numbers go on from the header's */
+    sqffd_io_pcd_header header;
+} sqffd_io__pcd;
+
+static inline int sqffd_io__pcd_padding(const sqffd_io__pcd_field *f)
+{
+    return f->name_len == 1 && f->name[0] == '_';
+}
+
+/* The next token of a line when it is the line's last one. */
+static inline int sqffd_io__last_token(const char **s, const char *e, const char **tok, size_t *len)
+{
+    const char *extra;
+    size_t extra_len;
+    return sqffd_io__line_token(s, e, tok, len) && !sqffd_io__line_token(s, e, &extra, &extra_len);
+}
+
+/* The value type of a field of SIZE size and TYPE kind; -1 if PCD has none. */
+static inline int sqffd_io__pcd_type(char kind, unsigned size)
+{
+    static const int integers[2][4] = {{SQFFD_IO__I8, SQFFD_IO__I16, SQFFD_IO__I32, SQFFD_IO__I64},
+                                       {SQFFD_IO__U8, SQFFD_IO__U16, SQFFD_IO__U32, SQFFD_IO__U64}};
+    int size_log2 = size == 1 ? 0 : size == 2 ? 1 : size == 4 ? 2 : size == 8 ? 3 : -1;
+    if (size_log2 < 0) return -1;
+    if (kind == 'F') return size == 4 ? SQFFD_IO__F32 : size == 8 ? SQFFD_IO__F64 : -1;
+    if (kind == 'I' || kind == 'U') return integers[kind == 'U'][size_log2];
+    return -1;
+}
+
+/* The fields as "x F4, y F4, z F4, rgba U4, fpfh F4x33" into h->header.fields. */
+static inline void sqffd_io__pcd_describe(sqffd_io__pcd *h)
+{
+    char *out = h->header.fields;
+    size_t cap = sizeof h->header.fields, used = 0;
+    int f;
+    out[0] = '\0';
+    for (f = 0; f < h->fields; f++) {
+        const sqffd_io__pcd_field *fd = &h->field[f];
+        char item[96], label[33];
+        size_t i, n = fd->name_len < 32 ? fd->name_len : 32, len;
+        for (i = 0; i < n; i++) {
+            unsigned char c = (unsigned char)fd->name[i];
+            label[i] = (char)(c >= 32 && c < 127 ? c : '?');
+        }
+        label[n] = '\0';
+        if (fd->count == 1) snprintf(item, sizeof item, "%s%s %c%u", f ? ", " : "", label, fd->kind, fd->size);
+        else snprintf(item, sizeof item, "%s%s %c%ux%llu", f ? ", " : "", label, fd->kind, fd->size,
+                      (unsigned long long)fd->count);
+        len = strlen(item);
+        if (used + len + 6 > cap) { /* room is always left for ", ..." */
+            memcpy(out + used, ", ...", 6);
+            return;
+        }
+        memcpy(out + used, item, len + 1);
+        used += len;
+    }
+}
+
+/* Reads the header lines up to DATA into h; 0 on success. */
+static inline int sqffd_io__pcd_header(const char *text, size_t size, sqffd_io__pcd *h, const char *name, char *err,
+                                       size_t err_size)
+{
+    enum { kw_version, kw_fields, kw_size, kw_type, kw_count, kw_width, kw_height, kw_viewpoint, kw_points, kw_data,
+           kw_keywords };
+    static const char *const keywords[kw_keywords] = {"VERSION", "FIELDS", "SIZE", "TYPE", "COUNT",
+                                                   "WIDTH", "HEIGHT", "VIEWPOINT", "POINTS", "DATA"};
+    static const double identity[7] = {0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0};
+    sqffd_io__text t;
+    const char *s, *e, *tok;
+    size_t len;
+    uint64_t width = 0, height = 1, points = 0;
+    int seen[kw_keywords] = {0}, key, f, k;
+    char q[32];
+    t.p = text;
+    t.end = text + size;
+    t.line = 0;
+    h->fields = 0;
+    memset(&h->header, 0, sizeof h->header);
+    memcpy(h->header.viewpoint, identity, sizeof identity);
+    for (;;) {
+        if (!sqffd_io__next_line(&t, &s, &e))
+            return sqffd_io__fail(err, err_size, name, "file ends inside the header (no DATA line)");
+        if (!sqffd_io__line_token(&s, e, &tok, &len))
+            return sqffd_io__fail(err, err_size, name, "header line %llu: expected a keyword", t.line);
+        for (key = 0; key < kw_keywords; key++)
+            if (strlen(keywords[key]) == len && memcmp(keywords[key], tok, len) == 0) break;
+        if (key == kw_keywords)
+            return sqffd_io__fail(err, err_size, name, "header line %llu: unknown keyword %s", t.line,
+                                  sqffd_io__quote(tok, len, q));
+        if (seen[key]++)
+            return sqffd_io__fail(err, err_size, name, "header line %llu: a second %s line", t.line, keywords[key]);
+        if ((key == kw_size || key == kw_type || key == kw_count) && !seen[kw_fields])
+            return sqffd_io__fail(err, err_size, name, "header line %llu: %s before FIELDS", t.line, keywords[key]);
+        if (key == kw_fields) {
+            for (f = 0; sqffd_io__line_token(&s, e, &tok, &len); f++) {
+                sqffd_io__pcd_field *fd = &h->field[f];
+                if (f == SQFFD_IO__PCD_MAX_FIELDS)
+                    return sqffd_io__fail(err, err_size, name, "header line %llu: more than %d fields", t.line,
+                                          SQFFD_IO__PCD_MAX_FIELDS);
+                fd->name = tok;
+                fd->name_len = len;
+                fd->size = 4; /* PCL's defaults for files without SIZE, TYPE or COUNT */
+                fd->kind = 'F';
+                fd->count = 1;
+                fd->role = len == 1 && tok[0] >= 'x' && tok[0] <= 'z' ? tok[0] - 'x' + 1 : 0;
+                for (k = 0; k < f && fd->role; k++)
+                    if (h->field[k].role == fd->role)
+                        return sqffd_io__fail(err, err_size, name, "header line %llu: a second field '%c'", t.line,
+                                              tok[0]);
+                h->fields = f + 1;
+            }
+            if (h->fields == 0)
+                return sqffd_io__fail(err, err_size, name, "header line %llu: FIELDS names no field", t.line);
+        } else if (key == kw_size || key == kw_type || key == kw_count) {
+            for (f = 0; sqffd_io__line_token(&s, e, &tok, &len); f++) {
+                sqffd_io__pcd_field *fd = &h->field[f];
+                uint64_t v = 0;
+                if (f == h->fields)
+                    return sqffd_io__fail(err, err_size, name, "header line %llu: more %s entries than the %d FIELDS",
+                                          t.line, keywords[key], h->fields);
+                if (key == kw_type) {
+                    if (len != 1 || (tok[0] != 'I' && tok[0] != 'U' && tok[0] != 'F'))
+                        return sqffd_io__fail(err, err_size, name, "header line %llu: TYPE %s is not I, U or F",
+                                              t.line, sqffd_io__quote(tok, len, q));
+                    fd->kind = tok[0];
+                    continue;
+                }
+                if (sqffd_io__parse_count(tok, len, &v) || (key == kw_size && v != 1 && v != 2 && v != 4 && v != 8))
+                    return sqffd_io__fail(err, err_size, name, "header line %llu: %s %s is not %s", t.line,
+                                          keywords[key], sqffd_io__quote(tok, len, q),
+                                          key == kw_size ? "1, 2, 4 or 8" : "a count below 2^64");
+                if (key == kw_count && v == 0)
+                    return sqffd_io__fail(err, err_size, name, "header line %llu: COUNT 0: a field holds at least "
+                                          "one value", t.line);
+                if (key == kw_size) fd->size = (unsigned)v;
+                else fd->count = v;
+            }
+            if (f != h->fields)
+                return sqffd_io__fail(err, err_size, name, "header line %llu: %d %s entries for %d FIELDS", t.line, f,
+                                      keywords[key], h->fields);
+        } else if (key == kw_width || key == kw_height || key == kw_points) {
+            uint64_t *v = key == kw_width ? &width : key == kw_height ? &height : &points;
+            if (!sqffd_io__last_token(&s, e, &tok, &len) || sqffd_io__parse_count(tok, len, v))
+                return sqffd_io__fail(err, err_size, name, "header line %llu: expected '%s N', N a count below 2^64",
+                                      t.line, keywords[key]);
+        } else if (key == kw_version) {
+            if (!sqffd_io__last_token(&s, e, &tok, &len))
+                return sqffd_io__fail(err, err_size, name, "header line %llu: expected 'VERSION 0.7'", t.line);
+            if ((len == 3 || len == 2) && memcmp(tok + len - 2, ".7", 2) == 0 && (len == 2 || tok[0] == '0'))
+                memcpy(h->header.version, "0.7", 4);
+            else if ((len == 3 || len == 2) && memcmp(tok + len - 2, ".6", 2) == 0 && (len == 2 || tok[0] == '0'))
+                memcpy(h->header.version, "0.6", 4);
+            else
+                return sqffd_io__fail(err, err_size, name, "header line %llu: VERSION %s: only PCD 0.6 and 0.7 are "
+                                      "read", t.line, sqffd_io__quote(tok, len, q));
+        } else if (key == kw_viewpoint) {
+            for (k = 0; k < 7; k++)
+                if (!sqffd_io__line_token(&s, e, &tok, &len) ||
+                    sqffd_io__parse_double(tok, len, &h->header.viewpoint[k]) != SQFFD_IO__NUMBER)
+                    return sqffd_io__fail(err, err_size, name, "header line %llu: VIEWPOINT takes 7 finite numbers "
+                                          "(tx ty tz qw qx qy qz)", t.line);
+            if (sqffd_io__line_token(&s, e, &tok, &len))
+                return sqffd_io__fail(err, err_size, name, "header line %llu: VIEWPOINT takes 7 numbers, found more",
+                                      t.line);
+        } else { /* DATA: the header's last line */
+            if (!sqffd_io__last_token(&s, e, &tok, &len))
+                return sqffd_io__fail(err, err_size, name, "header line %llu: expected 'DATA ENCODING'", t.line);
+            if (len == 5 && memcmp(tok, "ascii", 5) == 0) h->encoding = SQFFD_IO__PCD_ASCII;
+            else if (len == 6 && memcmp(tok, "binary", 6) == 0) h->encoding = SQFFD_IO__PCD_BINARY;
+            else if (len == 17 && memcmp(tok, "binary_compressed", 17) == 0) h->encoding = SQFFD_IO__PCD_COMPRESSED;
+            else
+                return sqffd_io__fail(err, err_size, name, "header line %llu: DATA %s is not ascii, binary or "
+                                      "binary_compressed", t.line, sqffd_io__quote(tok, len, q));
+            h->header.encoding = h->encoding == SQFFD_IO__PCD_ASCII    ? "ascii"
+                                 : h->encoding == SQFFD_IO__PCD_BINARY ? "binary"
+                                                                       : "binary_compressed";
+            h->body = t;
+            break;
+        }
+    }
+    if (!seen[kw_fields]) return sqffd_io__fail(err, err_size, name, "header has no FIELDS line");
+    if (seen[kw_size] != seen[kw_type])
+        return sqffd_io__fail(err, err_size, name, "header has %s but no %s line", seen[kw_size] ? "SIZE" : "TYPE",
+                              seen[kw_size] ? "TYPE" : "SIZE");
+    for (f = 0; f < h->fields; f++) {
+        sqffd_io__pcd_field *fd = &h->field[f];
+        fd->type = sqffd_io__pcd_type(fd->kind, fd->size);
+        if (fd->type < 0)
+            return sqffd_io__fail(err, err_size, name, "field %s: TYPE %c of SIZE %u is not a PCD type",
+                                  sqffd_io__quote(fd->name, fd->name_len, q), fd->kind, fd->size);
+        if (fd->role && fd->count != 1)
+            return sqffd_io__fail(err, err_size, name, "field '%c' has COUNT %llu; a coordinate is 1 value",
+                                  'x' + fd->role - 1, (unsigned long long)fd->count);
+    }
+    for (k = 1; k <= 3; k++) {
+        for (f = 0; f < h->fields && h->field[f].role != k; f++) {}
+        if (f == h->fields) return sqffd_io__fail(err, err_size, name, "FIELDS has no '%c'", 'x' + k - 1);
+    }
+    if (seen[kw_width]) {
+        if (width != 0 && height > UINT64_MAX / width)
+            return sqffd_io__fail(err, err_size, name, "WIDTH %llu x HEIGHT %llu overflows", (unsigned long long)width,
+                                  (unsigned long long)height);
+        if (!seen[kw_points]) points = width * height; /* old files */
+        else if (width * height != points)
+            return sqffd_io__fail(err, err_size, name, "WIDTH x HEIGHT = %llu x %llu, but POINTS %llu",
+                                  (unsigned long long)width, (unsigned long long)height, (unsigned long long)points);
+    } else if (seen[kw_height]) {
+        return sqffd_io__fail(err, err_size, name, "header has HEIGHT but no WIDTH");
+    } else if (!seen[kw_points]) {
+        return sqffd_io__fail(err, err_size, name, "header has neither POINTS nor WIDTH");
+    } else {
+        width = points;
+    }
+    if (points == 0) return sqffd_io__fail(err, err_size, name, "header says 0 points");
+    h->header.width = width;
+    h->header.height = height;
+    h->header.points = points;
+    sqffd_io__pcd_describe(h);
+    return 0;
+}
+
+/* Decompresses LZF data (LibLZF's format) in[0, in_size) into exactly
+   out_size bytes at out. Returns 0, or 1 with *problem, the input offset
+   where it was found in *at and the bytes decompressed by then in *done.
+   Where input and output have room, copies go in fixed blocks of 16 bytes
+   past the run's end (overwritten by what follows): PCD data come in short
+   runs, and a copy of variable length costs more than the extra bytes. */
+static inline int sqffd_io__lzf_decompress(const unsigned char *in, size_t in_size, unsigned char *out,
+                                           size_t out_size, const char **problem, size_t *at, size_t *done)
+{
+    size_t ip = 0, op = 0;
+    while (ip < in_size) {
+        size_t ctrl = in[ip], len;
+        *at = ip++;
+        *done = op;
+        if (ctrl < 32) { /* a literal run of ctrl + 1 bytes */
+            len = ctrl + 1;
+            if (in_size - ip < len) { *problem = "a literal run passes the end of the compressed data"; return 1; }
+            if (out_size - op < len) { *problem = "more bytes than the uncompressed size"; return 1; }
+            if (in_size - ip >= 32 && out_size - op >= 32) memcpy(out + op, in + ip, 32);
+            else memcpy(out + op, in + ip, len);
+            ip += len;
+        } else { /* a back-reference: length ctrl >> 5 (7: plus the next byte) + 2, 13-bit distance - 1 */
+            size_t distance, i;
+            len = ctrl >> 5;
+            if (len == 7 && ip < in_size) len += in[ip++];
+            if (ip == in_size) { *problem = "a back-reference is cut off by the end of the compressed data"; return 1; }
+            distance = ((ctrl & 31) << 8 | in[ip++]) + 1;
+            len += 2;
+            if (distance > op) { *problem = "a back-reference reaches before the start of the data"; return 1; }
+            if (out_size - op < len) { *problem = "more bytes than the uncompressed size"; return 1; }
+            if (distance >= 16 && out_size - op >= len + 15) { /* each block is read before it is written */
+                for (i = 0; i < len; i += 16) memcpy(out + op + i, out + op - distance + i, 16);
+            } else if (distance >= 8 && out_size - op >= len + 7) {
+                for (i = 0; i < len; i += 8) memcpy(out + op + i, out + op - distance + i, 8);
+            } else if (distance >= 4 && out_size - op >= len + 3) { /* a float repeated: distance 4 */
+                for (i = 0; i < len; i += 4) memcpy(out + op + i, out + op - distance + i, 4);
+            } else { /* overlapping: bytes written by this copy are copied again */
+                for (i = 0; i < len; i++) out[op + i] = out[op - distance + i];
+            }
+        }
+        op += len;
+    }
+    *at = ip;
+    *done = op;
+    if (op != out_size) { *problem = "fewer bytes than the uncompressed size"; return 1; }
+    return 0;
+}
+
+/* A little-endian float at p, as a double. */
+static inline double sqffd_io__le_f32(const unsigned char *p)
+{
+    uint32_t bits = (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+    float f;
+    memcpy(&f, &bits, sizeof f);
+    return (double)f;
+}
+
+/* Whether point i (x y z) is kept: 1 when every coordinate is finite, 0
+   when one is NaN (the point is dropped); an infinite coordinate is an
+   error (-1, message in err). */
+static inline int sqffd_io__pcd_valid(const double xyz[3], uint64_t i, const char *name, char *err, size_t err_size)
+{
+    int k;
+    if (isfinite(xyz[0]) && isfinite(xyz[1]) && isfinite(xyz[2])) return 1;
+    if (isnan(xyz[0]) || isnan(xyz[1]) || isnan(xyz[2])) return 0;
+    for (k = 0; isfinite(xyz[k]); k++) {}
+    sqffd_io__fail(err, err_size, name, "point %llu: %c is infinite (PCL marks invalid points with NaN: an infinity "
+                   "is corrupt data)", (unsigned long long)i, 'x' + k);
+    return -1;
+}
+
+/* The points of binary data into pts (which has room), NaN ones counted in
+   *dropped: coordinate k of point i is the value of type type[k] at
+   base + offset[k] + i * stride[k]. */
+static inline int sqffd_io__pcd_extract(const unsigned char *base, uint64_t n, const size_t offset[3],
+                                        const size_t stride[3], const int type[3], sqffd_io__points *pts,
+                                        size_t *dropped, const char *name, char *err, size_t err_size)
+{
+    int floats = type[0] == SQFFD_IO__F32 && type[1] == SQFFD_IO__F32 && type[2] == SQFFD_IO__F32;
+    double *out = pts->xyz + 3 * pts->count;
+    size_t kept = 0, invalid = 0, i;
+    for (i = 0; i < (size_t)n; i++) {
+        double *xyz = out + 3 * kept; /* written in place, kept or not */
+        int k, valid;
+        for (k = 0; k < 3; k++) {
+            const unsigned char *p = base + offset[k] + i * stride[k];
+            xyz[k] = floats ? sqffd_io__le_f32(p) : sqffd_io__ply_load(p, type[k], 0);
+        }
+        valid = sqffd_io__pcd_valid(xyz, i, name, err, err_size);
+        if (valid < 0) return 1;
+        kept += (size_t)valid;
+        invalid += (size_t)!valid;
+    }
+    pts->count += kept;
+    *dropped += invalid;
+    return 0;
+}
+
+/* One ascii value of field fd, point i: NaN is let through (the point is
+   dropped); anything else must be a finite value of the field's type (a
+   float field's value is rounded to float, as binary files hold it). */
+static inline int sqffd_io__pcd_ascii_value(const char *tok, size_t len, const sqffd_io__pcd_field *fd, uint64_t i,
+                                            unsigned long long line, double *value, const char *name, char *err,
+                                            size_t err_size)
+{
+    char q[32];
+    char c = (char)('x' + fd->role - 1);
+    if (sqffd_io__parse_double(tok, len, value) == SQFFD_IO__NOT_NUMBER)
+        return sqffd_io__fail(err, err_size, name, "point %llu (line %llu): expected a number for %c, found %s",
+                              (unsigned long long)i, line, c, sqffd_io__quote(tok, len, q));
+    if (fd->kind != 'F') {
+        int bits = 8 * (int)fd->size;
+        double lo = fd->kind == 'I' ? -ldexp(1.0, bits - 1) : 0.0, hi = ldexp(1.0, fd->kind == 'I' ? bits - 1 : bits);
+        if (!(*value == floor(*value) && *value >= lo && *value < hi))
+            return sqffd_io__fail(err, err_size, name, "point %llu (line %llu): %c %s is not %s integer of %d bits",
+                                  (unsigned long long)i, line, c, sqffd_io__quote(tok, len, q),
+                                  fd->kind == 'I' ? "a signed" : "an unsigned", bits);
+        return 0;
+    }
+    if (fd->size == 4 && !isnan(*value)) *value = (double)sqffd_io__to_float(*value);
+    if (isinf(*value))
+        return sqffd_io__fail(err, err_size, name, "point %llu (line %llu): %c %s is not finite%s (PCL marks invalid "
+                              "points with NaN: an infinity is corrupt data)", (unsigned long long)i, line, c,
+                              sqffd_io__quote(tok, len, q), fd->size == 4 ? " as a float" : "");
+    return 0;
+}
+
+/* The points of an ascii body: a line per point (blank lines and '#'
+   comments skipped), at least as many values as the fields' COUNTs add up
+   to; more values, and lines after the last point, are ignored (as PCL does). */
+static inline int sqffd_io__pcd_ascii(sqffd_io__pcd *h, sqffd_io__points *pts, size_t *dropped, const char *name,
+                                      char *err, size_t err_size)
+{
+    sqffd_io__text t = h->body;
+    uint64_t values = 0, n = h->header.points, i;
+    size_t remaining = (size_t)(t.end - t.p);
+    int f;
+    for (f = 0; f < h->fields; f++) {
+        if (values > UINT64_MAX - h->field[f].count)
+            return sqffd_io__fail(err, err_size, name, "the fields' COUNTs add up past 2^64");
+        values += h->field[f].count;
+    }
+    /* a value is at least one byte plus a separator */
+    if (n > ((uint64_t)remaining + 1) / 2 / values)
+        return sqffd_io__fail(err, err_size, name, "header says %llu points of %llu values each, file holds %llu bytes "
+                              "of data", (unsigned long long)n, (unsigned long long)values,
+                              (unsigned long long)remaining);
+    if (sqffd_io__reserve(pts, (size_t)n))
+        return sqffd_io__fail(err, err_size, name, "out of memory for %llu points", (unsigned long long)n);
+    for (i = 0; i < n; i++) {
+        const char *s, *e, *tok;
+        size_t len;
+        double xyz[3] = {0.0, 0.0, 0.0};
+        uint64_t v = 0, c;
+        int valid;
+        if (!sqffd_io__next_line(&t, &s, &e))
+            return sqffd_io__fail(err, err_size, name, "file ends after %llu of %llu points", (unsigned long long)i,
+                                  (unsigned long long)n);
+        for (f = 0; f < h->fields; f++) {
+            const sqffd_io__pcd_field *fd = &h->field[f];
+            for (c = 0; c < fd->count; c++, v++) {
+                if (!sqffd_io__line_token(&s, e, &tok, &len))
+                    return sqffd_io__fail(err, err_size, name, "point %llu (line %llu): expected %llu values, found "
+                                          "%llu", (unsigned long long)i, t.line, (unsigned long long)values,
+                                          (unsigned long long)v);
+                if (fd->role &&
+                    sqffd_io__pcd_ascii_value(tok, len, fd, i, t.line, &xyz[fd->role - 1], name, err, err_size))
+                    return 1;
+            }
+        }
+        valid = sqffd_io__pcd_valid(xyz, i, name, err, err_size);
+        if (valid < 0) return 1;
+        if (valid) memcpy(pts->xyz + 3 * pts->count++, xyz, sizeof xyz);
+        else (*dropped)++;
+    }
+    return 0;
+}
+
+/* The points of a binary or binary_compressed body, checked against the
+   bytes present before anything is allocated. */
+static inline int sqffd_io__pcd_binary(const unsigned char *bytes, size_t size, sqffd_io__pcd *h,
+                                       sqffd_io__points *pts, size_t *dropped, const char *name, char *err,
+                                       size_t err_size)
+{
+    size_t start = (size_t)(h->body.p - (const char *)bytes), remaining = size - start;
+    size_t offset[3] = {0, 0, 0}, stride[3] = {0, 0, 0}, at, done;
+    int type[3] = {0, 0, 0}, f, compressed = h->encoding == SQFFD_IO__PCD_COMPRESSED, r;
+    uint64_t n = h->header.points, record = 0, compressed_size, uncompressed_size;
+    unsigned char *raw;
+    const char *problem;
+    for (f = 0; f < h->fields; f++) { /* a point's bytes; compressed data hold no padding */
+        const sqffd_io__pcd_field *fd = &h->field[f];
+        if (compressed && sqffd_io__pcd_padding(fd)) continue;
+        if (fd->count > (UINT64_MAX - record) / fd->size)
+            return sqffd_io__fail(err, err_size, name, "the fields' SIZE x COUNT add up past 2^64 bytes a point");
+        if (fd->role) { /* offsets below `record`, checked against the data's size before any use */
+            offset[fd->role - 1] = (size_t)record;
+            stride[fd->role - 1] = fd->size; /* compressed: the next point's value follows; binary: set below */
+            type[fd->role - 1] = fd->type;
+        }
+        record += fd->size * fd->count;
+    }
+    if (!compressed) {
+        if (n > (uint64_t)remaining / record)
+            return sqffd_io__fail(err, err_size, name, "header says %llu points of %llu bytes each, file holds %llu "
+                                  "bytes of data", (unsigned long long)n, (unsigned long long)record,
+                                  (unsigned long long)remaining);
+        for (f = 0; f < 3; f++) stride[f] = (size_t)record;
+        if (sqffd_io__reserve(pts, (size_t)n))
+            return sqffd_io__fail(err, err_size, name, "out of memory for %llu points", (unsigned long long)n);
+        return sqffd_io__pcd_extract(bytes + start, n, offset, stride, type, pts, dropped, name, err, err_size);
+    }
+    if (remaining < 8)
+        return sqffd_io__fail(err, err_size, name, "file ends before the binary_compressed sizes (8 bytes after DATA)");
+    compressed_size = (uint64_t)bytes[start] | (uint64_t)bytes[start + 1] << 8 | (uint64_t)bytes[start + 2] << 16 |
+                      (uint64_t)bytes[start + 3] << 24;
+    uncompressed_size = (uint64_t)bytes[start + 4] | (uint64_t)bytes[start + 5] << 8 |
+                        (uint64_t)bytes[start + 6] << 16 | (uint64_t)bytes[start + 7] << 24;
+    if (compressed_size > remaining - 8)
+        return sqffd_io__fail(err, err_size, name, "%llu bytes of compressed data, file holds %llu after the sizes",
+                              (unsigned long long)compressed_size, (unsigned long long)(remaining - 8));
+    if (n > uncompressed_size / record || n * record != uncompressed_size)
+        return sqffd_io__fail(err, err_size, name, "uncompressed size %llu bytes, but %llu points of %llu bytes take "
+                              "%s%llu", (unsigned long long)uncompressed_size, (unsigned long long)n,
+                              (unsigned long long)record, n > UINT64_MAX / record ? "more than " : "",
+                              (unsigned long long)(n > UINT64_MAX / record ? UINT64_MAX : n * record));
+    if (uncompressed_size > compressed_size * SQFFD_IO__LZF_MAX_EXPANSION)
+        return sqffd_io__fail(err, err_size, name, "%llu compressed bytes cannot hold %llu (LZF expands at most "
+                              "%d-fold)", (unsigned long long)compressed_size, (unsigned long long)uncompressed_size,
+                              SQFFD_IO__LZF_MAX_EXPANSION);
+    raw = (unsigned char *)malloc((size_t)uncompressed_size);
+    if (!raw)
+        return sqffd_io__fail(err, err_size, name, "out of memory for %llu uncompressed bytes",
+                              (unsigned long long)uncompressed_size);
+    if (sqffd_io__lzf_decompress(bytes + start + 8, (size_t)compressed_size, raw, (size_t)uncompressed_size, &problem,
+                                 &at, &done)) {
+        free(raw);
+        return sqffd_io__fail(err, err_size, name, "binary_compressed data: %s (compressed byte %llu, %llu of %llu "
+                              "bytes decompressed)", problem, (unsigned long long)at, (unsigned long long)done,
+                              (unsigned long long)uncompressed_size);
+    }
+    for (f = 0; f < 3; f++) offset[f] *= (size_t)n; /* field by field: each field's block is n values long */
+    r = sqffd_io__reserve(pts, (size_t)n)
+            ? sqffd_io__fail(err, err_size, name, "out of memory for %llu points", (unsigned long long)n)
+            : sqffd_io__pcd_extract(raw, n, offset, stride, type, pts, dropped, name, err, err_size);
+    free(raw);
+    return r;
+}
+
+/* PCD: ascii, binary or binary_compressed (see above), versions 0.6 and
+   0.7. x, y and z are read whatever their type (I, U, F of any size) and
+   place; every other field is skipped. A point with a NaN coordinate
+   (PCL's invalid depth pixel) is dropped and counted; an infinite one is
+   an error, and so is a cloud without a valid point. Binary data are read
+   as little endian (PCL writes the host's order: little endian on every
+   platform it is used on). Bytes after the last point are ignored (PCL's
+   binary writer may pad its files). info may be NULL. */
+static inline int sqffd_io_read_pcd(const void *data, size_t size, const char *name, double **points, size_t *count,
+                                    sqffd_io_info *info, char *err, size_t err_size)
+{
+    sqffd_io__points pts = {NULL, 0, 0};
+    sqffd_io__pcd *h;
+    size_t dropped = 0;
+    int r;
+    *points = NULL;
+    *count = 0;
+    h = (sqffd_io__pcd *)malloc(sizeof *h);
+    if (!h) return sqffd_io__fail(err, err_size, name, "out of memory");
+    r = sqffd_io__pcd_header((const char *)data, size, h, name, err, err_size);
+    if (!r)
+        r = h->encoding == SQFFD_IO__PCD_ASCII
+                ? sqffd_io__pcd_ascii(h, &pts, &dropped, name, err, err_size)
+                : sqffd_io__pcd_binary((const unsigned char *)data, size, h, &pts, &dropped, name, err, err_size);
+    if (!r && pts.count == 0)
+        r = sqffd_io__fail(err, err_size, name, "all %llu points have NaN coordinates (invalid depth): no point to "
+                           "read", (unsigned long long)h->header.points);
+    if (r) {
+        free(h);
+        free(pts.xyz);
+        return 1;
+    }
+    if (info) {
+        memset(info, 0, sizeof *info);
+        info->format = SQFFD_IO_PCD;
+        info->dropped_nan = dropped;
+        info->pcd = h->header;
+    }
+    free(h);
+    return sqffd_io__finish(&pts, points, count, name, err, err_size);
+}
+
 /* ---- format detection and files ------------------------------------------ */
 
 /* Whether the first n characters of name end in ext (lower case), any case. */
@@ -891,9 +1459,11 @@ static inline int sqffd_io__has_extension(const char *name, size_t n, const char
     return 1;
 }
 
-/* The format of a file: by content (the PLY magic line; an OFF keyword or an
-   OBJ statement as the first word), else by the name's extension (.ply,
-   .off, .obj; a final .gz is skipped: x.ply.gz is PLY), else XYZ. */
+/* The format of a file: by content (the PLY magic line; the "# .PCD"
+   comment PCL writes first, or VERSION or FIELDS as the first keyword; an
+   OFF keyword or an OBJ statement as the first word), else by the name's
+   extension (.ply, .pcd, .off, .obj; a final .gz is skipped: x.ply.gz is
+   PLY), else XYZ. */
 static inline sqffd_io_format sqffd_io_detect(const void *data, size_t size, const char *name)
 {
     const char *text = (const char *)data, *s, *e, *tok;
@@ -901,40 +1471,58 @@ static inline sqffd_io_format sqffd_io_detect(const void *data, size_t size, con
     size_t len, name_len = name ? strlen(name) : 0;
     int other_dimension;
     if (size >= 4 && memcmp(text, "ply", 3) == 0 && (text[3] == '\n' || text[3] == '\r')) return SQFFD_IO_PLY;
+    if (size >= 6 && memcmp(text, "# .PCD", 6) == 0) return SQFFD_IO_PCD;
     t.p = text;
     t.end = text + size;
     t.line = 0;
     if (sqffd_io__next_line(&t, &s, &e) && sqffd_io__line_token(&s, e, &tok, &len)) {
+        if ((len == 7 && memcmp(tok, "VERSION", 7) == 0) || (len == 6 && memcmp(tok, "FIELDS", 6) == 0))
+            return SQFFD_IO_PCD;
         if (sqffd_io__off_keyword(tok, len, &other_dimension)) return SQFFD_IO_OFF;
         if (sqffd_io__obj_keyword(tok, len)) return SQFFD_IO_OBJ;
     }
     if (sqffd_io__has_extension(name, name_len, ".gz")) name_len -= 3;
     if (sqffd_io__has_extension(name, name_len, ".ply")) return SQFFD_IO_PLY;
+    if (sqffd_io__has_extension(name, name_len, ".pcd")) return SQFFD_IO_PCD;
     if (sqffd_io__has_extension(name, name_len, ".off")) return SQFFD_IO_OFF;
     if (sqffd_io__has_extension(name, name_len, ".obj")) return SQFFD_IO_OBJ;
     return SQFFD_IO_XYZ;
 }
 
-/* Reads plain (not compressed) points in the detected format. */
-static inline int sqffd_io__read_detected(const void *data, size_t size, const char *name, double **points,
-                                          size_t *count, char *err, size_t err_size)
+/* The format's name: "XYZ", "PLY", "OFF", "OBJ" or "PCD". */
+static inline const char *sqffd_io_format_name(sqffd_io_format format)
 {
-    switch (sqffd_io_detect(data, size, name)) {
+    static const char *const names[] = {"XYZ", "PLY", "OFF", "OBJ", "PCD"};
+    return (unsigned)format < sizeof names / sizeof names[0] ? names[format] : "unknown";
+}
+
+/* Reads plain (not compressed) points in the detected format; info (not
+   NULL) gets the format, and from the PCD reader its header and drops. */
+static inline int sqffd_io__read_detected(const void *data, size_t size, const char *name, double **points,
+                                          size_t *count, sqffd_io_info *info, char *err, size_t err_size)
+{
+    sqffd_io_format format = sqffd_io_detect(data, size, name);
+    info->format = format;
+    switch (format) {
     case SQFFD_IO_PLY: return sqffd_io_read_ply(data, size, name, points, count, err, err_size);
     case SQFFD_IO_OFF: return sqffd_io_read_off(data, size, name, points, count, err, err_size);
     case SQFFD_IO_OBJ: return sqffd_io_read_obj(data, size, name, points, count, err, err_size);
+    case SQFFD_IO_PCD: return sqffd_io_read_pcd(data, size, name, points, count, info, err, err_size);
     default: return sqffd_io_read_xyz(data, size, name, points, count, err, err_size);
     }
 }
 
-/* Reads points from memory in the detected format; gzip-compressed data is
-   decompressed first (messages "NAME: gzip-compressed data: ..." when that
-   fails; those about the points count lines of the decompressed text). */
-static inline int sqffd_io_read_points(const void *data, size_t size, const char *name, double **points,
-                                       size_t *count, char *err, size_t err_size)
+/* sqffd_io_read_points, and what the read found besides the points into
+   *info when info is not NULL: the format, gzip or not, the PCD header and
+   the points dropped for NaN coordinates (filled on success). */
+static inline int sqffd_io_read_points_info(const void *data, size_t size, const char *name, double **points,
+                                            size_t *count, sqffd_io_info *info, char *err, size_t err_size)
 {
+    sqffd_io_info unused;
     *points = NULL;
     *count = 0;
+    if (!info) info = &unused;
+    memset(info, 0, sizeof *info);
     if (size == 0) return sqffd_io__fail(err, err_size, name, "file is empty");
     if (sqffd_gz_is_gzip(data, size)) {
         unsigned char *raw;
@@ -946,11 +1534,21 @@ static inline int sqffd_io_read_points(const void *data, size_t size, const char
         /* not sqffd_io_read_points again: gzip inside gzip is not a point file */
         if (raw_size == 0) r = sqffd_io__fail(err, err_size, name, "decompresses to nothing");
         else if (sqffd_gz_is_gzip(raw, raw_size)) r = sqffd_io__fail(err, err_size, name, "gzip-compressed twice");
-        else r = sqffd_io__read_detected(raw, raw_size, name, points, count, err, err_size);
+        else r = sqffd_io__read_detected(raw, raw_size, name, points, count, info, err, err_size);
         free(raw);
+        info->gzip = 1;
         return r;
     }
-    return sqffd_io__read_detected(data, size, name, points, count, err, err_size);
+    return sqffd_io__read_detected(data, size, name, points, count, info, err, err_size);
+}
+
+/* Reads points from memory in the detected format; gzip-compressed data is
+   decompressed first (messages "NAME: gzip-compressed data: ..." when that
+   fails; those about the points count lines of the decompressed text). */
+static inline int sqffd_io_read_points(const void *data, size_t size, const char *name, double **points,
+                                       size_t *count, char *err, size_t err_size)
+{
+    return sqffd_io_read_points_info(data, size, name, points, count, NULL, err, err_size);
 }
 
 /* The whole file at `path` in a malloc'd buffer (free() it); refuses files
@@ -1011,18 +1609,27 @@ static inline int sqffd_io_load_file(const char *path, unsigned char **data, siz
     return sqffd_io_load_file_limit(path, SQFFD_IO_MAX_FILE_SIZE, data, size, err, err_size);
 }
 
-/* Reads the points of the file at `path` (any supported format). */
-static inline int sqffd_io_read_file(const char *path, double **points, size_t *count, char *err, size_t err_size)
+/* Reads the points of the file at `path` (any supported format); info
+   may be NULL, else it gets what sqffd_io_read_points_info gives. */
+static inline int sqffd_io_read_file_info(const char *path, double **points, size_t *count, sqffd_io_info *info,
+                                          char *err, size_t err_size)
 {
     unsigned char *data;
     size_t size;
     int r;
     *points = NULL;
     *count = 0;
+    if (info) memset(info, 0, sizeof *info);
     if (sqffd_io_load_file(path, &data, &size, err, err_size)) return 1;
-    r = sqffd_io_read_points(data, size, path, points, count, err, err_size);
+    r = sqffd_io_read_points_info(data, size, path, points, count, info, err, err_size);
     free(data);
     return r;
+}
+
+/* Reads the points of the file at `path` (any supported format). */
+static inline int sqffd_io_read_file(const char *path, double **points, size_t *count, char *err, size_t err_size)
+{
+    return sqffd_io_read_file_info(path, points, count, NULL, err, err_size);
 }
 
 /* Reads the OFF triangle mesh at `path` (sqffd_io_read_off_mesh). */

@@ -152,6 +152,26 @@ LC_ALL=C awk '
         exit (bad > 0 || low == 0) ? 3 : 0
     }' "$TMP/tr/motion.ply" && ok || bad "motion.ply: wrong properties or values (awk status $?)"
 
+# PCD clouds (PCL's files): fit, info and track report the NaN pixels dropped; broken files are bad input
+PCD=tests/data/pcd_kinect_binary_compressed.pcd
+expect 0 "points read      400" fit "$PCD" -o "$TMP/pcd.ply" --iterations 2 --mesh 8
+grep -qF "dropped          32 points with NaN coordinates (invalid depth)" "$TMP/out" && ok || bad "fit on a PCD does not report its 32 NaN points"
+check_ply "$TMP/pcd.ply"
+expect 0 "format      PCD 0.7, binary_compressed" info "$PCD"
+for word in "fields      x F4, y F4, z F4, rgba U4" "layout      24 x 18 (organised)" "points      400" \
+    "dropped     32 points with NaN coordinates (invalid depth)" "diagonal    3.03106"; do
+    grep -qF "$word" "$TMP/out" && ok || bad "info on a PCD lacks '$word'"
+done
+expect 0 "format      PCD 0.7, ascii, gzip-compressed" info tests/data/pcd_kinect_ascii.pcd.gz
+expect 0 "dropped          64 points with NaN coordinates (invalid depth) in 2 frames" \
+    track "$PCD" tests/data/pcd_kinect_ascii.pcd.gz -o "$TMP/tpcd" --iterations 2 --frame-iterations 1
+head -c 300 "$PCD" >"$TMP/cut.pcd"
+expect 1 "$TMP/cut.pcd: 3521 bytes of compressed data, file holds " fit "$TMP/cut.pcd" -o "$TMP/x.ply"
+printf 'VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 640\nHEIGHT 480\nDATA binary\n012345678901234567890123' >"$TMP/huge.pcd"
+expect 1 "$TMP/huge.pcd: header says 307200 points of 12 bytes each, file holds 24 bytes of data" info "$TMP/huge.pcd"
+printf 'FIELDS x y z\nPOINTS 2\nDATA ascii\nnan 1 2\n3 nan 4\n' >"$TMP/holes.pcd"
+expect 1 "$TMP/holes.pcd: all 2 points have NaN coordinates (invalid depth)" fit "$TMP/holes.pcd" -o "$TMP/x.ply"
+
 # volumes: fit on a NIfTI iso-surface, info, the outputs re-read
 BRAIN=tests/data/KmeansTest_T1UCharRaw.nii.gz
 expect 0 "iso-surface      level" fit "$BRAIN" -o "$TMP/brain.vtk" --vtk --ascii --json "$TMP/brain.json" --svg "$TMP/brain.svg" --iterations 5

@@ -48,5 +48,6 @@ void suite_volume(void);
 void suite_model(void);
 void suite_memory(void);
 void suite_points(void);
+void suite_pcd(void);
 
 #endif

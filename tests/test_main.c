@@ -64,6 +64,7 @@ int main(int argc, char **argv)
     suite_model();
     suite_memory();
     suite_points();
+    suite_pcd();
     printf("%d passed, %d failed\n", passed, failed);
     return failed ? 1 : 0;
 }
