@@ -11,9 +11,9 @@ TEST_DEP = sqffd.h $(wildcard tests/*.h) $(wildcard examples/*.h)
 FUZZ_TARGETS = $(patsubst fuzz/%.c,%,$(wildcard fuzz/fuzz_*.c))
 BENCHES = $(patsubst bench/%.c,%,$(wildcard bench/bench_*.c))
 
-.PHONY: all test check check-header check-symbols cli-test api-demo package-test unit unit-asan fuzz-replay demo bench fuzz install clean stack embedded test-cross
+.PHONY: all test check check-header check-symbols cli-test api-demo stream-test package-test unit unit-asan fuzz-replay demo bench fuzz install clean stack embedded test-cross
 
-all: $(BUILD)/sqffd $(BUILD)/demo_fit
+all: $(BUILD)/sqffd $(BUILD)/demo_fit $(BUILD)/stream_fit
 
 $(BUILD):
 	@mkdir -p $(BUILD)
@@ -25,8 +25,12 @@ $(BUILD)/sqffd: examples/sqffd_cli.c $(TEST_DEP) | $(BUILD)
 $(BUILD)/demo_fit: examples/demo_fit.c $(TEST_DEP) | $(BUILD)
 	$(CC) $(CFLAGS) -std=c99 $(STRICT) -o $@ examples/demo_fit.c -lm
 
+# Fixed-memory streaming (the firmware pattern): one static buffer, frame 0 fitted, the rest tracked.
+$(BUILD)/stream_fit: examples/stream_fit.c $(TEST_DEP) | $(BUILD)
+	$(CC) $(CFLAGS) -std=c99 $(STRICT) -o $@ examples/stream_fit.c -lm
+
 # ---- make test: header checks, symbol check, fuzz corpus replay, unit tests twice
-test: check-header check-symbols fuzz-replay cli-test api-demo package-test unit unit-asan
+test: check-header check-symbols fuzz-replay cli-test api-demo package-test stream-test test-python unit unit-asan
 
 # The header as C99/C11 (gcc, and clang when present) and C++ (g++, clang++),
 # strict warnings as errors; two translation units; an SQFFD_STATIC build.
@@ -78,6 +82,37 @@ api-demo: $(BUILD)/demo_fit
 # and (when cmake is present) through add_subdirectory, FetchContent and find_package.
 package-test: $(BUILD)/sqffd $(BUILD)/demo_fit
 	@sh tests/package_test.sh
+
+# stream_fit on a phantom sequence written by the CLI: the same models as 'sqffd track', bad frames skipped.
+stream-test: $(BUILD)/sqffd $(BUILD)/stream_fit
+	@sh tests/stream_test.sh $(BUILD)/sqffd $(BUILD)/stream_fit
+
+# ---- make shared: build/libsqffd.so, for the Python module (examples/python/sqffd.py) and
+# other languages' FFIs; it must export the sqffd_ functions and nothing else.
+.PHONY: shared test-python bench-python
+$(BUILD)/libsqffd.so: examples/python/sqffd_shared.c sqffd.h | $(BUILD)
+	$(CC) $(CFLAGS) -std=c99 -Wall -Wextra -fPIC -shared -o $@ examples/python/sqffd_shared.c -lm
+
+shared: $(BUILD)/libsqffd.so
+	@bad=$$(nm -D --defined-only $< | awk '{print $$NF}' | grep -v '^sqffd_[a-z]'); \
+	if [ -n "$$bad" ]; then echo "shared: $< exports more than the sqffd_ functions:" $$bad; exit 1; fi; \
+	echo "shared: $< exports $$(nm -D --defined-only $< | wc -l) symbols, all sqffd_ functions"
+
+# A python3 with numpy: $(PYTHON) when given, else python3, else /usr/bin/python3 (prints nothing when none has it).
+NUMPY_PYTHON = for p in $(PYTHON) python3 /usr/bin/python3; do "$$p" -c 'import numpy' >/dev/null 2>&1 && { echo "$$p"; break; }; done
+
+$(BUILD)/python_layout: tests/python/layout.c sqffd.h | $(BUILD)
+	$(CC) $(CFLAGS) -std=c99 -Wall -Wextra -o $@ tests/python/layout.c
+
+$(BUILD)/python_reference: tests/python/reference.c sqffd.h examples/sqffd_phantom.h $(BUILD)/libsqffd.so
+	$(CC) $(CFLAGS) -std=c99 -Wall -Wextra -o $@ tests/python/reference.c -L$(BUILD) -lsqffd -Wl,-rpath,'$$ORIGIN' -lm
+
+# The Python module against the C library (tests/python/test_sqffd.py); skipped without numpy.
+test-python: | $(BUILD)
+	@py=$$($(NUMPY_PYTHON)); \
+	if [ -z "$$py" ]; then echo "test-python: skipped, no python3 with numpy (Debian: apt-get install python3-numpy)"; exit 0; fi; \
+	$(MAKE) --no-print-directory -s shared $(BUILD)/python_layout $(BUILD)/python_reference \
+	  && "$$py" tests/python/test_sqffd.py $(BUILD)
 
 unit: $(BUILD)/sqffd_tests
 	@echo "== unit tests (-O2)"
@@ -202,6 +237,16 @@ bench: $(BUILD)/sqffd | $(BUILD)
 	  $$link $(BUILD)/$$b.o $$(echo $$extra | sed 's/-DSQFFD_BENCH_[A-Z]*//') -o $(BUILD)/$$b -lm || exit 1; \
 	  ./$(BUILD)/$$b || exit 1; \
 	done
+	@$(MAKE) --no-print-directory bench-python
+
+# The Python module's calling overhead against the same fit in C (bench/bench_python.py); skipped without numpy.
+$(BUILD)/python_timer.so: bench/python_timer.c bench/bench.h examples/sqffd_phantom.h $(BUILD)/libsqffd.so
+	$(CC) $(BENCH_CFLAGS) -Wno-unused-function -fPIC -shared -o $@ bench/python_timer.c -L$(BUILD) -lsqffd -Wl,-rpath,'$$ORIGIN' -lm
+
+bench-python: | $(BUILD)
+	@py=$$($(NUMPY_PYTHON)); \
+	if [ -z "$$py" ]; then echo "bench_python: skipped, no python3 with numpy (Debian: apt-get install python3-numpy)"; exit 0; fi; \
+	$(MAKE) --no-print-directory -s $(BUILD)/python_timer.so && "$$py" bench/bench_python.py $(BUILD)
 
 install: $(BUILD)/sqffd $(BUILD)/demo_fit
 	install -d $(DESTDIR)$(PREFIX)/include $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/lib/pkgconfig

@@ -1,0 +1,723 @@
+"""sqffd for Python and numpy: superquadric + free-form deformation shape models.
+
+A thin ctypes wrapper over the sqffd shared library (`make shared` builds
+build/libsqffd.so from sqffd.h); numpy is its only dependency, nothing is
+compiled or installed. The library is found through the SQFFD_LIBRARY
+environment variable (the path of libsqffd.so), else in the build/ folder of
+the repository this file sits in.
+
+    import numpy as np, sqffd
+    model = sqffd.fit(points)                      # points: (N, 3) array-like
+    print(model.report.error.rms_relative)         # "the error": RMS distance / bounding-box diagonal
+    vertices, triangles = model.mesh(64, 128)      # (V, 3) float64, (T, 3) uint32
+    data = model.save()                            # the library's byte format; sqffd.load(data)
+
+Options are the C field names of sqffd_fit_options (nested ones as dicts:
+sq=dict(robust=True)); sqffd.fit_options_default() lists them with their
+defaults. Every library error raises SqffdError (its .code, and the library's
+message). The library never allocates: this module sizes each workspace with
+the matching _workspace_size call and owns it for the call. ctypes releases
+the GIL during a call, so fits in several threads run in parallel.
+
+The ctypes structs below mirror sqffd.h's (SQFFD_MAX_LATTICE 8);
+tests/python checks their sizes and offsets against the C compiler's.
+"""
+
+import ctypes
+import dataclasses
+import enum
+import operator
+import os
+from typing import List
+
+import numpy as np
+
+__all__ = [
+    "fit", "track", "motion", "load", "Model", "SqffdError", "Result", "Stage",
+    "SqCost", "SqOptimizer", "Regularization", "Solver",
+    "Superquadric", "SuperquadricReport", "DistanceStats", "FitReport", "SegmentMotion", "Motion",
+    "fit_options_default", "track_options_default", "motion_options_default",
+]
+
+# ---- the library -------------------------------------------------------------------------------
+
+LIBRARY_ENV = "SQFFD_LIBRARY"
+_REPO_LIBRARY = os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir, os.pardir, "build", "libsqffd.so")
+
+
+def _load_library():
+    path = os.environ.get(LIBRARY_ENV) or os.path.normpath(_REPO_LIBRARY)
+    if not os.path.isfile(path):
+        raise ImportError(
+            f"sqffd: shared library not found at {path}: run `make shared` in the sqffd repository, "
+            f"or set {LIBRARY_ENV} to the path of libsqffd.so")
+    return ctypes.CDLL(path)
+
+
+_lib = _load_library()
+
+# ---- enums and result codes (values checked against sqffd.h by tests/python) --------------------
+
+
+class Result(enum.IntEnum):
+    """sqffd_result: SQFFD_OK and SQFFD_ERROR_<name>."""
+    OK = 0
+    INVALID_ARGUMENT = 1
+    NON_FINITE = 2
+    TOO_FEW_POINTS = 3
+    DEGENERATE = 4
+    TOO_LARGE = 5
+    WORKSPACE_TOO_SMALL = 6
+    NOT_POSITIVE_DEFINITE = 7
+    NO_CONVERGENCE = 8
+    CANCELLED = 9
+    INVALID_MODEL = 10
+    BAD_FORMAT = 11
+    OUTPUT_TOO_SMALL = 12
+
+
+class Stage(enum.IntEnum):
+    """sqffd_stage: what a progress callback reports."""
+    SUPERQUADRIC = 1  # error = the current cost
+    FFD = 2           # error = the relative RMS error after the iteration
+    FRAME = 3         # track: iteration = the frame's index, error = the previous frame's error
+
+
+class SqCost(enum.IntEnum):
+    SOLINA = 0
+    RADIAL = 1
+
+
+class SqOptimizer(enum.IntEnum):
+    LM = 0
+    CG = 1
+
+
+class Regularization(enum.IntEnum):
+    DISPLACEMENT = 0
+    POSITION = 1
+
+
+class Solver(enum.IntEnum):
+    CHOLESKY = 0
+    SVD = 1
+
+
+class SqffdError(Exception):
+    """A call into sqffd failed: .code (Result), .message (sqffd_result_string), .operation, and
+    .frame (track: the index of the frame that failed; None elsewhere)."""
+
+    def __init__(self, code, operation, frame=None):
+        try:
+            self.code = Result(code)
+        except ValueError:  # a code this module does not know: a newer library
+            self.code = code
+        self.message = _lib.sqffd_result_string(code).decode()
+        self.operation = operation
+        self.frame = frame
+        name = self.code.name if isinstance(self.code, Result) else str(code)
+        where = f" (frame {frame})" if frame is not None else ""
+        super().__init__(f"{operation}{where}: {self.message} [{name}]")
+
+    def __reduce__(self):  # picklable (e.g. raised in a multiprocessing worker)
+        return SqffdError, (int(self.code), self.operation, self.frame)
+
+
+# ---- ctypes mirrors of sqffd.h's structs ---------------------------------------------------------
+
+_MAX_LATTICE = 8
+_FIT_HISTORY = 64
+_SEGMENTS = 17
+_PROGRESS = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, ctypes.c_int, ctypes.c_int, ctypes.c_double)
+_int, _double, _size, _pointer = ctypes.c_int, ctypes.c_double, ctypes.c_size_t, ctypes.c_void_p
+
+
+class _Points(ctypes.Structure):
+    _fields_ = [("xyz", _pointer), ("count", _size), ("stride", _size), ("type", _int)]
+
+
+_SCALAR_DOUBLE, _SCALAR_FLOAT = 0, 1  # sqffd_scalar
+
+
+class _SqFitOptions(ctypes.Structure):
+    _fields_ = [("cost", _int), ("optimizer", _int), ("taper", _int), ("shape_min", _double),
+                ("shape_max", _double), ("taper_max", _double), ("max_iterations", _int), ("tolerance", _double),
+                ("robust", _int), ("robust_rounds", _int), ("progress", _PROGRESS), ("progress_user", _pointer)]
+
+
+class _Superquadric(ctypes.Structure):
+    _fields_ = [("size", _double * 3), ("shape", _double * 2), ("taper", _double * 2), ("rotation", _double * 9),
+                ("center", _double * 3)]
+
+
+class _SqFitReport(ctypes.Structure):
+    _fields_ = [("iterations", _int), ("cost", _double), ("rms_radial", _double), ("start", _int),
+                ("converged", _int), ("inlier_fraction", _double), ("best_start", _Superquadric), ("fallback", _int)]
+
+
+class _Ffd(ctypes.Structure):
+    _fields_ = [("dims", _int * 3), ("origin", _double * 3), ("edges", _double * 9), ("inverse", _double * 9),
+                ("control", (_double * 3) * _MAX_LATTICE ** 3)]
+
+
+class _Model(ctypes.Structure):
+    _fields_ = [("sq", _Superquadric), ("ffd", _Ffd), ("grid", _int * 2)]
+
+
+class _FitOptions(ctypes.Structure):
+    _fields_ = [("sq", _SqFitOptions), ("lattice", _int * 3), ("box_margin", _double), ("grid", _int * 2),
+                ("alpha", _double), ("tether", _double), ("regularization", _int), ("solver", _int),
+                ("max_iterations", _int), ("tolerance", _double), ("model_to_data", _double),
+                ("sq_max_points", _size), ("ffd_max_points", _size), ("progress", _PROGRESS),
+                ("progress_user", _pointer)]
+
+
+class _DistanceStats(ctypes.Structure):
+    _fields_ = [(name, _double) for name in
+                ("rms", "mean", "max", "diagonal", "rms_relative", "mean_relative", "max_relative")]
+
+
+class _FitReport(ctypes.Structure):
+    _fields_ = [("sq", _SqFitReport), ("sq_error", _DistanceStats), ("error", _DistanceStats),
+                ("iterations", _int), ("converged", _int), ("step", _double), ("history_count", _int),
+                ("history", _double * _FIT_HISTORY), ("energy", _double),
+                ("energy_history", _double * _FIT_HISTORY)]
+
+
+class _TrackOptions(ctypes.Structure):
+    _fields_ = [("fit", _FitOptions), ("frame_iterations", _int), ("progress", _PROGRESS),
+                ("progress_user", _pointer)]
+
+
+class _MotionOptions(ctypes.Structure):
+    _fields_ = [("ed_frame", _size), ("low_motion_fraction", _double), ("hypokinetic_share", _double),
+                ("apex_fraction", _double), ("apex_direction", _double * 3), ("septum_direction", _double * 3)]
+
+
+class _MotionOutputs(ctypes.Structure):
+    _fields_ = [("volumes", _pointer), ("trajectories", _pointer), ("displacement", _pointer),
+                ("excursion", _pointer), ("low_motion", _pointer), ("segment", _pointer)]
+
+
+class _SegmentMotion(ctypes.Structure):
+    _fields_ = [("area", _double), ("mean_displacement", _double), ("mean_excursion", _double),
+                ("low_motion_share", _double), ("hypokinetic", _int)]
+
+
+class _MotionReport(ctypes.Structure):
+    _fields_ = [("ed_frame", _size), ("es_frame", _size), ("edv", _double), ("esv", _double),
+                ("ejection_fraction", _double), ("axis", _double * 3), ("apex", _double * 3), ("length", _double),
+                ("anterior", _double * 3), ("septum", _double * 3), ("median_excursion", _double),
+                ("segments", _SegmentMotion * _SEGMENTS)]
+
+
+# The mirrors by their C names (tests/python checks each against the compiler's layout).
+_MIRRORS = {
+    "sqffd_points": _Points, "sqffd_sq_fit_options": _SqFitOptions, "sqffd_superquadric": _Superquadric,
+    "sqffd_sq_fit_report": _SqFitReport, "sqffd_ffd": _Ffd, "sqffd_model": _Model,
+    "sqffd_fit_options": _FitOptions, "sqffd_distance_stats": _DistanceStats, "sqffd_fit_report": _FitReport,
+    "sqffd_track_options": _TrackOptions, "sqffd_motion_options": _MotionOptions,
+    "sqffd_motion_outputs": _MotionOutputs, "sqffd_segment_motion": _SegmentMotion,
+    "sqffd_motion_report": _MotionReport,
+}
+
+
+def _declare(name, restype, *argtypes):
+    function = getattr(_lib, name)
+    function.restype = restype
+    function.argtypes = argtypes
+
+
+_P = ctypes.POINTER
+_declare("sqffd_result_string", ctypes.c_char_p, _int)
+_declare("sqffd_fit_options_default", _FitOptions)
+_declare("sqffd_fit_workspace_size", _int, _size, _P(_FitOptions), _P(_size))
+_declare("sqffd_fit_view", _int, _Points, _P(_FitOptions), _P(_Model), _P(_FitReport), _pointer, _size)
+_declare("sqffd_model_point", _int, _P(_Model), _double, _double, _pointer)
+_declare("sqffd_model_mesh_size", _int, _int, _int, _P(_size), _P(_size))
+_declare("sqffd_model_mesh", _int, _P(_Model), _int, _int, _pointer, _pointer)
+_declare("sqffd_model_distances_workspace_size", _int, _size, _P(_Model), _P(_size))
+_declare("sqffd_model_distances_view", _int, _P(_Model), _Points, _pointer, _P(_DistanceStats), _pointer, _size)
+_declare("sqffd_model_reverse_distances_workspace_size", _int, _size, _P(_Model), _P(_size))
+_declare("sqffd_model_reverse_distances_view", _int, _P(_Model), _Points, _pointer, _P(_DistanceStats),
+         _pointer, _size)
+_declare("sqffd_model_save_size", _size, _P(_Model))
+_declare("sqffd_model_save", _int, _P(_Model), _pointer, _size)
+_declare("sqffd_model_load", _int, _P(_Model), ctypes.c_char_p, _size)
+_declare("sqffd_track_options_default", _TrackOptions)
+_declare("sqffd_track_workspace_size", _int, _P(_size), _size, _P(_TrackOptions), _P(_size))
+_declare("sqffd_track_view", _int, _P(_Points), _size, _P(_TrackOptions), _P(_Model), _P(_FitReport),
+         _P(_size), _pointer, _size)
+_declare("sqffd_motion_options_default", _MotionOptions)
+_declare("sqffd_motion_workspace_size", _int, _P(_Model), _size, _P(_size))
+_declare("sqffd_motion", _int, _P(_Model), _size, _P(_MotionOptions), _P(_MotionOutputs), _P(_MotionReport),
+         _pointer, _size)
+
+
+def _check(result, operation, frame=None):
+    if result != Result.OK:
+        raise SqffdError(result, operation, frame)
+
+
+def _workspace(size_function, operation, *arguments):
+    """The workspace (a numpy byte buffer) that size_function sizes for these arguments, and its size."""
+    size = _size()
+    _check(size_function(*arguments, ctypes.byref(size)), operation)
+    return np.empty(size.value, dtype=np.uint8), size.value
+
+
+def _points(points, what="points"):
+    """The points as a sqffd_points view, and the array it reads (keep it alive during the call).
+    float32 and float64 arrays (native byte order) whose rows hold x y z side by side are read in
+    place, at any row stride (a slice [:, :3] of wider records too); anything else is converted
+    to contiguous float64 first."""
+    array = np.asarray(points)
+    if array.ndim != 2 or array.shape[1] != 3:
+        raise ValueError(f"{what}: expected an (N, 3) array of x y z, got shape {array.shape}")
+    in_place = (array.dtype in (np.dtype(np.float32), np.dtype(np.float64)) and array.strides[1] == array.itemsize
+                and array.strides[0] >= 3 * array.itemsize)
+    if not in_place:
+        array = np.ascontiguousarray(array, dtype=np.float64)
+    view = _Points(array.ctypes.data, len(array), array.strides[0] if len(array) > 1 else 3 * array.itemsize,
+                   _SCALAR_FLOAT if array.dtype == np.float32 else _SCALAR_DOUBLE)
+    return array, view
+
+
+# ---- options: keyword arguments by the C field names ---------------------------------------------
+
+_ENUM_FIELDS = {"cost": SqCost, "optimizer": SqOptimizer, "regularization": Regularization, "solver": Solver}
+_HIDDEN_FIELDS = ("progress_user",)  # a Python callable carries its own state
+
+
+class _Progress:
+    """A Python progress callable (stage, iteration, error) -> true to cancel, as the C callback.
+    An exception it raises cancels the call and is raised again from it."""
+
+    def __init__(self, function, name):
+        if not callable(function):
+            raise TypeError(f"{name} must be callable (stage, iteration, error) -> bool, got {function!r}")
+        self.function = function
+        self.error = None
+        self.c_function = _PROGRESS(self._call)
+
+    def _call(self, user, stage, iteration, error):
+        try:
+            return 1 if self.function(Stage(stage), iteration, error) else 0
+        except BaseException as exception:  # KeyboardInterrupt too: the call stops at this iteration
+            self.error = exception
+            return 1
+
+
+def _integer(ctype, value, name):
+    """value as a C integer of type ctype, or an error naming the option: ctypes would wrap it silently."""
+    try:
+        number = operator.index(value)
+    except TypeError:
+        raise TypeError(f"{name}: expected an integer, got {value!r}") from None
+    bits = 8 * ctypes.sizeof(ctype)
+    low, high = (-(1 << (bits - 1)), (1 << (bits - 1)) - 1) if ctype(-1).value < 0 else (0, (1 << bits) - 1)
+    if not low <= number <= high:
+        raise ValueError(f"{name} = {number} is out of the range of its C type ({low}..{high})")
+    return number
+
+
+def _field_value(ctype, value, field, name):
+    """value for a scalar C field (field: its C name; name: as the caller wrote it, for messages)."""
+    if field in _ENUM_FIELDS and isinstance(value, str):
+        enum_type = _ENUM_FIELDS[field]
+        try:
+            return enum_type[value.upper()]
+        except KeyError:
+            choices = ", ".join(member.name.lower() for member in enum_type)
+            raise ValueError(f"{name}: {value!r} is not one of {choices}") from None
+    if ctype is not _double:
+        return _integer(ctype, value, name)
+    if isinstance(value, (str, bytes)):
+        raise TypeError(f"{name}: expected a number, got {value!r}")
+    return float(value)
+
+
+def _set_options(struct, options, prefix, callbacks):
+    """Sets struct's fields from options (C field names; nested structs as dicts). Progress callables
+    are wrapped and appended to callbacks, which the caller keeps alive during the call."""
+    fields = {name: ctype for name, ctype in struct._fields_ if name not in _HIDDEN_FIELDS}
+    for name, value in options.items():
+        full_name = prefix + name
+        if name not in fields:
+            raise TypeError(f"unknown option {full_name!r}; the options: {', '.join(prefix + f for f in fields)}")
+        ctype = fields[name]
+        if ctype is _PROGRESS:
+            if value is None:
+                setattr(struct, name, _PROGRESS())
+            else:
+                callbacks.append(_Progress(value, full_name))
+                setattr(struct, name, callbacks[-1].c_function)
+        elif issubclass(ctype, ctypes.Structure):
+            if not isinstance(value, dict):
+                raise TypeError(f"{full_name}: expected a dict of its fields, got {value!r}")
+            _set_options(getattr(struct, name), value, full_name + ".", callbacks)
+        elif issubclass(ctype, ctypes.Array):
+            values = list(value) if np.ndim(value) == 1 else None
+            if values is None or len(values) != ctype._length_:
+                raise ValueError(f"{full_name}: expected {ctype._length_} values, got {value!r}")
+            setattr(struct, name, ctype(*(_field_value(ctype._type_, v, name, full_name) for v in values)))
+        else:
+            setattr(struct, name, _field_value(ctype, value, name, full_name))
+
+
+def _raise_callback_errors(callbacks):
+    for callback in callbacks:
+        if callback.error is not None:
+            raise callback.error
+
+
+def _options_dict(struct):
+    """A C options struct as a dict by field name (nested structs as dicts, enums as enum members)."""
+    result = {}
+    for name, ctype in struct._fields_:
+        if name in _HIDDEN_FIELDS:
+            continue
+        value = getattr(struct, name)
+        if ctype is _PROGRESS:
+            result[name] = None  # the defaults have none
+        elif issubclass(ctype, ctypes.Structure):
+            result[name] = _options_dict(value)
+        elif issubclass(ctype, ctypes.Array):
+            result[name] = tuple(value)
+        else:
+            result[name] = _ENUM_FIELDS[name](value) if name in _ENUM_FIELDS else value
+    return result
+
+
+def fit_options_default():
+    """sqffd_fit_options_default() as a dict: the names and defaults fit() accepts."""
+    return _options_dict(_lib.sqffd_fit_options_default())
+
+
+def track_options_default():
+    """sqffd_track_options_default() as a dict: the names and defaults track() accepts."""
+    return _options_dict(_lib.sqffd_track_options_default())
+
+
+def motion_options_default():
+    """sqffd_motion_options_default() as a dict: the names and defaults motion() accepts."""
+    return _options_dict(_lib.sqffd_motion_options_default())
+
+
+# ---- reports -------------------------------------------------------------------------------------
+
+def _array(c_array, shape=None):
+    array = np.array(c_array, dtype=np.float64)
+    return array.reshape(shape) if shape else array
+
+
+@dataclasses.dataclass(eq=False)
+class Superquadric:
+    """sqffd_superquadric: world = rotation @ tapered local point + center; rotation's columns are the
+    local x, y, z axes."""
+    size: np.ndarray      # a1, a2, a3: half-extents along the local axes
+    shape: np.ndarray     # e1 (north-south), e2 (east-west)
+    taper: np.ndarray     # Kx, Ky
+    rotation: np.ndarray  # 3 x 3
+    center: np.ndarray
+
+    @classmethod
+    def _from_c(cls, s):
+        return cls(_array(s.size), _array(s.shape), _array(s.taper), _array(s.rotation, (3, 3)), _array(s.center))
+
+
+@dataclasses.dataclass(eq=False)
+class SuperquadricReport:
+    """sqffd_sq_fit_report: stage 1 of the fit."""
+    iterations: int
+    cost: float
+    rms_radial: float
+    start: int
+    converged: bool
+    inlier_fraction: float
+    best_start: Superquadric
+    fallback: bool  # the fitted superquadric ended farther from the data than best_start, which was kept
+
+    @classmethod
+    def _from_c(cls, r):
+        return cls(r.iterations, r.cost, r.rms_radial, r.start, bool(r.converged), r.inlier_fraction,
+                   Superquadric._from_c(r.best_start), bool(r.fallback))
+
+
+@dataclasses.dataclass(eq=False)
+class DistanceStats:
+    """sqffd_distance_stats: absolute (data units) and relative to the data's bounding-box diagonal."""
+    rms: float
+    mean: float
+    max: float
+    diagonal: float
+    rms_relative: float
+    mean_relative: float
+    max_relative: float
+
+    @classmethod
+    def _from_c(cls, s):
+        return cls(*(getattr(s, field.name) for field in dataclasses.fields(cls)))
+
+
+@dataclasses.dataclass(eq=False)
+class FitReport:
+    """sqffd_fit_report. error is "the error" (RMS data-to-model distance, relative: over the
+    bounding-box diagonal); history and energy_history hold one entry per FFD iteration."""
+    sq: SuperquadricReport
+    sq_error: DistanceStats   # the starting model's (fit: the superquadric alone)
+    error: DistanceStats      # the final model's
+    iterations: int
+    converged: bool
+    step: float
+    history: np.ndarray       # relative RMS error after iteration 1, 2, ...
+    energy: float
+    energy_history: np.ndarray
+
+    @classmethod
+    def _from_c(cls, r):
+        count = min(r.history_count, _FIT_HISTORY)
+        return cls(SuperquadricReport._from_c(r.sq), DistanceStats._from_c(r.sq_error), DistanceStats._from_c(r.error),
+                   r.iterations, bool(r.converged), r.step, _array(r.history[:count]), r.energy,
+                   _array(r.energy_history[:count]))
+
+
+# ---- the model -----------------------------------------------------------------------------------
+
+class Model:
+    """A fitted shape model (sqffd_model): from fit(), track() or load(). report is the fit's
+    FitReport (None for a loaded model). Two models are equal when their saved bytes are."""
+
+    def __init__(self, struct, report=None):
+        if not isinstance(struct, _Model):
+            raise TypeError("a Model comes from sqffd.fit(), sqffd.track() or sqffd.load()")
+        self._struct = struct
+        self.report = report
+
+    # -- use
+    def mesh(self, n_eta=64, n_omega=128):
+        """The closed triangle mesh on an n_eta x n_omega grid (poles included): vertices
+        (n_eta n_omega + 2, 3) float64 and triangles (2 n_eta n_omega, 3) uint32."""
+        n_eta, n_omega = _integer(_int, n_eta, "n_eta"), _integer(_int, n_omega, "n_omega")
+        vertex_count, triangle_count = _size(), _size()
+        _check(_lib.sqffd_model_mesh_size(n_eta, n_omega, ctypes.byref(vertex_count), ctypes.byref(triangle_count)),
+               "mesh")
+        vertices = np.empty((vertex_count.value, 3), dtype=np.float64)
+        triangles = np.empty((triangle_count.value, 3), dtype=np.uint32)
+        _check(_lib.sqffd_model_mesh(self._struct, n_eta, n_omega, vertices.ctypes.data, triangles.ctypes.data),
+               "mesh")
+        return vertices, triangles
+
+    def point(self, eta, omega):
+        """The model surface point at (eta, omega), eta in [-pi/2, pi/2], omega in [-pi, pi]."""
+        point = np.empty(3, dtype=np.float64)
+        _check(_lib.sqffd_model_point(self._struct, float(eta), float(omega), point.ctypes.data), "point")
+        return point
+
+    def distances(self, points):
+        """Each point's distance to the model ("the error" per point) and their DistanceStats."""
+        array, view = _points(points)
+        return self._distances(array, view, len(array), _lib.sqffd_model_distances_workspace_size,
+                               _lib.sqffd_model_distances_view, "distances")
+
+    def reverse_distances(self, points):
+        """Model to data: for each vertex of the model's grid mesh (mesh(*model.grid)'s order), the
+        distance to the nearest point, and their DistanceStats."""
+        vertex_count = _size()
+        _check(_lib.sqffd_model_mesh_size(self._struct.grid[0], self._struct.grid[1], ctypes.byref(vertex_count),
+                                          None), "reverse_distances")
+        array, view = _points(points)
+        return self._distances(array, view, vertex_count.value, _lib.sqffd_model_reverse_distances_workspace_size,
+                               _lib.sqffd_model_reverse_distances_view, "reverse_distances")
+
+    def _distances(self, array, view, output_count, size_function, function, operation):
+        work, work_size = _workspace(size_function, operation, len(array), self._struct)
+        per_item = np.empty(output_count, dtype=np.float64)
+        stats = _DistanceStats()
+        _check(function(self._struct, view, per_item.ctypes.data, ctypes.byref(stats), work.ctypes.data, work_size),
+               operation)
+        return per_item, DistanceStats._from_c(stats)
+
+    # -- the byte form
+    def save(self):
+        """The library's byte form of the model (sqffd_model_save: versioned, little-endian, CRC-32)."""
+        size = _lib.sqffd_model_save_size(self._struct)  # 0 for an invalid model: save says INVALID_MODEL
+        buffer = ctypes.create_string_buffer(size)
+        _check(_lib.sqffd_model_save(self._struct, buffer, size), "save")
+        return buffer.raw
+
+    @staticmethod
+    def load(data):
+        """A model from bytes made by save() (or any build's sqffd_model_save)."""
+        return load(data)
+
+    def __eq__(self, other):
+        return isinstance(other, Model) and self.save() == other.save()
+
+    __hash__ = None
+
+    def __reduce__(self):
+        return _unpickle, (self.save(), self.report)
+
+    # -- what it holds
+    @property
+    def superquadric(self):
+        return Superquadric._from_c(self._struct.sq)
+
+    @property
+    def grid(self):
+        """(n_eta, n_omega) of the model's grid: its fitting points, the mesh of its error and motion."""
+        return tuple(self._struct.grid)
+
+    @property
+    def lattice(self):
+        """Control points per axis (l, m, n)."""
+        return tuple(self._struct.ffd.dims)
+
+    @property
+    def box_origin(self):
+        return _array(self._struct.ffd.origin)
+
+    @property
+    def box_edges(self):
+        """3 x 3: rows are the box's edge vectors S, T, U."""
+        return _array(self._struct.ffd.edges, (3, 3))
+
+    @property
+    def control_points(self):
+        """(l, m, n, 3): control point P_ijk at [i, j, k]."""
+        l, m, n = self.lattice
+        return np.ctypeslib.as_array(self._struct.ffd.control)[:l * m * n].reshape(l, m, n, 3).copy()
+
+    def __repr__(self):
+        s = self._struct.sq
+        error = f", error {100 * self.report.error.rms_relative:.4g}%" if self.report else ""
+        return (f"<sqffd.Model size {s.size[0]:.6g} {s.size[1]:.6g} {s.size[2]:.6g}, shape {s.shape[0]:.3g} "
+                f"{s.shape[1]:.3g}, lattice {'x'.join(map(str, self.lattice))}{error}>")
+
+
+def load(data):
+    """A Model from the bytes of Model.save() (sqffd_model_load). Raises SqffdError BAD_FORMAT for
+    anything but exactly one saved model, INVALID_MODEL for a well-formed record of an invalid one."""
+    data = memoryview(data).tobytes()
+    model = _Model()
+    _check(_lib.sqffd_model_load(ctypes.byref(model), data, len(data)), "load")
+    return Model(model)
+
+
+def _unpickle(data, report):
+    model = load(data)
+    model.report = report
+    return model
+
+
+# ---- fit and track -------------------------------------------------------------------------------
+
+def fit(points, **options):
+    """Fits the model (superquadric, then FFD) to points, an (N, 3) array-like (float32 and float64
+    arrays are read in place, at any row stride; other input is converted to float64). options: sqffd_fit_options fields by name, e.g. lattice=(6, 6, 6),
+    alpha=1e-4, max_iterations=50, sq=dict(robust=True, taper=False), progress=callable(stage,
+    iteration, error) returning true to cancel. Returns the Model; model.report is its FitReport."""
+    array, view = _points(points)
+    struct_options = _lib.sqffd_fit_options_default()
+    callbacks = []
+    _set_options(struct_options, options, "", callbacks)
+    work, work_size = _workspace(_lib.sqffd_fit_workspace_size, "fit", len(array), struct_options)
+    model, report = _Model(), _FitReport()
+    result = _lib.sqffd_fit_view(view, struct_options, model, report, work.ctypes.data, work_size)
+    _raise_callback_errors(callbacks)
+    _check(result, "fit")
+    return Model(model, FitReport._from_c(report))
+
+
+def track(frames, **options):
+    """Tracks the model through a sequence: frames, a list of (N_t, 3) array-likes in time order.
+    Frame 0 gets the whole fit; each later frame keeps its superquadric and box and starts from
+    the previous frame's control points, so vertex v of every model's grid mesh is the same
+    material point. options: sqffd_track_options fields (fit=dict(...) of fit's options,
+    frame_iterations, progress). Returns one Model per frame, each with its FitReport (for frames
+    after the first, report.sq is zero and sq_error is the previous model's error on this frame).
+    A failure raises SqffdError with .frame the index of the frame that failed."""
+    prepared = [_points(frame, f"frames[{t}]") for t, frame in enumerate(frames)]  # (array, view) each
+    count = len(prepared)
+    frame_views = (_Points * max(count, 1))(*(view for _, view in prepared))
+    counts = (_size * max(count, 1))(*(len(array) for array, _ in prepared))
+    struct_options = _lib.sqffd_track_options_default()
+    callbacks = []
+    _set_options(struct_options, options, "", callbacks)
+    work, work_size = _workspace(_lib.sqffd_track_workspace_size, "track", counts, count, struct_options)
+    models, reports, done = (_Model * max(count, 1))(), (_FitReport * max(count, 1))(), _size()
+    result = _lib.sqffd_track_view(frame_views, count, struct_options, models, reports, ctypes.byref(done),
+                                   work.ctypes.data, work_size)
+    _raise_callback_errors(callbacks)
+    _check(result, "track", done.value)
+    return [Model(_Model.from_buffer_copy(models[t]), FitReport._from_c(reports[t])) for t in range(count)]
+
+
+# ---- motion --------------------------------------------------------------------------------------
+
+@dataclasses.dataclass(eq=False)
+class SegmentMotion:
+    """sqffd_segment_motion: one AHA segment."""
+    area: float               # at ED
+    mean_displacement: float  # area-weighted
+    mean_excursion: float     # area-weighted, inward along the ED normal
+    low_motion_share: float   # of its area
+    hypokinetic: bool
+
+
+@dataclasses.dataclass(eq=False)
+class Motion:
+    """sqffd_motion's outputs and report. Per-vertex arrays follow the models' grid mesh
+    (mesh(*model.grid)'s vertex order, M vertices); segments[k] is AHA segment k + 1."""
+    volumes: np.ndarray       # (frames,)
+    trajectories: np.ndarray  # (frames, M, 3): vertex v in every frame
+    displacement: np.ndarray  # (M,) |x(ES) - x(ED)|
+    excursion: np.ndarray     # (M,) inward part of that motion along the ED normal
+    low_motion: np.ndarray    # (M,) bool
+    segment: np.ndarray       # (M,) uint8: AHA segment 1-17, 0 for the valve plane
+    ed_frame: int
+    es_frame: int
+    edv: float
+    esv: float
+    ejection_fraction: float
+    axis: np.ndarray          # unit, base -> apex
+    apex: np.ndarray
+    length: float
+    anterior: np.ndarray
+    septum: np.ndarray
+    median_excursion: float
+    segments: List[SegmentMotion]
+
+
+def motion(models, **options):
+    """Volumes, ejection fraction, per-vertex motion, low-motion zones and the AHA 17 segments of a
+    tracked left ventricle (sqffd_motion), from track()'s models. options: sqffd_motion_options
+    fields: ed_frame, low_motion_fraction, hypokinetic_share, apex_fraction, apex_direction=(x, y, z),
+    septum_direction=(x, y, z) (give it for a real heart: the points do not carry it)."""
+    models = list(models)
+    for t, model in enumerate(models):
+        if not isinstance(model, Model):
+            raise TypeError(f"models[{t}]: expected an sqffd.Model, got {type(model).__name__}")
+    count = len(models)
+    structs = (_Model * max(count, 1))(*(model._struct for model in models))
+    struct_options = _lib.sqffd_motion_options_default()
+    _set_options(struct_options, options, "", [])
+    work, work_size = _workspace(_lib.sqffd_motion_workspace_size, "motion", structs, count)
+    vertex_count = _size()
+    _check(_lib.sqffd_model_mesh_size(structs[0].grid[0], structs[0].grid[1], ctypes.byref(vertex_count), None),
+           "motion")
+    m = vertex_count.value
+    volumes, trajectories = np.empty(count), np.empty((count, m, 3))
+    displacement, excursion = np.empty(m), np.empty(m)
+    low_motion, segment = np.empty(m, dtype=np.uint8), np.empty(m, dtype=np.uint8)
+    outputs = _MotionOutputs(volumes.ctypes.data, trajectories.ctypes.data, displacement.ctypes.data,
+                             excursion.ctypes.data, low_motion.ctypes.data, segment.ctypes.data)
+    report = _MotionReport()
+    _check(_lib.sqffd_motion(structs, count, struct_options, outputs, report, work.ctypes.data, work_size), "motion")
+    segments = [SegmentMotion(s.area, s.mean_displacement, s.mean_excursion, s.low_motion_share, bool(s.hypokinetic))
+                for s in report.segments]
+    return Motion(volumes, trajectories, displacement, excursion, low_motion.astype(bool), segment,
+                  report.ed_frame, report.es_frame, report.edv, report.esv, report.ejection_fraction,
+                  _array(report.axis), _array(report.apex), report.length, _array(report.anterior),
+                  _array(report.septum), report.median_excursion, segments)
