@@ -1183,7 +1183,15 @@ static inline int sqffd_io__lzf_decompress(const unsigned char *in, size_t in_si
             len += 2;
             if (distance > op) { *problem = "a back-reference reaches before the start of the data"; return 1; }
             if (out_size - op < len) { *problem = "more bytes than the uncompressed size"; return 1; }
-            if (distance >= 16 && out_size - op >= len + 15) { /* each block is read before it is written */
+            if (len == 3 && distance >= 2) {
+                /* the commonest length, copied exactly: a 4-byte block would
+                   also read the byte after the source, which a repeated
+                   4-byte value (a literal byte, then 3 bytes from 4 back)
+                   has just written in the next token's block, and a load
+                   spanning two recent stores stalls until both are written */
+                memcpy(out + op, out + op - distance, 2);
+                out[op + 2] = out[op + 2 - distance];
+            } else if (distance >= 16 && out_size - op >= len + 15) { /* each block is read before it is written */
                 for (i = 0; i < len; i += 16) memcpy(out + op + i, out + op - distance + i, 16);
             } else if (distance >= 8 && out_size - op >= len + 7) {
                 for (i = 0; i < len; i += 8) memcpy(out + op + i, out + op - distance + i, 8);
