@@ -20,7 +20,9 @@
      5  refit: bit 0-1 0 none, 1 the same points, 2 jittered, 3 a NaN point;
         bits 2-4 the jitter's scale; bit 5 refit the identical leaves apart
      6  flags: bits 0-3 workspace misalignment, bit 4 workspace one byte
-        short first, bit 5 NULL workspace first
+        short first, bit 5 NULL workspace first, bit 6 the determinism
+        check's second tree built over a point view (the same points in
+        40-byte records at an odd address) instead of the array
      then the points (as many as the encoding consumes; when the bytes run
      out the rest repeat the decoded ones: duplicates), then per query a kind
      byte, a data point's number, the kind's payload, a k byte, a radius byte
@@ -397,8 +399,28 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     if (res != SQFFD_OK) abort();
     check_tree(&tree, points, n, 0, s.seen);
 
-    /* determinism: the same points give the same tree, byte for byte */
-    if (sqffd_kdtree_build(&tree2, points, n, ws2, ws_size) != SQFFD_OK) abort();
+    /* determinism: the same points give the same tree, byte for byte, read
+       from the array or in place from records */
+    if (flags & 64) {
+        unsigned char *records = (unsigned char *)malloc(40 * n + 1);
+        if (!records) goto done;
+        memset(records, 0xC3, 40 * n + 1);
+        for (i = 0; i < n; i++) memcpy(records + 1 + 40 * i, points + 3 * i, 3 * sizeof(double));
+        res = sqffd_kdtree_build_view(&tree2, sqffd_points_strided(records + 1, n, 40, SQFFD_SCALAR_DOUBLE), ws2,
+                                      ws_size);
+        if (res == SQFFD_OK)
+            for (i = 0; i < n && i < 16; i++) { /* and answers as the array's tree */
+                size_t a = 0, b = 0;
+                double da = 0.0, db = 0.0;
+                if (sqffd_kdtree_nearest(&tree, points + 3 * i, &a, &da) != SQFFD_OK ||
+                    sqffd_kdtree_nearest(&tree2, points + 3 * i, &b, &db) != SQFFD_OK || a != b || !(da == db))
+                    abort();
+            }
+        free(records);
+    } else {
+        res = sqffd_kdtree_build(&tree2, points, n, ws2, ws_size);
+    }
+    if (res != SQFFD_OK) abort();
     if (tree2.node_count != tree.node_count || memcmp(tree2.index, tree.index, n * sizeof(uint32_t)) != 0 ||
         memcmp(tree2.nodes, tree.nodes, tree.node_count * sizeof(sqffd_kdtree_node)) != 0)
         abort();
