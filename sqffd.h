@@ -2382,6 +2382,17 @@ static void sqffd__kd_bounds(const sqffd_points *points, const uint32_t *index, 
     }
 }
 
+/* The tree's points, field by field: its padding stays the zero its build
+   wrote (a struct copy may carry the caller's stray padding bytes, and equal
+   inputs must give equal trees to the byte). */
+static void sqffd__kd_keep_points(sqffd_kdtree *tree, const sqffd_points *points)
+{
+    tree->points.xyz = points->xyz;
+    tree->points.count = points->count;
+    tree->points.stride = points->stride;
+    tree->points.type = points->type;
+}
+
 /* Coordinate `axis` of point i. */
 static double sqffd__kd_coord(const sqffd_points *points, uint32_t i, int axis)
 {
@@ -2525,7 +2536,7 @@ SQFFD_DEF sqffd_result sqffd_kdtree_build_view(sqffd_kdtree *tree, sqffd_points 
         stack[top + 1].parent_of_high = 0;
         top += 2;
     }
-    tree->points = points;
+    sqffd__kd_keep_points(tree, &points);
     tree->count = n;
     tree->index = index;
     tree->nodes = nodes;
@@ -2583,7 +2594,7 @@ SQFFD_DEF sqffd_result sqffd_kdtree_refit_view(sqffd_kdtree *tree, sqffd_points 
     }
     SQFFD_ASSERT(top == 1);
     memcpy(tree->bbox, stack[0], sizeof tree->bbox);
-    tree->points = points;
+    sqffd__kd_keep_points(tree, &points);
     return SQFFD_OK;
 }
 
