@@ -1,4 +1,4 @@
-/* sqffd.h - v0.6.0 - superquadric + free-form deformation shape fitting
+/* sqffd.h - v0.7.0 - superquadric + free-form deformation shape fitting
    Public domain or MIT, your choice (see the end of this file).
 
    Turns 3-D points into a compact global shape model: a superquadric with
@@ -155,6 +155,11 @@
        sqffd_points_subsample(_view)   an even subsample of points
 
    CHANGES
+       0.7.0 (2026-11)  sqffd_fit_options_default's alpha is 1e-6 (was
+                        1e-5): the default fit's error is lower on every
+                        real shape of the bench; sqffd_track_options_default
+                        keeps 1e-5; the exact passes start from the warm
+                        answer and prove it by the triangle tree alone
        0.6.0 (2026-11)  point views: sqffd_points (float or double x y z,
                         any byte stride and alignment, read in place),
                         sqffd_points_packed/_strided, and a _view form of
@@ -216,9 +221,9 @@
 #include <stdint.h>
 
 #define SQFFD_VERSION_MAJOR 0
-#define SQFFD_VERSION_MINOR 6
+#define SQFFD_VERSION_MINOR 7
 #define SQFFD_VERSION_PATCH 0
-#define SQFFD_VERSION_STRING "0.6.0"
+#define SQFFD_VERSION_STRING "0.7.0"
 
 #ifndef SQFFD_DEF
 #ifdef SQFFD_STATIC
@@ -799,7 +804,7 @@ typedef struct sqffd_fit_options {
     int lattice[3];              /* control points per axis, 2..SQFFD_MAX_LATTICE (default 5 x 5 x 5) */
     double box_margin;           /* box = the tapered superquadric's local bounding box, axes along its axes, grown by this fraction per side (default 0.1) */
     int grid[2];                 /* model-point grid n_eta x n_omega (default 32 x 64: 2,050 model points) */
-    double alpha;                /* spring weight >= 0 (default 1e-5): weighs the mean spring energy per control point against the mean squared error per data point (see THE ENERGY below) */
+    double alpha;                /* spring weight >= 0 (default 1e-6): weighs the mean spring energy per control point against the mean squared error per data point (see THE ENERGY below) */
     double tether;               /* weight >= 0 of the pull of every model point toward the superquadric (default 0) */
     sqffd_regularization regularization;
     sqffd_solver solver;
@@ -4961,33 +4966,41 @@ static int sqffd__fit_in_hood(const sqffd__fit_blocks *b, int a, int c)
    and its ends), by the Voronoi regions of the vertices, edges and face
    (Ericson, Real-Time Collision Detection, 5.1.5), and its squared distance.
    A flat triangle falls back on its nearest vertex, a zero-length edge on
-   its end. */
+   its end. The region is chosen by selects and one division rather than
+   by branches: a fan's triangles fall in the regions in no order a branch
+   predictor could learn, and its misses were most of this function's
+   cost. */
 static double sqffd__fit_triangle(const double ap[3], const double ea[3], const double eb[3], double w[3])
 {
     double pa = sqffd__dot3(ea, ap), pb = sqffd__dot3(eb, ap);
     double aa = sqffd__dot3(ea, ea), bb = sqffd__dot3(eb, eb), ab = sqffd__dot3(ea, eb);
     double d3 = pa - aa, d4 = pb - ab, d5 = pa - ab, d6 = pb - bb;
-    double vc = pa * d4 - d3 * pb, vb = d5 * pb - pa * d6, va = d3 * d6 - d5 * d4, sum, r[3];
-    int k;
-    w[0] = w[1] = w[2] = 0.0;
-    if (pa <= 0.0 && pb <= 0.0) w[0] = 1.0;                               /* vertex v */
-    else if (d3 >= 0.0 && d4 <= d3) w[1] = 1.0;                           /* vertex a */
-    else if (d6 >= 0.0 && d5 <= d6) w[2] = 1.0;                           /* vertex b */
-    else if (vc <= 0.0 && pa >= 0.0 && d3 <= 0.0) {                       /* edge va */
-        w[1] = aa > 0.0 ? pa / aa : 0.0; w[0] = 1.0 - w[1];
-    } else if (vb <= 0.0 && pb >= 0.0 && d6 <= 0.0) {                     /* edge vb */
-        w[2] = bb > 0.0 ? pb / bb : 0.0; w[0] = 1.0 - w[2];
-    } else if (va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0) {           /* edge ab */
-        double len2 = (d4 - d3) + (d5 - d6); /* |eb - ea|^2 */
-        w[2] = len2 > 0.0 ? (d4 - d3) / len2 : 0.0; w[1] = 1.0 - w[2];
-    } else if ((sum = va + vb + vc) > 0.0) {                              /* face */
-        double inv = 1.0 / sum;
-        w[1] = vb * inv; w[2] = vc * inv; w[0] = va * inv;
-    } else {                                                              /* flat */
-        double da = aa - 2.0 * pa, db = bb - 2.0 * pb; /* |q - a|^2 - |q - v|^2, same for b */
-        w[da < 0.0 && da <= db ? 1 : db < 0.0 ? 2 : 0] = 1.0;
-    }
-    for (k = 0; k < 3; ++k) r[k] = ap[k] - w[1] * ea[k] - w[2] * eb[k];
+    double vc = pa * d4 - d3 * pb, vb = d5 * pb - pa * d6, va = d3 * d6 - d5 * d4, sum = va + vb + vc;
+    double len2 = (d4 - d3) + (d5 - d6); /* |eb - ea|^2 */
+    double da = aa - 2.0 * pa, db = bb - 2.0 * pb; /* |q - a|^2 - |q - v|^2, same for b */
+    double num, den, t, r[3];
+    /* the region: the first that holds, in Ericson's order */
+    int region = pa <= 0.0 && pb <= 0.0                           ? 0  /* vertex v */
+                 : d3 >= 0.0 && d4 <= d3                          ? 1  /* vertex a */
+                 : d6 >= 0.0 && d5 <= d6                          ? 2  /* vertex b */
+                 : vc <= 0.0 && pa >= 0.0 && d3 <= 0.0            ? 3  /* edge va */
+                 : vb <= 0.0 && pb >= 0.0 && d6 <= 0.0            ? 4  /* edge vb */
+                 : va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0  ? 5  /* edge ab */
+                 : sum > 0.0                                      ? 6  /* face */
+                 : da < 0.0 && da <= db                           ? 1  /* flat: its nearest vertex */
+                 : db < 0.0                                       ? 2
+                                                                  : 0;
+    int edge_va = region == 3 && aa > 0.0, edge_vb = region == 4 && bb > 0.0, edge_ab = region == 5 && len2 > 0.0;
+    num = edge_va ? pa : edge_vb ? pb : edge_ab ? d4 - d3 : 1.0;
+    den = edge_va ? aa : edge_vb ? bb : edge_ab ? len2 : region == 6 ? sum : 1.0;
+    t = num / den; /* (1 where the region needs no division: unused) */
+    t = region >= 3 && region <= 5 && !(edge_va || edge_vb || edge_ab) ? 0.0 : t; /* a zero-length edge: its end */
+    w[1] = region == 1 ? 1.0 : region == 3 ? t : region == 5 ? 1.0 - t : region == 6 ? vb * t : 0.0;
+    w[2] = region == 2 ? 1.0 : region == 4 || region == 5 ? t : region == 6 ? vc * t : 0.0;
+    w[0] = region == 0 ? 1.0 : region == 3 || region == 4 ? 1.0 - t : region == 6 ? va * t : 0.0;
+    r[0] = ap[0] - w[1] * ea[0] - w[2] * eb[0];
+    r[1] = ap[1] - w[1] * ea[1] - w[2] * eb[1];
+    r[2] = ap[2] - w[1] * ea[2] - w[2] * eb[2];
     return sqffd__dot3(r, r);
 }
 
@@ -5064,7 +5077,6 @@ static double sqffd__fit_walk(const double *x, const sqffd__fit_ring *rings, con
    node) once a search, their boxes measured once a pass. */
 typedef struct sqffd__fit_bvh_node {
     double box[6];     /* low corner, high corner */
-    double reach;      /* at least the largest distance of a point of its triangles to that triangle's nearest corner */
     uint32_t high;     /* inner: the high child; leaf: 0 */
     uint32_t rows[2];  /* cells [rows[0], rows[1]) x [cols[0], cols[1]) */
     uint32_t cols[2];
@@ -5172,18 +5184,20 @@ static void sqffd__fit_bvh_layout(sqffd__arena *a, const int grid[2], sqffd__fit
    - the gap between the fan's closest and runner-up triangles: while the
      moves (the triangle's own corners' plus the fan's largest) stay below
      it, only that triangle is measured again.
-   Only when the first three fail is the tree asked (sqffd__fit_tree). An
-   exact pass (a fit's first and last, and sqffd_model_distances)
-   then proves the fan's answer the closest of the whole mesh or finds the
-   one that is (sqffd__fit_certify). A fit's passes between (exact = 0) are
-   local: a point whose nearest vertex cannot be proven descends the mesh
-   from its last one instead of asking the tree, and a point whose triangle
-   bound has run out keeps that triangle while its closest point stays
-   inside it (the fan search it saves is most of a pass's cost on smooth
-   surfaces); the point's matched triangle from the last pass stands where
-   it is closer, so each step's bound still holds (sqffd__fit_closest). */
+   When the first three fail, the point descends the mesh from its last
+   nearest vertex; only a point without a last answer asks the tree
+   (sqffd__fit_tree). An exact pass (a fit's first and last, and
+   sqffd_model_distances) then proves the fan's answer the closest of the
+   whole mesh or finds the one that is (sqffd__fit_certify): the vertex it
+   starts from need not be the nearest (asking the tree for it cost a
+   quarter of an exact pass). A fit's passes between (exact = 0) are local:
+   a point whose triangle bound has run out keeps that triangle while its
+   closest point stays inside it (the fan search it saves is most of a
+   pass's cost on smooth surfaces); the point's matched triangle from the
+   last pass stands where it is closer, so each step's bound still holds
+   (sqffd__fit_closest). */
 #define SQFFD__FIT_KNN 3 /* neighbours a tree query fetches (measured: fewer repeat queries vs dearer ones) */
-#define SQFFD__FIT_DESCENT 16 /* vertex-to-vertex moves of a pass between's descent at most */
+#define SQFFD__FIT_DESCENT 16 /* vertex-to-vertex moves of a descent at most */
 
 typedef struct sqffd__fit_search {
     const double *x;         /* mesh vertices (the model points) */
@@ -5335,10 +5349,11 @@ static sqffd_result sqffd__fit_nearest_vertex(sqffd__fit_search *s, size_t i, co
             }
         }
     }
-    if (!s->exact && s->triangle[i][0] != UINT32_MAX) {
-        /* a pass between: no proof, a descent over the mesh from the last
-           nearest vertex (the fit's energy still cannot rise: the pass keeps
-           each point's matched triangle where it stays closer) */
+    if (s->anchor && s->triangle[i][0] != UINT32_MAX) {
+        /* no proof: a descent over the mesh from the last nearest vertex
+           (a pass between needs none: the fit's energy still cannot rise, as
+           the pass keeps each point's matched triangle where it stays
+           closer; an exact pass proves its answer over all triangles) */
         size_t v = s->triangle[i][0], step, next;
         double best = sqffd__dist2_3(q, s->x + 3 * v);
         for (step = 0; step < SQFFD__FIT_DESCENT; ++step) {
@@ -5352,7 +5367,7 @@ static sqffd_result sqffd__fit_nearest_vertex(sqffd__fit_search *s, size_t i, co
             v = next;
         }
         *nearest = v;
-        s->vertex_slack[i] = s->far_slack[i] = s->outside[i] = -HUGE_VAL; /* the next exact pass asks the tree */
+        s->vertex_slack[i] = s->far_slack[i] = s->outside[i] = -HUGE_VAL; /* (no bounds until the tree is asked) */
         return SQFFD_OK;
     }
     res = sqffd__fit_tree(s);
@@ -5376,14 +5391,11 @@ static sqffd_result sqffd__fit_nearest_vertex(sqffd__fit_search *s, size_t i, co
     return SQFFD_OK;
 }
 
-/* The exact closest point from a first answer (best2, tri, w) for q, whose
-   nearest mesh vertex is `vertex` away: the tree over the triangles
-   (sqffd__fit_bvh) is walked nearest box first, skipping every box farther
-   than the best so far, and every node whose triangles are too small to
-   come nearer (a point of a triangle is within its `reach` of a corner, and
-   every corner is at least `vertex` away); the first answer is usually the
-   closest already, so few boxes stay open. The boxes are measured once a
-   pass, when first needed. */
+/* The exact closest point from a first answer (best2, tri, w) for q: the
+   tree over the triangles (sqffd__fit_bvh) is walked nearest box first,
+   skipping every box farther than the best so far; the first answer is
+   usually the closest already, so few boxes stay open. The boxes are
+   measured once a pass, when first needed. */
 static void sqffd__fit_bvh_boxes(sqffd__fit_bvh *h, const int grid[2], const double *x)
 {
     size_t i;
@@ -5397,34 +5409,25 @@ static void sqffd__fit_bvh_boxes(sqffd__fit_bvh *h, const int grid[2], const dou
                 box[c] = lo[c] < hi[c] ? lo[c] : hi[c];
                 box[3 + c] = lo[3 + c] > hi[3 + c] ? lo[3 + c] : hi[3 + c];
             }
-            node->reach = h->nodes[i + 1].reach > h->nodes[node->high].reach ? h->nodes[i + 1].reach
-                                                                             : h->nodes[node->high].reach;
         } else {
             uint32_t r, col, tri[2][3];
-            double longest2 = 0.0;
             for (c = 0; c < 3; ++c) { box[c] = HUGE_VAL; box[3 + c] = -HUGE_VAL; }
             for (r = node->rows[0]; r < node->rows[1]; ++r)
                 for (col = node->cols[0]; col < node->cols[1]; ++col) {
                     int t, k, count = sqffd__fit_cell(grid, r, col, tri);
                     for (t = 0; t < count; ++t)
-                        for (k = 0; k < 3; ++k) {
-                            double e2 = sqffd__dist2_3(x + 3 * (size_t)tri[t][k], x + 3 * (size_t)tri[t][(k + 1) % 3]);
-                            longest2 = e2 > longest2 ? e2 : longest2;
+                        for (k = 0; k < 3; ++k)
                             for (c = 0; c < 3; ++c) {
                                 double v = x[3 * (size_t)tri[t][k] + (size_t)c];
                                 box[c] = v < box[c] ? v : box[c];
                                 box[3 + c] = v > box[3 + c] ? v : box[3 + c];
                             }
-                        }
                 }
-            /* no point of a triangle is farther than its longest edge / sqrt(3) from all its corners */
-            node->reach = 0.6 * sqrt(longest2);
         }
     }
 }
 
-static void sqffd__fit_certify(sqffd__fit_search *s, const double q[3], double vertex, double *best2, size_t tri[3],
-                               double w[3])
+static void sqffd__fit_certify(sqffd__fit_search *s, const double q[3], double *best2, size_t tri[3], double w[3])
 {
     const sqffd__fit_bvh *h = s->bvh;
     uint32_t stack[SQFFD__FIT_BVH_STACK];
@@ -5443,7 +5446,6 @@ static void sqffd__fit_certify(sqffd__fit_search *s, const double q[3], double v
         if (gaps[top] >= *best2) continue; /* (the best may have improved since it was pushed) */
         i = stack[top];
         node = h->nodes + i;
-        if (node->reach < vertex - sqrt(*best2) - s->margin) continue; /* its triangles are too small to come nearer */
         if (!node->high) {
             uint32_t r, col, cell[2][3];
             for (r = node->rows[0]; r < node->rows[1]; ++r)
@@ -5535,7 +5537,7 @@ static sqffd_result sqffd__fit_closest(sqffd__fit_search *s, size_t i, const dou
             memcpy(w, wm, sizeof wm);
         }
     }
-    if (s->exact) sqffd__fit_certify(s, q, sqrt(sqffd__dist2_3(q, s->x + 3 * v)), dist2, tri, w);
+    if (s->exact) sqffd__fit_certify(s, q, dist2, tri, w);
     if (s->matched) {
         s->matched[i][0] = (uint32_t)tri[0]; s->matched[i][1] = (uint32_t)tri[1]; s->matched[i][2] = (uint32_t)tri[2];
     }
@@ -6093,7 +6095,7 @@ SQFFD_DEF sqffd_fit_options sqffd_fit_options_default(void)
     o.box_margin = 0.1;
     o.grid[0] = 32;
     o.grid[1] = 64;
-    o.alpha = 1e-5;
+    o.alpha = 1e-6;
     o.tether = 0.0;
     o.regularization = SQFFD_REG_DISPLACEMENT;
     o.solver = SQFFD_SOLVER_CHOLESKY;
@@ -7222,6 +7224,8 @@ SQFFD_DEF sqffd_track_options sqffd_track_options_default(void)
     memset(&o, 0, sizeof o);
     o.fit = sqffd_fit_options_default();
     o.fit.max_iterations = 100;
+    o.fit.alpha = 1e-5; /* stiffer springs than a lone fit's: a regular lattice keeps unreached parts still between
+                           frames (identical frames move no grid point by 1e-3 of the diagonal; at 1e-6, 7e-3) */
     o.frame_iterations = 10;
     return o;
 }

@@ -255,10 +255,9 @@ static int scan_model_option(arg_scan *s, const cli_command *c, sqffd_fit_option
     return 1;
 }
 
-/* The model options' help lines, shared by fit and track. */
-static void model_option_details(FILE *f, const char *iterations_note)
+/* The model options' help lines, shared by fit and track (d: the command's defaults). */
+static void model_option_details(FILE *f, const sqffd_fit_options *d, const char *iterations_note)
 {
-    sqffd_fit_options d = sqffd_fit_options_default();
     fprintf(f,
             "  --lattice N|LxMxN      FFD control points per axis, 2..%d (default %dx%dx%d)\n"
             "  --alpha A              spring weight of the energy, >= 0 (default %g)\n"
@@ -267,8 +266,8 @@ static void model_option_details(FILE *f, const char *iterations_note)
             "  --iterations K         FFD iterations at most, 0..10000 (default %d; %s)\n"
             "  --robust               outlier-robust fit in both stages\n"
             "  --no-taper             superquadric without tapering (11 parameters, not 13)\n",
-            SQFFD_MAX_LATTICE, d.lattice[0], d.lattice[1], d.lattice[2], d.alpha, d.model_to_data, d.max_iterations,
-            iterations_note);
+            SQFFD_MAX_LATTICE, d->lattice[0], d->lattice[1], d->lattice[2], d->alpha, d->model_to_data,
+            d->max_iterations, iterations_note);
 }
 
 /* ---- inputs: point files and volumes ------------------------------------ */
@@ -580,6 +579,7 @@ static int fit_parse(int argc, char **argv, fit_args *a, int *help)
 
 static void fit_details(FILE *f)
 {
+    sqffd_fit_options d = sqffd_fit_options_default();
     fprintf(f,
             "INPUT is a point file: PLY (ascii, binary little or big endian; vertex x y z read,\n"
             "other properties and elements skipped), PCD (ascii, binary, binary_compressed; points\n"
@@ -593,7 +593,7 @@ static void fit_details(FILE *f)
             "                         per-vertex float 'error': the distance from that model\n"
             "                         vertex to the nearest data point\n");
     input_option_details(f);
-    model_option_details(f, "0: the superquadric alone");
+    model_option_details(f, &d, "0: the superquadric alone");
     fprintf(f,
             "  --mesh N|ExO           output mesh grid, eta x omega, 4..1024 (default 64x128)\n"
             "  --points FILE.ply      also write the data points, each with a float 'error':\n"
@@ -935,7 +935,7 @@ static void track_details(FILE *f)
             "  --frame-iterations K   FFD iterations of the frames after the first (default %d)\n",
             (unsigned long)m.ed_frame, m.low_motion_fraction, m.hypokinetic_share, d.frame_iterations);
     input_option_details(f);
-    model_option_details(f, "frame 0");
+    model_option_details(f, &d.fit, "frame 0");
     fprintf(f,
             "  --ascii                write ascii PLY instead of binary little endian\n"
             "  --quiet                print nothing on success\n");
