@@ -6395,16 +6395,23 @@ static void sqffd__fit_gram(const sqffd__fit_system *s, const double *w, double 
                 for (e = 0; e < (size_t)d[0]; ++e)
                     for (f = 0; f < (size_t)d[1]; ++f) ab[k][e * (size_t)d[1] + f] = root * a[e] * b[f];
             }
-            for (e = 0; e < lm; ++e)
-                for (f = 0; f <= e; ++f)
-                    pairs[e * lm + f] += (ab[0][e] * ab[0][f] + ab[1][e] * ab[1][f]) + (ab[2][e] * ab[2][f] + ab[3][e] * ab[3][f]);
+            for (e = 0; e < lm; ++e) {
+                const double a0 = ab[0][e], a1 = ab[1][e], a2 = ab[2][e], a3 = ab[3][e];
+                double *row = pairs + e * lm;
+                for (f = 0; f + 4 <= e + 1; f += 4) /* four columns a round, written out: gcc -O2 packs them into vectors */
+                    for (k = 0; k < 4; ++k)
+                        row[f + k] += (a0 * ab[0][f + k] + a1 * ab[1][f + k]) + (a2 * ab[2][f + k] + a3 * ab[3][f + k]);
+                for (; f <= e; ++f) row[f] += (a0 * ab[0][f] + a1 * ab[1][f]) + (a2 * ab[2][f] + a3 * ab[3][f]);
+            }
         }
         for (e = 0; e < lm; ++e) /* matrix += pairs (x) c c^T: rows e n + k, columns f n + h, f <= e */
             for (f = 0; f <= e; ++f)
                 for (k = 0; k < n; ++k) {
                     double *row = matrix + (e * n + k) * l + f * n, pk = pairs[e * lm + f] * c[k];
-                    size_t end = f < e ? n : k + 1;
-                    for (h = 0; h < end; ++h) row[h] += pk * c[h];
+                    size_t end = f < e ? n : k + 1, i;
+                    for (h = 0; h + 4 <= end; h += 4) /* (as above) */
+                        for (i = 0; i < 4; ++i) row[h + i] += pk * c[h + i];
+                    for (; h < end; ++h) row[h] += pk * c[h];
                 }
     }
 }
