@@ -1012,7 +1012,9 @@ SQFFD_DEF sqffd_result sqffd_fit_prepared_view(const sqffd_ffd_system *system, s
 typedef struct sqffd_track_options {
     sqffd_fit_options fit;       /* frame 0's fit and every frame's FFD stage (fit.progress is not used);
                                     fit.max_iterations is frame 0's (default 100, so that it converges and
-                                    the later frames measure motion, not the rest of its convergence) */
+                                    the later frames measure motion, not the rest of its convergence);
+                                    fit.alpha defaults to 1e-5, stiffer than a lone fit's 1e-6, so the
+                                    parts no data reach stay still from frame to frame */
     int frame_iterations;        /* FFD iterations of frames 1, 2, ... at most (default 10: they start near
                                     their answer; the tolerance may stop them sooner) */
     sqffd_progress_fn progress;  /* frames (SQFFD_STAGE_FRAME) and, within each, the stages' iterations */
@@ -5251,9 +5253,10 @@ static double sqffd__fit_box_gap2(const double box[6], const double low[3], cons
 {
     double d2 = 0.0;
     int k;
-    for (k = 0; k < 3; ++k) {
+    for (k = 0; k < 3; ++k) { /* (at most one of below and above is positive: two maxima, no branch) */
         double below = box[k] - high[k], above = low[k] - box[3 + k];
-        double d = below > 0.0 ? below : above > 0.0 ? above : 0.0;
+        double d = below > above ? below : above;
+        d = d > 0.0 ? d : 0.0;
         d2 += d * d;
     }
     return d2;
