@@ -5072,17 +5072,24 @@ static double sqffd__fit_walk(const double *x, const sqffd__fit_ring *rings, con
 /* A bounding-volume tree over the mesh triangles (see sqffd__fit_certify),
    made of the grid's own patches: cells are the triangle strips between
    consecutive rows (the south cap, the quad rows, the north cap; a cell is
-   one cap triangle or one quad's two), and a node is a rectangle of cells,
-   split across its longer side down to leaves of at most 2 x 2 cells. The
-   patches of a smooth surface are compact, so their boxes stay tight even
-   where the triangles are long and thin (a boxy superquadric's faces). The
-   nodes are laid out depth first (an inner node's low child is the next
-   node) once a search, their boxes measured once a pass. */
+   one cap triangle or one quad's two), and a node is a rectangle of cells
+   split into up to four (its rows halved where there are two or more, its
+   columns likewise), down to nodes of at most 2 x 2 cells whose children are
+   the cells themselves. The patches of a smooth surface are compact, so their
+   boxes stay tight even where the triangles are long and thin (a boxy
+   superquadric's faces). A node holds its children's boxes side by side, so
+   a visit measures all four gaps in one loop that the compiler packs into
+   vectors, and a cell's box is measured before its triangles. The nodes are
+   laid out depth first (children after their parent) once a search, their
+   boxes measured once a pass. */
+#define SQFFD__FIT_BVH_WIDTH 4 /* children of a node at most */
+
 typedef struct sqffd__fit_bvh_node {
-    double box[6];     /* low corner, high corner */
-    uint32_t high;     /* inner: the high child; leaf: 0 */
-    uint32_t rows[2];  /* cells [rows[0], rows[1]) x [cols[0], cols[1]) */
-    uint32_t cols[2];
+    double low[3][SQFFD__FIT_BVH_WIDTH]; /* the children's boxes per axis (an unused slot: low +inf, high -inf) */
+    double high[3][SQFFD__FIT_BVH_WIDTH];
+    uint32_t child[SQFFD__FIT_BVH_WIDTH]; /* the child nodes; at the bottom, the cells (row x columns + column) */
+    uint32_t count;                       /* children */
+    uint32_t bottom;                      /* 1: the children are cells */
 } sqffd__fit_bvh_node;
 
 typedef struct sqffd__fit_bvh {
@@ -5090,41 +5097,57 @@ typedef struct sqffd__fit_bvh {
     size_t count;
 } sqffd__fit_bvh;
 
-#define SQFFD__FIT_BVH_LEAF 2 /* cells per side of a leaf at most */
-#define SQFFD__FIT_BVH_STACK 66 /* a walk's or the build's pending nodes: the depth (<= 34 for 65,537 x 65,536 cells) + 1 */
+/* A walk's or the build's pending nodes at most: three per level (the fourth
+   is being visited) and the bottom's four; at most 18 levels for 65,537 x
+   65,536 cells. */
+#define SQFFD__FIT_BVH_STACK 64
 
 /* The nodes over the grid's cells, depth first (nodes NULL: only counts them). */
 static size_t sqffd__fit_bvh_build(const int grid[2], sqffd__fit_bvh_node *nodes)
 {
-    struct { uint32_t rows[2], cols[2], parent; } stack[SQFFD__FIT_BVH_STACK], cur;
+    struct { uint32_t rows[2], cols[2], parent, slot; } stack[SQFFD__FIT_BVH_STACK], cur;
     size_t count = 0;
+    uint32_t columns = (uint32_t)grid[1];
     int top = 0;
     stack[top].rows[0] = 0; stack[top].rows[1] = (uint32_t)grid[0] + 1;
-    stack[top].cols[0] = 0; stack[top].cols[1] = (uint32_t)grid[1];
+    stack[top].cols[0] = 0; stack[top].cols[1] = columns;
     stack[top++].parent = UINT32_MAX;
     while (top > 0) {
-        uint32_t nr, nc;
+        uint32_t nr, nc, r, c, split[2][3], parts[2], a, b;
+        sqffd__fit_bvh_node *node = NULL;
         cur = stack[--top];
-        if (nodes) {
-            sqffd__fit_bvh_node *node = nodes + count;
-            if (cur.parent != UINT32_MAX) nodes[cur.parent].high = (uint32_t)count;
-            node->rows[0] = cur.rows[0]; node->rows[1] = cur.rows[1];
-            node->cols[0] = cur.cols[0]; node->cols[1] = cur.cols[1];
-            node->high = 0;
-        }
         nr = cur.rows[1] - cur.rows[0];
         nc = cur.cols[1] - cur.cols[0];
-        if (nr > SQFFD__FIT_BVH_LEAF || nc > SQFFD__FIT_BVH_LEAF) { /* the high half waits, the low half is next */
-            int by_rows = nr >= nc;
-            uint32_t mid = by_rows ? cur.rows[0] + nr / 2 : cur.cols[0] + nc / 2;
-            stack[top] = cur;
-            stack[top].parent = (uint32_t)count;
-            if (by_rows) stack[top].rows[0] = mid; else stack[top].cols[0] = mid;
-            ++top;
-            stack[top] = cur;
-            stack[top].parent = UINT32_MAX;
-            if (by_rows) stack[top].rows[1] = mid; else stack[top].cols[1] = mid;
-            ++top;
+        if (nodes) {
+            node = nodes + count;
+            if (cur.parent != UINT32_MAX) nodes[cur.parent].child[cur.slot] = (uint32_t)count;
+            for (a = 0; a < 3; ++a)
+                for (b = 0; b < SQFFD__FIT_BVH_WIDTH; ++b) {
+                    node->low[a][b] = HUGE_VAL;
+                    node->high[a][b] = -HUGE_VAL;
+                }
+            node->bottom = nr <= 2 && nc <= 2;
+            node->count = 0;
+        }
+        if (nr <= 2 && nc <= 2) {
+            if (node)
+                for (r = cur.rows[0]; r < cur.rows[1]; ++r)
+                    for (c = cur.cols[0]; c < cur.cols[1]; ++c) node->child[node->count++] = r * columns + c;
+        } else { /* the quarters wait, the first on top */
+            parts[0] = nr > 1 ? 2 : 1;
+            parts[1] = nc > 1 ? 2 : 1;
+            split[0][0] = cur.rows[0]; split[0][1] = cur.rows[0] + nr / 2; split[0][2] = cur.rows[1];
+            split[1][0] = cur.cols[0]; split[1][1] = cur.cols[0] + nc / 2; split[1][2] = cur.cols[1];
+            if (parts[0] == 1) split[0][1] = cur.rows[1];
+            if (parts[1] == 1) split[1][1] = cur.cols[1];
+            if (node) node->count = parts[0] * parts[1];
+            for (a = parts[0]; a-- > 0;)
+                for (b = parts[1]; b-- > 0;) {
+                    stack[top].rows[0] = split[0][a]; stack[top].rows[1] = split[0][a + 1];
+                    stack[top].cols[0] = split[1][b]; stack[top].cols[1] = split[1][b + 1];
+                    stack[top].parent = (uint32_t)count;
+                    stack[top++].slot = a * parts[1] + b;
+                }
         }
         ++count;
     }
@@ -5232,6 +5255,8 @@ typedef struct sqffd__fit_search {
     int boxes_current;
     double margin;           /* allowance for rounding in the distances */
     int exact;               /* 0: a pass between a fit's first and last (see above) */
+    int final;               /* an exact pass no other follows: the warm start is neither read nor kept, and a
+                                point starts the tree walk from its matched triangle (of the pass before) */
 } sqffd__fit_search;
 
 
@@ -5394,46 +5419,68 @@ static sqffd_result sqffd__fit_nearest_vertex(sqffd__fit_search *s, size_t i, co
     return SQFFD_OK;
 }
 
-/* The exact closest point from a first answer (best2, tri, w) for q: the
-   tree over the triangles (sqffd__fit_bvh) is walked nearest box first,
-   skipping every box farther than the best so far; the first answer is
-   usually the closest already, so few boxes stay open. The boxes are
-   measured once a pass, when first needed. */
+/* The boxes of every node's children over the mesh vertices x, bottom up. */
 static void sqffd__fit_bvh_boxes(sqffd__fit_bvh *h, const int grid[2], const double *x)
 {
+    uint32_t columns = (uint32_t)grid[1], k, j;
     size_t i;
     int c;
     for (i = h->count; i-- > 0;) { /* children come after their parent */
         sqffd__fit_bvh_node *node = h->nodes + i;
-        double *box = node->box;
-        if (node->high) {
-            const double *lo = h->nodes[i + 1].box, *hi = h->nodes[node->high].box;
-            for (c = 0; c < 3; ++c) {
-                box[c] = lo[c] < hi[c] ? lo[c] : hi[c];
-                box[3 + c] = lo[3 + c] > hi[3 + c] ? lo[3 + c] : hi[3 + c];
+        for (k = 0; k < node->count; ++k) {
+            double low[3], high[3];
+            for (c = 0; c < 3; ++c) { low[c] = HUGE_VAL; high[c] = -HUGE_VAL; }
+            if (node->bottom) {
+                uint32_t tri[2][3];
+                int t, n, count = sqffd__fit_cell(grid, node->child[k] / columns, node->child[k] % columns, tri);
+                for (t = 0; t < count; ++t)
+                    for (n = 0; n < 3; ++n)
+                        for (c = 0; c < 3; ++c) {
+                            double v = x[3 * (size_t)tri[t][n] + (size_t)c];
+                            low[c] = v < low[c] ? v : low[c];
+                            high[c] = v > high[c] ? v : high[c];
+                        }
+            } else {
+                const sqffd__fit_bvh_node *child = h->nodes + node->child[k];
+                for (c = 0; c < 3; ++c)
+                    for (j = 0; j < SQFFD__FIT_BVH_WIDTH; ++j) { /* (unused slots are empty boxes) */
+                        low[c] = child->low[c][j] < low[c] ? child->low[c][j] : low[c];
+                        high[c] = child->high[c][j] > high[c] ? child->high[c][j] : high[c];
+                    }
             }
-        } else {
-            uint32_t r, col, tri[2][3];
-            for (c = 0; c < 3; ++c) { box[c] = HUGE_VAL; box[3 + c] = -HUGE_VAL; }
-            for (r = node->rows[0]; r < node->rows[1]; ++r)
-                for (col = node->cols[0]; col < node->cols[1]; ++col) {
-                    int t, k, count = sqffd__fit_cell(grid, r, col, tri);
-                    for (t = 0; t < count; ++t)
-                        for (k = 0; k < 3; ++k)
-                            for (c = 0; c < 3; ++c) {
-                                double v = x[3 * (size_t)tri[t][k] + (size_t)c];
-                                box[c] = v < box[c] ? v : box[c];
-                                box[3 + c] = v > box[3 + c] ? v : box[3 + c];
-                            }
-                }
+            for (c = 0; c < 3; ++c) {
+                node->low[c][k] = low[c];
+                node->high[c][k] = high[c];
+            }
         }
     }
 }
 
+/* The squared gaps between q and a node's four child boxes (as
+   sqffd__fit_box_gap2 of the box from q to q, to the bit; an unused slot's is
+   infinite), written out so that the compiler packs the four into vectors. */
+static void sqffd__fit_bvh_gaps(const sqffd__fit_bvh_node *node, const double q[3], double gap2[SQFFD__FIT_BVH_WIDTH])
+{
+    int c, k;
+    for (k = 0; k < SQFFD__FIT_BVH_WIDTH; ++k) gap2[k] = 0.0;
+    for (c = 0; c < 3; ++c)
+        for (k = 0; k < SQFFD__FIT_BVH_WIDTH; ++k) {
+            double below = node->low[c][k] - q[c], above = q[c] - node->high[c][k];
+            double d = below > above ? below : above;
+            d = d > 0.0 ? d : 0.0;
+            gap2[k] += d * d;
+        }
+}
+
+/* The exact closest point from a first answer (best2, tri, w) for q: the
+   tree over the triangles (sqffd__fit_bvh) is walked nearest box first,
+   skipping every box (of a node, or of a cell before its triangles) farther
+   than the best so far; the first answer is usually the closest already, so
+   few boxes stay open. The boxes are measured once a pass, when first needed. */
 static void sqffd__fit_certify(sqffd__fit_search *s, const double q[3], double *best2, size_t tri[3], double w[3])
 {
     const sqffd__fit_bvh *h = s->bvh;
-    uint32_t stack[SQFFD__FIT_BVH_STACK];
+    uint32_t stack[SQFFD__FIT_BVH_STACK], columns = (uint32_t)s->grid[1];
     double gaps[SQFFD__FIT_BVH_STACK]; /* of the boxes on the stack */
     int top = 0;
     if (!s->bvh_current) {
@@ -5441,42 +5488,44 @@ static void sqffd__fit_certify(sqffd__fit_search *s, const double q[3], double *
         s->bvh_current = 1;
     }
     stack[top] = 0;
-    gaps[top++] = sqffd__fit_box_gap2(h->nodes[0].box, q, q);
+    gaps[top++] = 0.0;
     while (top > 0) {
         const sqffd__fit_bvh_node *node;
-        uint32_t i;
+        double gap2[SQFFD__FIT_BVH_WIDTH];
+        uint32_t k, j;
         --top;
         if (gaps[top] >= *best2) continue; /* (the best may have improved since it was pushed) */
-        i = stack[top];
-        node = h->nodes + i;
-        if (!node->high) {
-            uint32_t r, col, cell[2][3];
-            for (r = node->rows[0]; r < node->rows[1]; ++r)
-                for (col = node->cols[0]; col < node->cols[1]; ++col) {
-                    int t, count = sqffd__fit_cell(s->grid, r, col, cell);
-                    for (t = 0; t < count; ++t) {
-                        size_t corners[3];
-                        double tw[3], d;
-                        corners[0] = cell[t][0]; corners[1] = cell[t][1]; corners[2] = cell[t][2];
-                        d = sqffd__fit_corner_triangle(s->x, corners, q, tw);
-                        if (d < *best2) {
-                            *best2 = d;
-                            memcpy(tri, corners, sizeof corners);
-                            memcpy(w, tw, sizeof tw);
-                        }
+        node = h->nodes + stack[top];
+        sqffd__fit_bvh_gaps(node, q, gap2);
+        if (node->bottom) {
+            for (k = 0; k < node->count; ++k) {
+                uint32_t cell[2][3];
+                int t, count;
+                if (!(gap2[k] < *best2)) continue;
+                count = sqffd__fit_cell(s->grid, node->child[k] / columns, node->child[k] % columns, cell);
+                for (t = 0; t < count; ++t) {
+                    size_t corners[3];
+                    double tw[3], d;
+                    corners[0] = cell[t][0]; corners[1] = cell[t][1]; corners[2] = cell[t][2];
+                    d = sqffd__fit_corner_triangle(s->x, corners, q, tw);
+                    if (d < *best2) {
+                        *best2 = d;
+                        memcpy(tri, corners, sizeof corners);
+                        memcpy(w, tw, sizeof tw);
                     }
                 }
-        } else { /* the children within reach, the nearer on top */
-            uint32_t low = i + 1, high = node->high;
-            double g_low = sqffd__fit_box_gap2(h->nodes[low].box, q, q), g_high = sqffd__fit_box_gap2(h->nodes[high].box, q, q);
-            int low_first = g_low <= g_high;
-            if ((low_first ? g_high : g_low) < *best2) {
-                stack[top] = low_first ? high : low;
-                gaps[top++] = low_first ? g_high : g_low;
             }
-            if ((low_first ? g_low : g_high) < *best2) {
-                stack[top] = low_first ? low : high;
-                gaps[top++] = low_first ? g_low : g_high;
+        } else { /* the children within reach, farthest first (so the nearest is visited next) */
+            int first = top;
+            for (k = 0; k < node->count; ++k) {
+                if (!(gap2[k] < *best2)) continue;
+                for (j = (uint32_t)top; (int)j > first && gaps[j - 1] < gap2[k]; --j) { /* (insertion: at most 4) */
+                    gaps[j] = gaps[j - 1];
+                    stack[j] = stack[j - 1];
+                }
+                gaps[j] = gap2[k];
+                stack[j] = node->child[k];
+                ++top;
             }
         }
     }
@@ -5525,7 +5574,14 @@ static sqffd_result sqffd__fit_closest(sqffd__fit_search *s, size_t i, const dou
                                        double w[3])
 {
     size_t v;
-    sqffd_result res = sqffd__fit_nearest_vertex(s, i, q, &v);
+    sqffd_result res;
+    if (s->final && s->matched[i][0] != UINT32_MAX) {
+        tri[0] = s->matched[i][0]; tri[1] = s->matched[i][1]; tri[2] = s->matched[i][2];
+        *dist2 = sqffd__fit_corner_triangle(s->x, tri, q, w);
+        sqffd__fit_certify(s, q, dist2, tri, w);
+        return SQFFD_OK;
+    }
+    res = sqffd__fit_nearest_vertex(s, i, q, &v);
     if (res != SQFFD_OK) return res;
     sqffd__fit_answer(s, i, v, q, dist2, tri, w);
     if (s->matched && s->matched[i][0] != UINT32_MAX &&
@@ -6708,6 +6764,7 @@ static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagon
         }
         search.x = x;
         search.exact = (it == 0 && !scaled_now && exact_start) || last; /* (the redo after scaling: nothing moved) */
+        search.final = last;
         res = sqffd__fit_pass(points, &search, diagonal, scaled ? NULL : w->distance, &step1, &stats);
         if (res != SQFFD_OK) return res;
         if (!scaled) { /* robust mode: the Welsch scale from the starting model, then that pass again */
