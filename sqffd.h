@@ -4919,52 +4919,6 @@ static size_t sqffd__fit_ring_at(const sqffd__fit_ring *r, size_t k)
     return r->pole_row != SQFFD__FIT_NOT_POLE ? r->pole_row + k : r->v[k];
 }
 
-/* Blocks: the grid cut into at most SQFFD__FIT_BLOCKS x SQFFD__FIT_BLOCKS
-   rectangles of rows and columns, then one block per pole (the last two).
-   A block's hood is itself and the blocks next to it (columns wrapping; a
-   pole's hood is its adjacent block row, that row's hood includes the pole),
-   so a vertex's closed ring always lies in its block's hood. The closest-point
-   search bounds the moves near a point by its hood's and only those farther
-   away by the largest of all. */
-#define SQFFD__FIT_BLOCKS 8
-#define SQFFD__FIT_MAX_BLOCKS (SQFFD__FIT_BLOCKS * SQFFD__FIT_BLOCKS + 2)
-
-typedef struct sqffd__fit_blocks {
-    int rows, cols;           /* regular blocks: rows x cols, then the south and north pole */
-    unsigned char row[SQFFD__FIT_MAX_BLOCKS], col[SQFFD__FIT_MAX_BLOCKS]; /* of each regular block */
-    unsigned char *of;        /* per mesh vertex: its block */
-} sqffd__fit_blocks;
-
-static void sqffd__fit_block_table(const int grid[2], sqffd__fit_blocks *b)
-{
-    size_t i, j, rows = (size_t)grid[0], cols = (size_t)grid[1];
-    b->rows = grid[0] < SQFFD__FIT_BLOCKS ? grid[0] : SQFFD__FIT_BLOCKS;
-    b->cols = grid[1] < SQFFD__FIT_BLOCKS ? grid[1] : SQFFD__FIT_BLOCKS;
-    for (i = 0; i < rows; ++i)
-        for (j = 0; j < cols; ++j)
-            b->of[i * cols + j] = (unsigned char)(i * (size_t)b->rows / rows * (size_t)b->cols + j * (size_t)b->cols / cols);
-    for (i = 0; i < (size_t)(b->rows * b->cols); ++i) {
-        b->row[i] = (unsigned char)(i / (size_t)b->cols);
-        b->col[i] = (unsigned char)(i % (size_t)b->cols);
-    }
-    b->of[rows * cols] = (unsigned char)(b->rows * b->cols);
-    b->of[rows * cols + 1] = (unsigned char)(b->rows * b->cols + 1);
-}
-
-/* Whether block c is in block a's hood (a symmetric relation). */
-static int sqffd__fit_in_hood(const sqffd__fit_blocks *b, int a, int c)
-{
-    int regular = b->rows * b->cols, dj;
-    if (a >= regular && c >= regular) return a == c;
-    if (a >= regular || c >= regular) { /* a pole and a regular block: the pole's adjacent row */
-        int pole = a >= regular ? a : c, row = b->row[a >= regular ? c : a];
-        return row == (pole == regular ? 0 : b->rows - 1);
-    }
-    dj = b->col[a] - b->col[c];
-    dj = dj < 0 ? -dj : dj;
-    return b->row[a] - b->row[c] <= 1 && b->row[c] - b->row[a] <= 1 && (dj <= 1 || dj == b->cols - 1);
-}
-
 /* Closest point to q on the triangle (v, v + ea, v + eb), from ap = q - v:
    its barycentric weights w (of v, a, b; w[0] is exactly 0 on the edge ab
    and its ends), by the Voronoi regions of the vertices, edges and face
@@ -5023,15 +4977,13 @@ static double sqffd__fit_corner_triangle(const double *x, const size_t tri[3], c
 
 /* The closest point to q on the fan of triangles (v, ring k, ring k+1 mod
    count) around vertex v: its squared distance, triangle (tri[0] = v) and
-   barycentric weights (the first of equally close triangles), and the
-   squared distance of the runner-up triangle (*second >= the result). */
+   barycentric weights (the first of equally close triangles). */
 static double sqffd__fit_fan_closest(const double *x, const sqffd__fit_ring *rings, size_t v, const double q[3],
-                                     size_t tri[3], double w[3], double *second)
+                                     size_t tri[3], double w[3])
 {
     const sqffd__fit_ring *r = rings + v;
     double best = HUGE_VAL, tw[3];
     size_t k, t[3];
-    *second = HUGE_VAL;
     t[0] = v;
     for (k = 0; k < r->count; ++k) {
         double d;
@@ -5039,12 +4991,9 @@ static double sqffd__fit_fan_closest(const double *x, const sqffd__fit_ring *rin
         t[2] = sqffd__fit_ring_at(r, k + 1 < r->count ? k + 1 : 0);
         d = sqffd__fit_corner_triangle(x, t, q, tw);
         if (d < best || k == 0) { /* (k == 0: an answer even when every distance overflows) */
-            *second = best;
             best = d;
             memcpy(tri, t, sizeof t);
             memcpy(w, tw, sizeof tw);
-        } else if (d < *second) {
-            *second = d;
         }
     }
     return best;
@@ -5060,7 +5009,7 @@ static double sqffd__fit_walk(const double *x, const sqffd__fit_ring *rings, con
     int step;
     for (step = 0; step < SQFFD__FIT_MAX_WALK && w[0] == 0.0; ++step) {
         size_t t2[3];
-        double w2[3], second, d = sqffd__fit_fan_closest(x, rings, w[1] >= w[2] ? tri[1] : tri[2], q, t2, w2, &second);
+        double w2[3], d = sqffd__fit_fan_closest(x, rings, w[1] >= w[2] ? tri[1] : tri[2], q, t2, w2);
         if (!(d < best)) break;
         best = d;
         memcpy(tri, t2, sizeof t2);
@@ -5193,36 +5142,22 @@ static void sqffd__fit_bvh_layout(sqffd__arena *a, const int grid[2], sqffd__fit
 /* ---- the closest-point search, with a warm start -------------------------
    A data point's answer (its nearest mesh vertex, and the closest triangle of
    that vertex's fan) rarely changes between two iterations, whose model
-   points move little, and a distance to a vertex or to a triangle changes by
-   at most the move of the vertex involved. Moves differ by region (a region
-   no data reach drifts most), so vertices in the hood of the anchor's block
-   (anchor: the nearest vertex at the point's last tree query) are bounded by
-   the hood's largest move and only those outside it by the largest of all.
-   Each point keeps four bounds, each less the moves since it was taken:
-   - the gap between its nearest vertex and every other vertex in the hood;
-   - the gap between its nearest vertex and every vertex outside the hood:
-     while both stay positive, the nearest vertex is the same;
-   - a lower bound on the distance to the hood's vertices outside the
-     anchor's closed ring: while the nearest vertex of that ring is nearer,
-     and nearer than the vertices outside the hood (their blocks' bounding
-     boxes are measured when the gap above no longer tells), it is the
-     nearest of all;
-   - the gap between the fan's closest and runner-up triangles: while the
-     moves (the triangle's own corners' plus the fan's largest) stay below
-     it, only that triangle is measured again.
-   When the first three fail, the point descends the mesh from its last
-   nearest vertex; only a point without a last answer asks the tree
-   (sqffd__fit_tree). An exact pass (a fit's first and last, and
-   sqffd_model_distances) then proves the fan's answer the closest of the
-   whole mesh or finds the one that is (sqffd__fit_certify): the vertex it
-   starts from need not be the nearest (asking the tree for it cost a
-   quarter of an exact pass). A fit's passes between (exact = 0) are local:
-   a point whose triangle bound has run out keeps that triangle while its
-   closest point stays inside it (the fan search it saves is most of a
-   pass's cost on smooth surfaces); the point's matched triangle from the
-   last pass stands where it is closer, so each step's bound still holds
-   (sqffd__fit_closest). */
-#define SQFFD__FIT_KNN 3 /* neighbours a tree query fetches (measured: fewer repeat queries vs dearer ones) */
+   points move little. So each point keeps its last answer: its nearest
+   vertex is found again by descending the mesh from the last one (only a
+   point without a last answer asks the tree over the vertices,
+   sqffd__fit_tree), and in a fit's passes between its first and last
+   (exact = 0, local answers) the point keeps its last triangle while that
+   vertex stays the nearest and the closest point stays inside the triangle
+   (the fan search it saves is most of a pass's cost on smooth surfaces).
+   The point's matched triangle from the last pass stands where it is closer,
+   so each step's bound still holds (sqffd__fit_closest). An exact pass (a
+   fit's first and last, and sqffd_model_distances) then proves the answer
+   the closest of the whole mesh or finds the one that is
+   (sqffd__fit_certify). (Bounds on the vertices' moves since each point's
+   last tree query, which proved the nearest vertex unchanged without a
+   descent, were kept until 0.8.0: after the pass that follows a tree query
+   they had almost always run out, and the fits and tracking ran as fast
+   without them, to the same results.) */
 #define SQFFD__FIT_DESCENT 16 /* vertex-to-vertex moves of a descent at most */
 
 typedef struct sqffd__fit_search {
@@ -5233,99 +5168,22 @@ typedef struct sqffd__fit_search {
     void *tree_ws;
     size_t tree_size;
     int tree_current;        /* the tree is over x as it is */
-    /* the warm start (anchor NULL: none), per data point */
-    uint32_t *anchor;        /* the nearest vertex at the last tree query */
-    double *outside;         /* lower bound on the distance to the hood's vertices outside the anchor's closed ring */
-    double *vertex_slack;    /* the gap between the nearest vertex and the hood's others, less the moves since */
-    double *far_slack;       /* the gap between the nearest vertex and the vertices outside the hood, less the moves since */
-    uint32_t (*triangle)[3]; /* the closest triangle of the last fan search (its corner 0: the fan's vertex) */
-    double *triangle_slack;  /* that fan's gap less twice its largest moves since (< 0: search the fan) */
+    uint32_t (*triangle)[3]; /* the warm start (NULL: none): per data point, the closest triangle of its last fan
+                                search (its corner 0: the fan's vertex, the nearest vertex then; UINT32_MAX: none yet) */
     uint32_t (*matched)[3];  /* a fit's: the triangle each point was matched to in the last pass (NULL: none) */
     struct sqffd__fit_bvh *bvh; /* the exact passes' tree over the triangles, when bvh_current */
     int bvh_current;
     int grid[2];
-    sqffd__fit_blocks blocks;
-    double moved;            /* largest vertex move since the previous pass */
-    double *vertex_moved;    /* per mesh vertex: its move since the previous pass */
-    double *fan_moved;       /* per mesh vertex: largest move of its fan's vertices since the previous pass */
-    double *block_moved;     /* per block: largest move of its vertices since the previous pass */
-    double *hood_moved;      /* per block: largest of its hood's block_moved */
-    double (*box)[6];        /* per block: its vertices' bounding box (low, high), when boxes_current */
-    double *separation;      /* per block: the gap between its box and those outside its hood (< 0: not measured) */
-    int boxes_current;
-    double margin;           /* allowance for rounding in the distances */
     int exact;               /* 0: a pass between a fit's first and last (see above) */
-    int final;               /* an exact pass no other follows: the warm start is neither read nor kept, and a
-                                point starts the tree walk from its matched triangle (of the pass before) */
+    int final;               /* an exact pass no other follows: a point starts the tree walk from its matched
+                                triangle (of the pass before), and its last answer is neither read nor kept */
 } sqffd__fit_search;
-
-
-/* Whether vertex u is in the closed ring (v and its ring r). */
-static int sqffd__fit_in_ring(const sqffd__fit_ring *r, size_t v, size_t u)
-{
-    size_t k;
-    if (u == v) return 1;
-    if (r->pole_row != SQFFD__FIT_NOT_POLE) return u >= r->pole_row && u < (size_t)r->pole_row + r->count;
-    for (k = 0; k < r->count; ++k)
-        if (r->v[k] == u) return 1;
-    return 0;
-}
-
-/* The squared gap between a bounding box (low, high) and the box from low
-   to high (a point when they are the same). */
-static double sqffd__fit_box_gap2(const double box[6], const double low[3], const double high[3])
-{
-    double d2 = 0.0;
-    int k;
-    for (k = 0; k < 3; ++k) { /* (at most one of below and above is positive: two maxima, no branch) */
-        double below = box[k] - high[k], above = low[k] - box[3 + k];
-        double d = below > above ? below : above;
-        d = d > 0.0 ? d : 0.0;
-        d2 += d * d;
-    }
-    return d2;
-}
-
-/* A lower bound on the distance from q to every vertex outside block a's
-   hood: the gap between a's bounding box and the nearest of those blocks'
-   (measured once a pass), less q's distance from a's box. */
-static double sqffd__fit_far(sqffd__fit_search *s, const double q[3], int a)
-{
-    const sqffd__fit_blocks *b = &s->blocks;
-    int count = b->rows * b->cols + 2, c, k;
-    if (!s->boxes_current) {
-        size_t v;
-        for (c = 0; c < count; ++c) {
-            for (k = 0; k < 3; ++k) { s->box[c][k] = HUGE_VAL; s->box[c][3 + k] = -HUGE_VAL; }
-            s->separation[c] = -1.0;
-        }
-        for (v = 0; v < s->count; ++v) {
-            double *box = s->box[b->of[v]];
-            const double *p = s->x + 3 * v;
-            for (k = 0; k < 3; ++k) {
-                box[k] = p[k] < box[k] ? p[k] : box[k];
-                box[3 + k] = p[k] > box[3 + k] ? p[k] : box[3 + k];
-            }
-        }
-        s->boxes_current = 1;
-    }
-    if (s->separation[a] < 0.0) {
-        double best = HUGE_VAL;
-        for (c = 0; c < count; ++c)
-            if (!sqffd__fit_in_hood(b, a, c)) {
-                double d2 = sqffd__fit_box_gap2(s->box[c], s->box[a], s->box[a] + 3);
-                best = d2 < best ? d2 : best;
-            }
-        s->separation[a] = sqrt(best);
-    }
-    return s->separation[a] - sqrt(sqffd__fit_box_gap2(s->box[a], q, q));
-}
 
 /* The tree over the mesh vertices as they are: built when first asked after
    the vertices moved. (Refitting the last one instead is 8x cheaper, but
    as the model leaves the superquadric's shape its boxes overlap and the
    queries slow down: rebuilding made the whole fit 20-25% faster on the
-   phantom and a 6,000-point scan. Only the exact passes ask.) */
+   phantom and a 6,000-point scan. Only points without a last answer ask.) */
 static sqffd_result sqffd__fit_tree(sqffd__fit_search *s)
 {
     sqffd_result res;
@@ -5335,87 +5193,35 @@ static sqffd_result sqffd__fit_tree(sqffd__fit_search *s)
     return res;
 }
 
-/* The nearest mesh vertex to data point i at q. */
+/* The nearest mesh vertex to data point i at q: a descent from its last
+   one, or the tree's answer. */
 static sqffd_result sqffd__fit_nearest_vertex(sqffd__fit_search *s, size_t i, const double q[3], size_t *nearest)
 {
-    size_t near[SQFFD__FIT_KNN], k, count;
-    double d2[SQFFD__FIT_KNN], d[SQFFD__FIT_KNN];
-    const sqffd__fit_ring *r;
+    size_t near, k, step;
+    double d2;
     sqffd_result res;
-    if (s->anchor && s->triangle[i][0] != UINT32_MAX) { /* (else no answer yet) */
-        size_t v = s->triangle[i][0], a = s->anchor[i];
-        double local = s->hood_moved[s->blocks.of[a]];
-        /* others came nearer by at most their moves, v went farther by at most its own */
-        s->outside[i] -= local;
-        s->vertex_slack[i] -= local + s->vertex_moved[v];
-        s->far_slack[i] -= s->moved + s->vertex_moved[v];
-        if (s->vertex_slack[i] > s->margin && s->far_slack[i] > s->margin) { /* still the last pass's nearest vertex */
-            *nearest = v;
-            return SQFFD_OK;
-        }
-        if (s->outside[i] > s->margin) { /* the nearest of the anchor's closed ring, if nearer than the rest */
-            double best = sqffd__dist2_3(q, s->x + 3 * a), second = HUGE_VAL, last = 0.0, far;
-            r = s->rings + a;
-            *nearest = a;
-            if (v == a) last = best;
-            for (k = 0; k < r->count; ++k) {
+    if (s->triangle && s->triangle[i][0] != UINT32_MAX) { /* (a descent needs no proof: see above) */
+        size_t v = s->triangle[i][0], next;
+        double best = sqffd__dist2_3(q, s->x + 3 * v);
+        for (step = 0; step < SQFFD__FIT_DESCENT; ++step) {
+            const sqffd__fit_ring *r = s->rings + v;
+            for (next = v, k = 0; k < r->count; ++k) {
                 size_t u = sqffd__fit_ring_at(r, k);
                 double du = sqffd__dist2_3(q, s->x + 3 * u);
-                if (u == v) last = du;
-                if (du < best) { second = best; best = du; *nearest = u; }
-                else if (du < second) second = du;
+                if (du < best) { best = du; next = u; }
             }
-            best = sqrt(best);
-            far = s->far_slack[i] + sqrt(last); /* v is in the closed ring (last = 0 would still be a bound) */
-            if (best < s->outside[i] - s->margin) {
-                if (!(best < far - s->margin)) far = sqffd__fit_far(s, q, s->blocks.of[a]);
-                if (best < far - s->margin) {
-                    second = sqrt(second);
-                    s->vertex_slack[i] = (second < s->outside[i] ? second : s->outside[i]) - best;
-                    s->far_slack[i] = far - best;
-                    return SQFFD_OK;
-                }
-            }
+            if (next == v) break;
+            v = next;
         }
-        { /* no proof: a descent over the mesh from the last nearest vertex
-             (a pass between needs none: the fit's energy still cannot rise, as
-             the pass keeps each point's matched triangle where it stays
-             closer; an exact pass proves its answer over all triangles) */
-            size_t step, next;
-            double best = sqffd__dist2_3(q, s->x + 3 * v);
-            for (step = 0; step < SQFFD__FIT_DESCENT; ++step) {
-                r = s->rings + v;
-                for (next = v, k = 0; k < r->count; ++k) {
-                    size_t u = sqffd__fit_ring_at(r, k);
-                    double du = sqffd__dist2_3(q, s->x + 3 * u);
-                    if (du < best) { best = du; next = u; }
-                }
-                if (next == v) break;
-                v = next;
-            }
-            *nearest = v;
-            s->vertex_slack[i] = s->far_slack[i] = s->outside[i] = -HUGE_VAL; /* (no bounds until the tree is asked) */
-            return SQFFD_OK;
-        }
+        *nearest = v;
+        return SQFFD_OK;
     }
     res = sqffd__fit_tree(s);
     if (res != SQFFD_OK) return res;
     if (!sqffd__finite3(q)) return SQFFD_ERROR_NON_FINITE;
-    count = sqffd__kd_query(&s->tree, q, HUGE_VAL, 0, near, d2,
-                            s->anchor ? (SQFFD__FIT_KNN < s->tree.count ? SQFFD__FIT_KNN : s->tree.count) : 1);
-    if (count == 0) return SQFFD_ERROR_NON_FINITE; /* (a tree over the mesh always answers) */
-    *nearest = near[0];
-    if (s->anchor) {
-        double rest = count == SQFFD__FIT_KNN ? sqrt(d2[count - 1]) : HUGE_VAL; /* the vertices not returned */
-        for (k = 0; k < count; ++k) d[k] = sqrt(d2[k]);
-        s->anchor[i] = (uint32_t)near[0];
-        s->vertex_slack[i] = (count > 1 ? d[1] : rest) - d[0];
-        s->outside[i] = rest;
-        r = s->rings + near[0];
-        for (k = 1; k < count; ++k)
-            if (d[k] < s->outside[i] && !sqffd__fit_in_ring(r, near[0], near[k])) s->outside[i] = d[k];
-        s->far_slack[i] = s->outside[i] - d[0]; /* a bound for the whole rest, the outside of the hood included */
-    }
+    if (sqffd__kd_query(&s->tree, q, HUGE_VAL, 0, &near, &d2, 1) == 0)
+        return SQFFD_ERROR_NON_FINITE; /* (a tree over the mesh always answers) */
+    *nearest = near;
     return SQFFD_OK;
 }
 
@@ -5531,35 +5337,25 @@ static void sqffd__fit_certify(sqffd__fit_search *s, const double q[3], double *
     }
 }
 
-/* The answer for data point i at q once its nearest vertex is known: its
-   kept triangle while that is proven (or, in a pass between, while the
-   closest point stays inside it), else the fan search and the walk. */
+/* The answer for data point i at q once its nearest vertex v is known: in a
+   pass between, its last triangle while that is still v's and the closest
+   point stays inside it; else the fan search and the walk. */
 static void sqffd__fit_answer(sqffd__fit_search *s, size_t i, size_t v, const double q[3], double *dist2, size_t tri[3],
                               double w[3])
 {
     size_t k;
-    double second, d;
-    if (s->anchor && s->triangle[i][0] == v) {
-        const uint32_t *t = s->triangle[i];
-        double own = s->vertex_moved[t[1]] > s->vertex_moved[t[2]] ? s->vertex_moved[t[1]] : s->vertex_moved[t[2]];
-        int held;
-        /* it went farther by at most its corners' moves, the fan's others came nearer by at most theirs */
-        s->triangle_slack[i] -= (own > s->vertex_moved[v] ? own : s->vertex_moved[v]) + s->fan_moved[v];
-        held = s->triangle_slack[i] > s->margin;
-        if (held || !s->exact) {
-            for (k = 0; k < 3; ++k) tri[k] = t[k];
-            d = sqffd__fit_corner_triangle(s->x, tri, q, w);
-            if (w[0] != 0.0 && (held || (w[1] > 0.0 && w[2] > 0.0))) { /* (else the full search would walk on) */
-                *dist2 = d;
-                return;
-            }
+    double d;
+    if (s->triangle && s->triangle[i][0] == v && !s->exact) {
+        for (k = 0; k < 3; ++k) tri[k] = s->triangle[i][k];
+        d = sqffd__fit_corner_triangle(s->x, tri, q, w);
+        if (w[0] != 0.0 && w[1] > 0.0 && w[2] > 0.0) { /* (else the full search would walk on) */
+            *dist2 = d;
+            return;
         }
     }
-    d = sqffd__fit_fan_closest(s->x, s->rings, v, q, tri, w, &second);
-    if (s->anchor) {
+    d = sqffd__fit_fan_closest(s->x, s->rings, v, q, tri, w);
+    if (s->triangle)
         for (k = 0; k < 3; ++k) s->triangle[i][k] = (uint32_t)tri[k];
-        s->triangle_slack[i] = w[0] == 0.0 ? -1.0 : sqrt(second) - sqrt(d);
-    }
     *dist2 = sqffd__fit_walk(s->x, s->rings, q, d, tri, w);
 }
 
@@ -5603,63 +5399,11 @@ static sqffd_result sqffd__fit_closest(sqffd__fit_search *s, size_t i, const dou
     return res;
 }
 
-/* Per block, the largest move in its hood (see sqffd__fit_in_hood). */
-static void sqffd__fit_hood_moves(const sqffd__fit_blocks *b, const double *block_moved, double *hood_moved)
+/* The mesh vertices moved: the trees over them are measured again when asked. */
+static void sqffd__fit_moved(sqffd__fit_search *s)
 {
-    int regular = b->rows * b->cols, i, j, di, dj;
-    hood_moved[regular] = block_moved[regular];
-    hood_moved[regular + 1] = block_moved[regular + 1];
-    for (i = 0; i < b->rows; ++i)
-        for (j = 0; j < b->cols; ++j) {
-            double m = 0.0, own = block_moved[i * b->cols + j];
-            for (di = i > 0 ? -1 : 0; di <= 1 && i + di < b->rows; ++di)
-                for (dj = -1; dj <= 1; ++dj) {
-                    int col = j + dj < 0 ? b->cols - 1 : j + dj >= b->cols ? 0 : j + dj;
-                    double other = block_moved[(i + di) * b->cols + col];
-                    m = other > m ? other : m;
-                }
-            if (i == 0) { /* the south pole's hood is this row */
-                m = block_moved[regular] > m ? block_moved[regular] : m;
-                hood_moved[regular] = own > hood_moved[regular] ? own : hood_moved[regular];
-            }
-            if (i == b->rows - 1) {
-                m = block_moved[regular + 1] > m ? block_moved[regular + 1] : m;
-                hood_moved[regular + 1] = own > hood_moved[regular + 1] ? own : hood_moved[regular + 1];
-            }
-            hood_moved[i * b->cols + j] = m;
-        }
-}
-
-/* The moves from x to next into the search's warm start (each vertex's,
-   largest overall, per fan and per hood); returns the sum of their squares. */
-static double sqffd__fit_moves(sqffd__fit_search *s, const double *x, const double *next)
-{
-    size_t v, k;
-    int c, blocks = s->blocks.rows * s->blocks.cols + 2;
-    double sum2 = 0.0, max = 0.0;
-    for (c = 0; c < blocks; ++c) s->block_moved[c] = 0.0;
-    for (v = 0; v < s->count; ++v) {
-        double move2 = sqffd__dist2_3(next + 3 * v, x + 3 * v), *block = s->block_moved + s->blocks.of[v];
-        sum2 += move2;
-        s->vertex_moved[v] = sqrt(move2);
-        max = s->vertex_moved[v] > max ? s->vertex_moved[v] : max;
-        *block = s->vertex_moved[v] > *block ? s->vertex_moved[v] : *block;
-    }
-    for (v = 0; v < s->count; ++v) {
-        const sqffd__fit_ring *r = s->rings + v;
-        double fan = s->vertex_moved[v];
-        for (k = 0; k < r->count; ++k) {
-            double d = s->vertex_moved[sqffd__fit_ring_at(r, k)];
-            fan = d > fan ? d : fan;
-        }
-        s->fan_moved[v] = fan;
-    }
-    sqffd__fit_hood_moves(&s->blocks, s->block_moved, s->hood_moved);
-    s->moved = max;
-    s->boxes_current = 0;
     s->bvh_current = 0;
     s->tree_current = 0;
-    return sum2;
 }
 
 /* ---- statistics ---------------------------------------------------------- */
@@ -6265,7 +6009,6 @@ typedef struct sqffd__fit_system {
     size_t stride;       /* l + m + n */
     double *weights;     /* M x stride */
     sqffd__fit_ring *rings; /* M: the mesh's ring table */
-    sqffd__fit_blocks blocks; /* and its blocks */
     uint32_t *run;       /* runs + 1: the first point of each run, then M */
     size_t runs;
     double *rest;        /* M x 3: the model points of P0 (the superquadric's) */
@@ -6310,14 +6053,10 @@ typedef struct sqffd__fit_work {
     double *distance;    /* robust: per data point, for the scale (NULL otherwise) */
     void *tree_ws;       /* tree over the model points */
     size_t tree_size;
-    uint32_t *anchor, (*triangle)[3]; /* per FFD data point: the closest-point search's warm start */
-    double *outside, *vertex_slack, *far_slack, *triangle_slack;
+    uint32_t (*triangle)[3]; /* per FFD data point: the closest-point search's warm start */
     uint32_t (*matched)[3]; /* per FFD data point: its triangle in the last pass */
     uint32_t (*matched_accepted)[3]; /* and in the last accepted one */
-    double *fan_moved;   /* M */
     sqffd__fit_bvh bvh;  /* the exact passes' tree over the triangles */
-    double *vertex_moved;/* M */
-    double *block_moved, *hood_moved, *separation, (*box)[6]; /* per block */
     void *data_ws;       /* tree over the data of the model -> data term */
     size_t data_size;
     double *data;        /* those data: an even subsample of the FFD's points (NULL: all of them) */
@@ -6372,7 +6111,6 @@ static void sqffd__fit_system_layout(sqffd__arena *a, const int dims[3], const i
     s->weights = (double *)sqffd__arena_take(a, m, s->stride * sizeof(double));
     s->run = (uint32_t *)sqffd__arena_take(a, m + 1, sizeof(uint32_t));
     s->rings = (sqffd__fit_ring *)sqffd__arena_take(a, m, sizeof(sqffd__fit_ring));
-    s->blocks.of = (unsigned char *)sqffd__arena_take(a, m, 1);
     s->rest = (double *)sqffd__arena_take(a, m, 3 * sizeof(double));
     s->rest_control = (double *)sqffd__arena_take(a, 3 * l, sizeof(double));
     s->fixed = (double *)sqffd__arena_take(a, l * l, sizeof(double));
@@ -6410,21 +6148,10 @@ static void sqffd__fit_work_layout(sqffd__arena *a, size_t n, const int dims[3],
     w->sample_count = sqffd__fit_cap(n, o->ffd_max_points);
     if (w->sample_count < n) w->sample = (double *)sqffd__arena_take(a, w->sample_count, 3 * sizeof(double));
     if (o->sq.robust) w->distance = (double *)sqffd__arena_take(a, w->sample_count, sizeof(double));
-    w->anchor = (uint32_t *)sqffd__arena_take(a, w->sample_count, sizeof(uint32_t));
-    w->outside = (double *)sqffd__arena_take(a, w->sample_count, sizeof(double));
-    w->vertex_slack = (double *)sqffd__arena_take(a, w->sample_count, sizeof(double));
-    w->far_slack = (double *)sqffd__arena_take(a, w->sample_count, sizeof(double));
     w->triangle = (uint32_t (*)[3])sqffd__arena_take(a, w->sample_count, 3 * sizeof(uint32_t));
-    w->triangle_slack = (double *)sqffd__arena_take(a, w->sample_count, sizeof(double));
     w->matched = (uint32_t (*)[3])sqffd__arena_take(a, w->sample_count, 3 * sizeof(uint32_t));
     w->matched_accepted = (uint32_t (*)[3])sqffd__arena_take(a, w->sample_count, 3 * sizeof(uint32_t));
-    w->fan_moved = (double *)sqffd__arena_take(a, m, sizeof(double));
     sqffd__fit_bvh_layout(a, grid, &w->bvh);
-    w->vertex_moved = (double *)sqffd__arena_take(a, m, sizeof(double));
-    w->block_moved = (double *)sqffd__arena_take(a, SQFFD__FIT_MAX_BLOCKS, sizeof(double));
-    w->hood_moved = (double *)sqffd__arena_take(a, SQFFD__FIT_MAX_BLOCKS, sizeof(double));
-    w->separation = (double *)sqffd__arena_take(a, SQFFD__FIT_MAX_BLOCKS, sizeof(double));
-    w->box = (double (*)[6])sqffd__arena_take(a, SQFFD__FIT_MAX_BLOCKS, 6 * sizeof(double));
     if (o->model_to_data > 0.0) {
         w->data_count = sqffd__fit_cap(w->sample_count, SQFFD__FIT_DATA_MAX);
         if (w->data_count < w->sample_count) w->data = (double *)sqffd__arena_take(a, w->data_count, 3 * sizeof(double));
@@ -6554,7 +6281,6 @@ static sqffd_result sqffd__fit_prepare(const sqffd_model *model, double alpha, d
     s->tether = tether;
     s->regularization = regularization;
     sqffd__fit_rings(s->grid, s->rings);
-    sqffd__fit_block_table(s->grid, &s->blocks);
     s->runs = 0;
     sqffd__fit_sq_grid(&model->sq, s->grid, s->rest);
     for (v = 0; v < m; ++v) {
@@ -6713,7 +6439,7 @@ static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagon
     size_t m = s->count, l = s->lattice, size = 3 * l, v, p, i, n = points->count;
     double *x = w->x, *next = w->next, *t = w->target, *control = &model->ffd.control[0][0], *swap;
     size_t holding = sqffd__fit_holding(s->grid);
-    double magnitude = 0.0, scale = (double)m / (double)n, accepted = HUGE_VAL, omega = SQFFD__FIT_RELAX;
+    double scale = (double)m / (double)n, accepted = HUGE_VAL, omega = SQFFD__FIT_RELAX;
     double hold = o->model_to_data * (double)m / (double)holding;
     sqffd__fit_search search;
     sqffd__fit_step1 step1;
@@ -6722,29 +6448,11 @@ static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagon
     sqffd__fit_evaluate(s, (const double (*)[3])model->ffd.control, (double (*)[4])w->block, x);
     sqffd__fit_search_init(&search, x, s->grid, s->rings, w->tree_ws, w->tree_size, &w->bvh);
     search.triangle = w->triangle;
-    search.anchor = w->anchor;
-    search.outside = w->outside;
-    search.vertex_slack = w->vertex_slack;
-    search.far_slack = w->far_slack;
-    search.blocks = s->blocks;
-    search.block_moved = w->block_moved;
-    search.hood_moved = w->hood_moved;
-    search.box = w->box;
-    search.separation = w->separation;
-    search.triangle_slack = w->triangle_slack;
-    search.fan_moved = w->fan_moved;
-    search.vertex_moved = w->vertex_moved;
     search.matched = w->matched;
     for (i = 0; i < n; ++i) { /* no warm start yet */
-        w->anchor[i] = 0;
         w->matched[i][0] = UINT32_MAX;
-        w->outside[i] = w->vertex_slack[i] = w->far_slack[i] = -HUGE_VAL;
         w->triangle[i][0] = UINT32_MAX;
-        double q[3];
-        sqffd__points_get(points, i, q);
-        for (p = 0; p < 3; ++p) magnitude = fabs(q[p]) > magnitude ? fabs(q[p]) : magnitude;
     }
-    search.margin = 1e-10 * (magnitude + diagonal); /* far above the rounding of distances between such points */
     if (data_tree)
         for (v = 0; v < m; ++v) w->data_near[SQFFD__FIT_DATA_KNN * v] = UINT32_MAX;
     step1.weights = w->weights;
@@ -6770,7 +6478,7 @@ static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagon
         if (!scaled) { /* robust mode: the Welsch scale from the starting model, then that pass again */
             step1.nu2 = sqffd__fit_welsch_nu2(w->distance, n); /* (0 for an exact start: plain squares) */
             scaled = scaled_now = 1;
-            sqffd__fit_moves(&search, x, x);
+            sqffd__fit_moved(&search);
             continue;
         }
         if (data_tree) /* model -> data: each holding model point's nearest data point (into next, free until step 2) */
@@ -6791,7 +6499,7 @@ static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagon
             stop = !extrapolated;
             extrapolated = 0;
             sqffd__fit_evaluate(s, (const double (*)[3])model->ffd.control, (double (*)[4])w->block, next);
-            sqffd__fit_moves(&search, x, next);
+            sqffd__fit_moved(&search);
             swap = x; x = next; next = swap;
             continue;
         }
@@ -6847,7 +6555,7 @@ static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagon
         extrapolated = !rep->converged;
         for (i = 0; i < size; ++i) control[i] += (extrapolated ? omega : 1.0) * w->rhs[i];
         sqffd__fit_evaluate(s, (const double (*)[3])model->ffd.control, (double (*)[4])w->block, next);
-        sqffd__fit_moves(&search, x, next);
+        sqffd__fit_moved(&search);
         swap = x; x = next; next = swap;
     }
     return SQFFD_OK;
