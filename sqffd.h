@@ -1,4 +1,4 @@
-/* sqffd.h - v0.7.0 - superquadric + free-form deformation shape fitting
+/* sqffd.h - v0.8.0 - superquadric + free-form deformation shape fitting
    Public domain or MIT, your choice (see the end of this file).
 
    Turns 3-D points into a compact global shape model: a superquadric with
@@ -155,6 +155,15 @@
        sqffd_points_subsample(_view)   an even subsample of points
 
    CHANGES
+       0.8.0 (2026-11)  the exact closest-point passes walk a 4-wide tree
+                        over the grid's patches that tests each cell's box
+                        before its triangles (sqffd_model_distances
+                        0.54-0.64x 0.7.0's time); a fit's last pass starts
+                        from each point's matched triangle; the warm start
+                        keeps no bounds on vertex moves (they had run out
+                        after one pass): 36 fewer workspace bytes per FFD
+                        point; same errors (a fit 0.84-0.89x, tracking
+                        0.75x 0.7.0's time)
        0.7.0 (2026-11)  sqffd_fit_options_default's alpha is 1e-6 (was
                         1e-5): the default fit's error is lower on every
                         real shape of the bench; sqffd_track_options_default
@@ -223,9 +232,9 @@
 #include <stdint.h>
 
 #define SQFFD_VERSION_MAJOR 0
-#define SQFFD_VERSION_MINOR 7
+#define SQFFD_VERSION_MINOR 8
 #define SQFFD_VERSION_PATCH 0
-#define SQFFD_VERSION_STRING "0.7.0"
+#define SQFFD_VERSION_STRING "0.8.0"
 
 #ifndef SQFFD_DEF
 #ifdef SQFFD_STATIC
