@@ -5055,9 +5055,10 @@ typedef struct sqffd__fit_bvh {
     size_t count;
 } sqffd__fit_bvh;
 
-/* A walk's or the build's pending nodes at most: three per level (the fourth
-   is being visited) and the bottom's four; at most 18 levels for 65,537 x
-   65,536 cells. */
+/* A walk's or the build's pending nodes at most: three per level below the
+   root (the fourth is being visited) and the last one's four; 16 levels of
+   inner nodes for 65,537 x 65,536 cells (rows and columns halved at each),
+   so 49 at most. */
 #define SQFFD__FIT_BVH_STACK 64
 
 /* The nodes over the grid's cells, depth first (nodes NULL: only counts them). */
@@ -5071,11 +5072,12 @@ static size_t sqffd__fit_bvh_build(const int grid[2], sqffd__fit_bvh_node *nodes
     stack[top].cols[0] = 0; stack[top].cols[1] = columns;
     stack[top++].parent = UINT32_MAX;
     while (top > 0) {
-        uint32_t nr, nc, r, c, split[2][3], parts[2], a, b;
+        uint32_t nr, nc, r, c, split[2][3], parts[2], a, b, bottom;
         sqffd__fit_bvh_node *node = NULL;
         cur = stack[--top];
         nr = cur.rows[1] - cur.rows[0];
         nc = cur.cols[1] - cur.cols[0];
+        bottom = nr <= 2 && nc <= 2;
         if (nodes) {
             node = nodes + count;
             if (cur.parent != UINT32_MAX) nodes[cur.parent].child[cur.slot] = (uint32_t)count;
@@ -5084,10 +5086,10 @@ static size_t sqffd__fit_bvh_build(const int grid[2], sqffd__fit_bvh_node *nodes
                     node->low[a][b] = HUGE_VAL;
                     node->high[a][b] = -HUGE_VAL;
                 }
-            node->bottom = nr <= 2 && nc <= 2;
+            node->bottom = bottom;
             node->count = 0;
         }
-        if (nr <= 2 && nc <= 2) {
+        if (bottom) {
             if (node)
                 for (r = cur.rows[0]; r < cur.rows[1]; ++r)
                     for (c = cur.cols[0]; c < cur.cols[1]; ++c) node->child[node->count++] = r * columns + c;
@@ -5099,6 +5101,7 @@ static size_t sqffd__fit_bvh_build(const int grid[2], sqffd__fit_bvh_node *nodes
             if (parts[0] == 1) split[0][1] = cur.rows[1];
             if (parts[1] == 1) split[1][1] = cur.cols[1];
             if (node) node->count = parts[0] * parts[1];
+            SQFFD_ASSERT(top + SQFFD__FIT_BVH_WIDTH <= SQFFD__FIT_BVH_STACK); /* (the walk's bound too: see above) */
             for (a = parts[0]; a-- > 0;)
                 for (b = parts[1]; b-- > 0;) {
                     stack[top].rows[0] = split[0][a]; stack[top].rows[1] = split[0][a + 1];
@@ -5162,11 +5165,9 @@ static void sqffd__fit_bvh_layout(sqffd__arena *a, const int grid[2], sqffd__fit
    so each step's bound still holds (sqffd__fit_closest). An exact pass (a
    fit's first and last, and sqffd_model_distances) then proves the answer
    the closest of the whole mesh or finds the one that is
-   (sqffd__fit_certify). (Bounds on the vertices' moves since each point's
-   last tree query, which proved the nearest vertex unchanged without a
-   descent, were kept until 0.8.0: after the pass that follows a tree query
-   they had almost always run out, and the fits and tracking ran as fast
-   without them, to the same results.) */
+   (sqffd__fit_certify). (Bounds on the vertices' moves that would prove the
+   nearest vertex unchanged without a descent run out within a pass of a
+   tree query on real shapes: measured, bench/README.md, 0.8.0.) */
 #define SQFFD__FIT_DESCENT 16 /* vertex-to-vertex moves of a descent at most */
 
 typedef struct sqffd__fit_search {
@@ -5271,9 +5272,9 @@ static void sqffd__fit_bvh_boxes(sqffd__fit_bvh *h, const int grid[2], const dou
     }
 }
 
-/* The squared gaps between q and a node's four child boxes (as
-   sqffd__fit_box_gap2 of the box from q to q, to the bit; an unused slot's is
-   infinite), written out so that the compiler packs the four into vectors. */
+/* The squared gaps between q and a node's four child boxes (0 inside; an
+   unused slot's is infinite), written out so that the compiler packs the
+   four into vectors. */
 static void sqffd__fit_bvh_gaps(const sqffd__fit_bvh_node *node, const double q[3], double gap2[SQFFD__FIT_BVH_WIDTH])
 {
     int c, k;
