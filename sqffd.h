@@ -864,7 +864,7 @@ SQFFD_DEF sqffd_result sqffd_fit_workspace_size(size_t n, const sqffd_fit_option
    d_i the error of point i, rho(d) = d^2 or in robust mode (options->sq.robust)
    Welsch's nu^2 (1 - exp(-d^2 / nu^2)). Each iteration: (1) each data point's
    closest point on the model mesh (exact in the first and last pass, a
-   proven or local answer in between); its displacement, shared among that
+   local answer in between); its displacement, shared among that
    triangle's corners by barycentric weight, gives a weighted least-squares
    bound of E; (2) the control points minimising that bound (it cannot raise
    E); the steps are over-relaxed (adaptively), and one that raised E
