@@ -1,4 +1,4 @@
-/* sqffd.h - v0.8.0 - superquadric + free-form deformation shape fitting
+/* sqffd.h - v0.9.0 - superquadric + free-form deformation shape fitting
    Public domain or MIT, your choice (see the end of this file).
 
    Turns 3-D points into a compact global shape model: a superquadric with
@@ -232,9 +232,9 @@
 #include <stdint.h>
 
 #define SQFFD_VERSION_MAJOR 0
-#define SQFFD_VERSION_MINOR 8
+#define SQFFD_VERSION_MINOR 9
 #define SQFFD_VERSION_PATCH 0
-#define SQFFD_VERSION_STRING "0.8.0"
+#define SQFFD_VERSION_STRING "0.9.0"
 
 #ifndef SQFFD_DEF
 #ifdef SQFFD_STATIC
@@ -282,8 +282,10 @@ SQFFD_DEF const char *sqffd_result_string(sqffd_result result);
 typedef enum sqffd_stage {
     SQFFD_STAGE_SUPERQUADRIC = 1, /* superquadric fit: error = current cost */
     SQFFD_STAGE_FFD = 2,          /* FFD two-step iteration: error = relative RMS error */
-    SQFFD_STAGE_FRAME = 3         /* sqffd_track, before each frame: iteration = the frame's index,
+    SQFFD_STAGE_FRAME = 3,        /* sqffd_track, before each frame: iteration = the frame's index,
                                      error = the previous frame's relative RMS error (0 before frame 0) */
+    SQFFD_STAGE_COARSE = 4        /* sqffd_fit's coarse FFD iterations: error = relative RMS error of the subsample
+                                     on the coarse grid */
 } sqffd_stage;
 
 /* Called by long operations once per iteration; return non-zero to cancel
@@ -819,7 +821,14 @@ typedef struct sqffd_fit_options {
     double tether;               /* weight >= 0 of the pull of every model point toward the superquadric (default 0) */
     sqffd_regularization regularization;
     sqffd_solver solver;
-    int max_iterations;          /* two-step iterations (default 30; 0: the superquadric alone, identity lattice) */
+    int max_iterations;          /* two-step iterations at most, all stages (default 33; 0: the superquadric alone,
+                                    identity lattice) */
+    int coarse_iterations;       /* sqffd_fit only: how many of them at most (never all) run first on a coarse grid
+                                    (half the rows and columns) with an even subsample of at most
+                                    SQFFD_FIT_COARSE_POINTS points (default 25; 0: none). From the superquadric they
+                                    do most of the moving, at a third of the cost; skipped where the coarse grid
+                                    would have fewer than 4 model points a control point (e.g. an 8 x 8 x 8 lattice
+                                    on the default grid) */
     double tolerance;            /* stop when the plain step moves the model points by at most this (RMS / diagonal; default 1e-4; 0 = always max_iterations) */
     double model_to_data;        /* weight >= 0 of the model -> data term of the energy (the squared distance of every other model point in each grid direction to its nearest data point, among at most 16,384 of them evenly spread; builds a tree over those): holds the parts of the model no data reach near the data (default 0.02; 0: none; 1: as much as the data -> model term) */
     size_t sq_max_points;        /* stage 1 runs on an even subsample of at most this many points (default 20,000; 0 = all) */
@@ -836,16 +845,18 @@ typedef struct sqffd_distance_stats {
 } sqffd_distance_stats;
 
 #define SQFFD_FIT_HISTORY 64 /* iterations whose error the report keeps */
+#define SQFFD_FIT_COARSE_POINTS 2000 /* the coarse iterations' subsample (sqffd_fit_options.coarse_iterations) */
 
 typedef struct sqffd_fit_report {
     sqffd_sq_fit_report sq;        /* stage 1 (sqffd_fit only) */
     sqffd_distance_stats sq_error; /* data -> starting model: the superquadric alone for sqffd_fit */
     sqffd_distance_stats error;    /* data -> final model ("the error") */
-    int iterations;                /* two-step iterations done */
+    int coarse_iterations;         /* two-step iterations done on the coarse grid (sqffd_fit's; before those below) */
+    int iterations;                /* two-step iterations done on the model's grid */
     int converged;                 /* the tolerance was reached */
     double step;                   /* RMS move of the model points by the last plain step (before over-relaxing) / diagonal */
     int history_count;
-    double history[SQFFD_FIT_HISTORY]; /* relative RMS error after iteration 1, 2, ... (over the FFD subsample;
+    double history[SQFFD_FIT_HISTORY]; /* relative RMS error after grid iteration 1, 2, ... (over the FFD subsample;
                                           before the last, the passes' own local closest points:
                                           never below the exact error, up to ~15% above it) */
     double energy;                 /* the energy of the final model (THE ENERGY, over the FFD subsample) */
@@ -869,10 +880,16 @@ SQFFD_DEF sqffd_result sqffd_fit_workspace_size(size_t n, const sqffd_fit_option
    bound of E; (2) the control points minimising that bound (it cannot raise
    E); the steps are over-relaxed (adaptively), and one that raised E
    is replaced by the plain step: report->energy_history never rises.
+   From the superquadric, the first options->coarse_iterations of the
+   iterations run on a coarse grid (half the rows and columns) and an even
+   subsample of at most SQFFD_FIT_COARSE_POINTS points, the same energy on
+   a coarser mesh at about a third of the cost; the rest on the grid start
+   with an exact pass (report->history and energy_history are theirs; the
+   progress callback sees SQFFD_STAGE_COARSE, then SQFFD_STAGE_FFD).
    options NULL: the defaults; report may be NULL. Results: INVALID_ARGUMENT
-   (NULL points or model, lattice out of range,
-   grid too coarse to mesh, alpha, tether or model_to_data < 0 or NaN, bad
-   options), TOO_LARGE (grid), NON_FINITE (a NaN or infinite coordinate, or
+   (NULL points or model, lattice out of range, grid too coarse to mesh,
+   alpha, tether or model_to_data < 0 or NaN, a negative iteration count,
+   bad options), TOO_LARGE (grid), NON_FINITE (a NaN or infinite coordinate, or
    one beyond +-1e100), TOO_FEW_POINTS, DEGENERATE,
    WORKSPACE_TOO_SMALL, CANCELLED, and whatever sqffd_sq_fit rejects.
    Stage 1 is guarded: where the superquadric's error is above its best
@@ -1020,8 +1037,9 @@ SQFFD_DEF sqffd_result sqffd_fit_prepared_view(const sqffd_ffd_system *system, s
    sqffd_motion measures it. */
 typedef struct sqffd_track_options {
     sqffd_fit_options fit;       /* frame 0's fit and every frame's FFD stage (fit.progress is not used);
-                                    fit.max_iterations is frame 0's (default 100, so that it converges and
-                                    the later frames measure motion, not the rest of its convergence);
+                                    fit.max_iterations is frame 0's (default 100, and no coarse_iterations,
+                                    so that it converges and the later frames measure motion, not the rest of
+                                    its convergence);
                                     fit.alpha defaults to 1e-5, stiffer than a lone fit's 1e-6, so the
                                     parts no data reach stay still from frame to frame */
     int frame_iterations;        /* FFD iterations of frames 1, 2, ... at most (default 10: they start near
@@ -5912,7 +5930,8 @@ SQFFD_DEF sqffd_fit_options sqffd_fit_options_default(void)
     o.tether = 0.0;
     o.regularization = SQFFD_REG_DISPLACEMENT;
     o.solver = SQFFD_SOLVER_CHOLESKY;
-    o.max_iterations = 30;
+    o.max_iterations = 33;
+    o.coarse_iterations = 25;
     o.tolerance = 1e-4;
     o.model_to_data = 0.02;
     o.sq_max_points = 20000;
@@ -5931,7 +5950,7 @@ static sqffd_result sqffd__fit_check_options(const sqffd_fit_options *o)
     if (!(o->tether >= 0.0) || !isfinite(o->tether)) return SQFFD_ERROR_INVALID_ARGUMENT;
     if (!(o->model_to_data >= 0.0) || !isfinite(o->model_to_data)) return SQFFD_ERROR_INVALID_ARGUMENT;
     if (!(o->tolerance >= 0.0) || !isfinite(o->tolerance)) return SQFFD_ERROR_INVALID_ARGUMENT;
-    if (o->max_iterations < 0) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if (o->max_iterations < 0 || o->coarse_iterations < 0) return SQFFD_ERROR_INVALID_ARGUMENT;
     if (o->regularization != SQFFD_REG_DISPLACEMENT && o->regularization != SQFFD_REG_POSITION)
         return SQFFD_ERROR_INVALID_ARGUMENT;
     if (o->solver != SQFFD_SOLVER_CHOLESKY && o->solver != SQFFD_SOLVER_SVD) return SQFFD_ERROR_INVALID_ARGUMENT;
@@ -6061,6 +6080,7 @@ typedef struct sqffd__fit_work {
     double *pairs;       /* (l m)^2: a run's sum of (a (x) b)(a (x) b)^T */
     double (*block)[SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE]; /* 4 x (l m) scratch of the B products (not on the stack: 2 KB) */
     double *distance;    /* robust: per data point, for the scale (NULL otherwise) */
+    double nu2;          /* robust: the Welsch scale squared once known (0: from the starting model's distances) */
     void *tree_ws;       /* tree over the model points */
     size_t tree_size;
     uint32_t (*triangle)[3]; /* per FFD data point: the closest-point search's warm start */
@@ -6440,11 +6460,15 @@ static size_t sqffd__fit_nearest_data(const sqffd_kdtree *tree, sqffd__fit_work 
    over-relaxed). An extrapolation that raised the energy is replaced
    by the plain step from the last accepted control points, whose energy
    cannot be higher; should rounding make even that rise, the loop ends on
-   the accepted ones. The first and the last pass are exact; rep->sq_error
-   receives the error of the starting model. */
+   the accepted ones. The first pass is exact with SQFFD__FIT_EXACT_START in
+   mode, the last with SQFFD__FIT_EXACT_END (else they are local answers);
+   rep->sq_error receives the error of the starting model. */
+#define SQFFD__FIT_EXACT_START 1
+#define SQFFD__FIT_EXACT_END 2
+#define SQFFD__FIT_COARSE 4 /* the coarse stage: progress as SQFFD_STAGE_COARSE, no measures over all points */
 static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagonal, const sqffd_fit_options *o,
                                        const sqffd__fit_system *s, const sqffd_kdtree *data_tree, sqffd__fit_work *w,
-                                       int exact_start, sqffd_model *model, sqffd_fit_report *rep)
+                                       int mode, sqffd_model *model, sqffd_fit_report *rep)
 {
     size_t m = s->count, l = s->lattice, size = 3 * l, v, p, i, n = points->count;
     double *x = w->x, *next = w->next, *t = w->target, *control = &model->ffd.control[0][0], *swap;
@@ -6453,7 +6477,7 @@ static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagon
     double hold = o->model_to_data * (double)m / (double)holding;
     sqffd__fit_search search;
     sqffd__fit_step1 step1;
-    int it = 0, extrapolated = 0, stop = 0, scaled = !w->distance, scaled_now = 0;
+    int it = 0, extrapolated = 0, stop = 0, scaled = !w->distance || w->nu2 > 0.0, scaled_now = 0;
     SQFFD_ASSERT(t && x && next); /* (the arena's: never NULL here) */
     sqffd__fit_evaluate(s, (const double (*)[3])model->ffd.control, (double (*)[4])w->block, x);
     sqffd__fit_search_init(&search, x, s->grid, s->rings, w->tree_ws, w->tree_size, &w->bvh);
@@ -6466,7 +6490,7 @@ static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagon
     if (data_tree)
         for (v = 0; v < m; ++v) w->data_near[SQFFD__FIT_DATA_KNN * v] = UINT32_MAX;
     step1.weights = w->weights;
-    step1.nu2 = 0.0;
+    step1.nu2 = w->nu2;
     rep->iterations = 0;
     rep->converged = 0;
     rep->history_count = 0;
@@ -6481,12 +6505,13 @@ static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagon
             memset(w->weights, 0, m * sizeof(double));
         }
         search.x = x;
-        search.exact = (it == 0 && !scaled_now && exact_start) || last; /* (the redo after scaling: nothing moved) */
-        search.final = last;
+        search.final = last && (mode & SQFFD__FIT_EXACT_END);
+        search.exact = (it == 0 && !scaled_now && (mode & SQFFD__FIT_EXACT_START)) || search.final; /* (the redo
+                                                                                  after scaling: nothing moved) */
         res = sqffd__fit_pass(points, &search, diagonal, scaled ? NULL : w->distance, &step1, &stats);
         if (res != SQFFD_OK) return res;
         if (!scaled) { /* robust mode: the Welsch scale from the starting model, then that pass again */
-            step1.nu2 = sqffd__fit_welsch_nu2(w->distance, n); /* (0 for an exact start: plain squares) */
+            step1.nu2 = w->nu2 = sqffd__fit_welsch_nu2(w->distance, n); /* (0 for an exact start: plain squares) */
             scaled = scaled_now = 1;
             sqffd__fit_moved(&search);
             continue;
@@ -6524,7 +6549,8 @@ static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagon
                 rep->history[rep->history_count] = stats.rms_relative;
                 rep->energy_history[rep->history_count++] = energy;
             }
-            if (o->progress && o->progress(o->progress_user, SQFFD_STAGE_FFD, it, stats.rms_relative))
+            if (o->progress && o->progress(o->progress_user, mode & SQFFD__FIT_COARSE ? SQFFD_STAGE_COARSE : SQFFD_STAGE_FFD,
+                                           it, stats.rms_relative))
                 return SQFFD_ERROR_CANCELLED;
         }
         if (last) break;
@@ -6581,7 +6607,37 @@ typedef struct sqffd__fit_frame {
     size_t sq_size;
     sqffd_fit_report *report; /* where the report goes when the caller passes none (not on the stack: 1.4 KB) */
     sqffd__fit_work w;
+    int coarse_grid[2];  /* the coarse stage (0 0: none) ... */
+    sqffd__fit_system coarse; /* ... its system and scratch */
+    sqffd__fit_work coarse_w;
 } sqffd__fit_frame;
+
+/* The coarse stage's grid for these options, lattice and grid, or 0 (none):
+   half the rows and columns, where that still meshes and leaves at least
+   SQFFD__FIT_COARSE_SHARE model points a control point (else the fit is
+   left to the springs: 16 x 32 has 514, a 5 x 5 x 5 lattice 125). */
+#define SQFFD__FIT_COARSE_SHARE 4
+
+static int sqffd__fit_coarse_grid(const sqffd_fit_options *o, const int dims[3], const int grid[2], int coarse[2])
+{
+    size_t l = (size_t)dims[0] * (size_t)dims[1] * (size_t)dims[2];
+    coarse[0] = grid[0] / 2;
+    coarse[1] = grid[1] / 2;
+    if (o->coarse_iterations > 0 && o->max_iterations > 1 && coarse[0] >= 2 && coarse[1] >= 3 &&
+        sqffd__fit_grid_count(coarse) >= SQFFD__FIT_COARSE_SHARE * l)
+        return 1;
+    coarse[0] = coarse[1] = 0;
+    return 0;
+}
+
+/* The coarse stage's options: its iterations (never all), its subsample. */
+static sqffd_fit_options sqffd__fit_coarse_options(const sqffd_fit_options *o)
+{
+    sqffd_fit_options c = *o;
+    c.max_iterations = o->coarse_iterations < o->max_iterations ? o->coarse_iterations : o->max_iterations - 1;
+    c.ffd_max_points = sqffd__fit_cap(SQFFD_FIT_COARSE_POINTS, o->ffd_max_points);
+    return c;
+}
 
 static void sqffd__fit_frame_layout(sqffd__arena *a, size_t n, const int dims[3], const int grid[2],
                                     const sqffd_fit_options *o, int whole, sqffd__fit_frame *f)
@@ -6595,6 +6651,12 @@ static void sqffd__fit_frame_layout(sqffd__arena *a, size_t n, const int dims[3]
         if (sqffd_sq_fit_workspace_size(k, &o->sq, &f->sq_size) != SQFFD_OK) sqffd__arena_too_large(a);
         f->sq_ws = sqffd__arena_take(a, f->sq_size, 1);
     }
+    if (whole && sqffd__fit_coarse_grid(o, dims, grid, f->coarse_grid)) {
+        sqffd_fit_options c = sqffd__fit_coarse_options(o);
+        sqffd__fit_system_layout(a, dims, f->coarse_grid, &f->coarse);
+        sqffd__fit_work_layout(a, n, dims, f->coarse_grid, &c, &f->coarse_w);
+    } else
+        f->coarse_grid[0] = f->coarse_grid[1] = 0;
     f->report = (sqffd_fit_report *)sqffd__arena_take(a, 1, sizeof(sqffd_fit_report));
     sqffd__fit_work_layout(a, n, dims, grid, o, &f->w);
 }
@@ -6694,31 +6756,64 @@ static sqffd_result sqffd__fit_error(const sqffd_points *points, double diagonal
 /* Stage 2 with the system prepared (tracking prepares once for frame 0's
    superquadric, box and grid, then runs this per frame from the previous
    frame's control points): take the subsample, build the data tree when
-   there is a model -> data term, iterate; the start and final errors over all points. */
+   there is a model -> data term, iterate (mode: see sqffd__fit_iterate); on
+   a subsample, the start and final errors over all points (not in the
+   coarse stage). */
 static sqffd_result sqffd__fit_run(const sqffd_points *points, double diagonal, const sqffd_fit_options *o,
-                                   const sqffd__fit_system *s, sqffd__fit_work *w, int exact_start, sqffd_model *model,
+                                   const sqffd__fit_system *s, sqffd__fit_work *w, int mode, sqffd_model *model,
                                    sqffd_fit_report *rep)
 {
     sqffd_kdtree data_tree;
     sqffd_distance_stats start;
     sqffd_points data = w->sample ? sqffd_points_packed(w->sample, w->sample_count) : *points;
     sqffd_result res = SQFFD_OK;
-    if (w->sample) {
-        sqffd__subsample(points, w->sample_count, w->sample);
-        res = sqffd__fit_error(points, diagonal, s, w, model, &start);
-    }
+    int measure = w->sample && !(mode & SQFFD__FIT_COARSE);
+    if (w->sample) sqffd__subsample(points, w->sample_count, w->sample);
+    if (measure) res = sqffd__fit_error(points, diagonal, s, w, model, &start);
     if (res == SQFFD_OK && o->model_to_data > 0.0) {
         if (w->data) sqffd__subsample(&data, w->data_count, w->data);
         res = sqffd_kdtree_build_view(&data_tree, w->data ? sqffd_points_packed(w->data, w->data_count) : data,
                                       w->data_ws, w->data_size);
     }
     if (res == SQFFD_OK)
-        res = sqffd__fit_iterate(&data, diagonal, o, s, o->model_to_data > 0.0 ? &data_tree : NULL, w, exact_start,
-                                 model, rep);
-    if (res == SQFFD_OK && w->sample) {
+        res = sqffd__fit_iterate(&data, diagonal, o, s, o->model_to_data > 0.0 ? &data_tree : NULL, w, mode, model,
+                                 rep);
+    if (res == SQFFD_OK && measure) {
         rep->sq_error = start;
         res = sqffd__fit_error(points, diagonal, s, w, model, &rep->error);
     }
+    return res;
+}
+
+/* Stage 2 with the coarse stage first: the starting model's error over
+   all points on the grid (the report's
+   sq_error), the coarse iterations on a copy of the model on the coarse
+   grid (its own system and subsample; the same alpha per control point and
+   model -> data per model point, so the same energy on a coarser mesh),
+   then the grid's from where they ended, with the coarse stage's Welsch
+   scale (that of the superquadric) in robust mode. The grid's stage starts
+   with an exact pass: the local answers of a cold start are poor where the
+   model is already close (on the phantom, 2.7x the exact error), and the
+   iterations would follow them. */
+static sqffd_result sqffd__fit_coarse_first(const sqffd_points *points, double diagonal, const sqffd_fit_options *o,
+                                            sqffd__fit_system *s, sqffd__fit_frame *f, sqffd_model *model,
+                                            sqffd_fit_report *rep)
+{
+    sqffd_fit_options c = sqffd__fit_coarse_options(o), fine = *o;
+    sqffd_model coarse = *model;
+    sqffd_distance_stats start;
+    sqffd_result res = sqffd__fit_error(points, diagonal, s, &f->w, model, &start);
+    coarse.grid[0] = f->coarse_grid[0];
+    coarse.grid[1] = f->coarse_grid[1];
+    if (res == SQFFD_OK) res = sqffd__fit_prepare(&coarse, o->alpha, o->tether, o->regularization, &f->coarse);
+    if (res == SQFFD_OK) res = sqffd__fit_run(points, diagonal, &c, &f->coarse, &f->coarse_w, SQFFD__FIT_COARSE, &coarse, rep);
+    if (res != SQFFD_OK) return res;
+    rep->coarse_iterations = rep->iterations;
+    memcpy(model->ffd.control, coarse.ffd.control, sizeof model->ffd.control);
+    f->w.nu2 = f->coarse_w.nu2;
+    fine.max_iterations = o->max_iterations - rep->coarse_iterations;
+    res = sqffd__fit_run(points, diagonal, &fine, s, &f->w, SQFFD__FIT_EXACT_START | SQFFD__FIT_EXACT_END, model, rep);
+    rep->sq_error = start;
     return res;
 }
 
@@ -6751,7 +6846,9 @@ SQFFD_DEF sqffd_result sqffd_fit_ffd_view(sqffd_points points, const sqffd_fit_o
     rep = report ? report : f.report;
     memset(rep, 0, sizeof *rep);
     res = sqffd__fit_prepare(model, options->alpha, options->tether, options->regularization, &s);
-    return res == SQFFD_OK ? sqffd__fit_run(&points, diagonal, options, &s, &f.w, 1, model, rep) : res;
+    return res == SQFFD_OK ? sqffd__fit_run(&points, diagonal, options, &s, &f.w,
+                                            SQFFD__FIT_EXACT_START | SQFFD__FIT_EXACT_END, model, rep)
+                           : res;
 }
 
 /* Stage 1's guard by the error itself: the superquadric's error (its grid
@@ -6819,8 +6916,10 @@ static sqffd_result sqffd__fit_whole(const sqffd_points *points, double diagonal
     if (res == SQFFD_OK) res = sqffd__fit_guard(&stage1, diagonal, sq_options.robust, s, &f->w, &sq, &rep->sq);
     if (res == SQFFD_OK) res = sqffd_model_init(model, &sq, o);
     if (res == SQFFD_OK) res = sqffd__fit_prepare(model, o->alpha, o->tether, o->regularization, s);
-    if (res == SQFFD_OK) res = sqffd__fit_run(points, diagonal, o, s, &f->w, 1, model, rep);
-    return res;
+    if (res != SQFFD_OK) return res;
+    return f->coarse_grid[0] ? sqffd__fit_coarse_first(points, diagonal, o, s, f, model, rep)
+                             : sqffd__fit_run(points, diagonal, o, s, &f->w, SQFFD__FIT_EXACT_START | SQFFD__FIT_EXACT_END,
+                                              model, rep);
 }
 
 SQFFD_DEF sqffd_result sqffd_fit(const double *points, size_t n, const sqffd_fit_options *options,
@@ -6990,8 +7089,8 @@ static sqffd_result sqffd__fit_prepared(const sqffd_ffd_system *system, const sq
     if (a.overflow) return sqffd__arena_error(&a);
     rep = report ? report : f.report;
     memset(rep, 0, sizeof *rep);
-    return sqffd__fit_run(points, diagonal, &o, (const sqffd__fit_system *)system->state, &f.w, exact_start, model,
-                          rep);
+    return sqffd__fit_run(points, diagonal, &o, (const sqffd__fit_system *)system->state, &f.w,
+                          SQFFD__FIT_EXACT_END | (exact_start ? SQFFD__FIT_EXACT_START : 0), model, rep);
 }
 
 SQFFD_DEF sqffd_result sqffd_fit_prepared_view(const sqffd_ffd_system *system, sqffd_points points,
@@ -7009,6 +7108,8 @@ SQFFD_DEF sqffd_track_options sqffd_track_options_default(void)
     memset(&o, 0, sizeof o);
     o.fit = sqffd_fit_options_default();
     o.fit.max_iterations = 100;
+    o.fit.coarse_iterations = 0; /* (frame 0 converges on the grid: the later frames measure motion, not the rest
+                                    of its convergence) */
     o.fit.alpha = 1e-5; /* stiffer springs than a lone fit's: a regular lattice keeps unreached parts still between
                            frames (identical frames move no grid point by 1e-3 of the diagonal; at 1e-6, 7e-3) */
     o.frame_iterations = 10;
@@ -7089,7 +7190,7 @@ static sqffd_result sqffd__track(const double *const *frames, const size_t *coun
         if (t == 0) res = sqffd__fit_whole(&points, diagonal, &o, state, &f, models, rep);
         else {
             models[t] = models[t - 1];
-            res = sqffd__fit_run(&points, diagonal, &o, state, &f.w, 0, models + t, rep);
+            res = sqffd__fit_run(&points, diagonal, &o, state, &f.w, SQFFD__FIT_EXACT_END, models + t, rep);
         }
         if (res != SQFFD_OK) break;
         previous = rep->error.rms_relative;

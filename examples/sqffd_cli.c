@@ -50,7 +50,7 @@ static int cmd_help(int argc, char **argv);
 static const cli_command commands[] = {
     {"fit", "fit a superquadric + free-form deformation model to a point file",
      "sqffd fit INPUT -o OUT.ply [--iso V|auto] [--sample N] [--lattice N|LxMxN] [--alpha A] [--model-to-data W] "
-     "[--iterations K] [--robust] [--no-taper] [--vtk] [--json FILE] [--svg FILE] [--quiet]",
+     "[--iterations K] [--coarse-iterations K] [--robust] [--no-taper] [--vtk] [--json FILE] [--svg FILE] [--quiet]",
      fit_details,
      cmd_fit},
     {"track", "track a model through a sequence of point files: motion, volumes, ejection fraction, 17 segments",
@@ -234,7 +234,8 @@ static int scan_model_option(arg_scan *s, const cli_command *c, sqffd_fit_option
         if (IS("--robust")) o->sq.robust = 1; else o->sq.taper = 0;
         return 1;
     }
-    if (!(IS("--lattice") || IS("--alpha") || IS("--model-to-data") || IS("--iterations"))) return 0;
+    if (!(IS("--lattice") || IS("--alpha") || IS("--model-to-data") || IS("--iterations") || IS("--coarse-iterations")))
+        return 0;
     v = scan_value(s, c);
     if (!v) *status = EXIT_USAGE;
     else if (IS("--lattice")) {
@@ -247,9 +248,11 @@ static int scan_model_option(arg_scan *s, const cli_command *c, sqffd_fit_option
         if (parse_nonnegative(v, &o->model_to_data))
             *status = usage_error(c, "%s: --model-to-data takes a finite number >= 0, not '%s'", c->name, v);
     } else if (parse_int(v, 0, 10000, &n)) {
-        *status = usage_error(c, "%s: --iterations takes a whole number 0..10000, not '%s'", c->name, v);
-    } else {
+        *status = usage_error(c, "%s: %s takes a whole number 0..10000, not '%s'", c->name, s->name, v);
+    } else if (IS("--iterations")) {
         o->max_iterations = (int)n;
+    } else {
+        o->coarse_iterations = (int)n;
     }
 #undef IS
     return 1;
@@ -264,10 +267,12 @@ static void model_option_details(FILE *f, const sqffd_fit_options *d, const char
             "  --model-to-data W      weight of the model -> data term, >= 0 (default %g;\n"
             "                         0: the data -> model distances alone)\n"
             "  --iterations K         FFD iterations at most, 0..10000 (default %d; %s)\n"
+            "  --coarse-iterations K  of those, at most K first on a coarse grid (half the rows and\n"
+            "                         columns, %d points at most), 0..10000 (default %d; 0: none)\n"
             "  --robust               outlier-robust fit in both stages\n"
             "  --no-taper             superquadric without tapering (11 parameters, not 13)\n",
             SQFFD_MAX_LATTICE, d->lattice[0], d->lattice[1], d->lattice[2], d->alpha, d->model_to_data,
-            d->max_iterations, iterations_note);
+            d->max_iterations, iterations_note, SQFFD_FIT_COARSE_POINTS, d->coarse_iterations);
 }
 
 /* ---- inputs: point files and volumes ------------------------------------ */
@@ -647,8 +652,9 @@ static void fit_report(const fit_args *a, const input_summary *in, size_t n, con
     printf("    after FFD      %.4f %%   (max %.4f %%)   lattice %dx%dx%d, alpha %g\n",
            100.0 * r->error.rms_relative, 100.0 * r->error.max_relative, ffd->dims[0], ffd->dims[1], ffd->dims[2],
            a->options.alpha);
-    printf("  iterations       %d%s\n", r->iterations,
-           r->iterations == 0 ? " (the superquadric alone)" : r->converged ? " (converged)" : " (iteration cap)");
+    if (r->coarse_iterations > 0) printf("  iterations       %d coarse + %d", r->coarse_iterations, r->iterations);
+    else printf("  iterations       %d", r->iterations);
+    printf("%s\n", r->iterations == 0 ? " (the superquadric alone)" : r->converged ? " (converged)" : " (iteration cap)");
     printf("  model mesh       %s: %lu vertices, %lu triangles; model-to-data RMS %.4f %%, max %.4f %%\n",
            a->output, (unsigned long)mesh_vertices, (unsigned long)mesh_triangles,
            100.0 * model_to_data->rms_relative, 100.0 * model_to_data->max_relative);

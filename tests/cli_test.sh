@@ -73,6 +73,9 @@ done
 for v in 10001 2.5 30x -3 ""; do
     expect 2 "--iterations takes" fit "$DATA" -o "$TMP/x.ply" --iterations "$v"
 done
+for v in 10001 -1 ""; do
+    expect 2 "--coarse-iterations takes" fit "$DATA" -o "$TMP/x.ply" --coarse-iterations "$v"
+done
 expect 2 "--mesh takes" fit "$DATA" -o "$TMP/x.ply" --mesh 3
 
 # bad input: exit 1 and "FILE: what is wrong"
@@ -87,6 +90,8 @@ printf '1 2 3\n4 5 6\n' >"$TMP/two.xyz"
 expect 1 "$TMP/two.xyz: fit failed: " fit "$TMP/two.xyz" -o "$TMP/x.ply"
 expect 0 "(the superquadric alone)" fit "$DATA" -o "$TMP/sq.ply" --iterations 0 --mesh 8
 expect 0 "after FFD" fit "$DATA" -o "$TMP/m2d.ply" --model-to-data 0 --iterations 2 --mesh 8
+expect 0 "iterations       3 coarse + 2 (iteration cap)" fit "$DATA" -o "$TMP/c.ply" --iterations 5 --coarse-iterations 3 --mesh 8
+expect 0 "iterations       5 (iteration cap)" fit "$DATA" -o "$TMP/c.ply" --iterations 5 --coarse-iterations 0 --mesh 8
 expect 1 "$TMP/no/dir/out.ply: cannot create" fit "$DATA" -o "$TMP/no/dir/out.ply" --iterations 2 --mesh 8
 [ ! -e "$TMP/x.ply" ] && ok || bad "a failed run left an output file"
 

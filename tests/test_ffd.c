@@ -492,7 +492,7 @@ static void test_fit_in_class_recovery(void)
     CHECK_MSG(rep.error.rms_relative <= 1e-3, "relative RMS error %g (superquadric alone %g)", rep.error.rms_relative,
               rep.sq_error.rms_relative);
     CHECK(rep.sq_error.rms_relative > 10.0 * rep.error.rms_relative);
-    CHECK(rep.iterations == 30);
+    CHECK(rep.iterations == o.max_iterations && rep.coarse_iterations == 0); /* (sqffd_fit_ffd: all on the grid) */
     free(pts);
 }
 
@@ -599,9 +599,10 @@ static void test_fit_regularisation_monotone(void)
 /* The paper's Fig. 3: on a left-ventricle-like shape of 6,000 points the
    error falls over the iterations (the energy never rises: the over-relaxed
    steps may let the error itself rise a little, up to 10% over its lowest
-   so far) and after 30 iterations is at least 3 times below the
-   superquadric's. (Without the model -> data term, which trades some of the
-   error for pulling the closed model into the open base.) */
+   so far) and after 30 iterations on the grid is at least 3 times below the
+   superquadric's; and so after the default's 25 coarse and 8 grid ones, the
+   history then the grid's. (Without the model -> data term, which trades
+   some of the error for pulling the closed model into the open base.) */
 static void test_fit_convergence_lv(void)
 {
     enum { N = 6000 };
@@ -610,21 +611,29 @@ static void test_fit_convergence_lv(void)
     sqffd_fit_report rep;
     sqffd_model m;
     double *pts = (double *)malloc(3 * N * sizeof *pts), lowest;
-    int k;
+    int k, coarse;
     phantom_lv_sample(&ph, 0.0, N, pts);
     o.tolerance = 0.0;
     o.model_to_data = 0.0;
-    CHECK_RESULT(run_fit(pts, N, &o, &m, &rep), SQFFD_OK);
-    CHECK(rep.iterations == 30 && rep.history_count == 30);
-    CHECK(rep.history[0] <= rep.sq_error.rms_relative);
-    for (k = 1, lowest = rep.history[0]; k < rep.history_count; k++) {
-        CHECK_MSG(rep.history[k] <= 1.1 * lowest, "iteration %d: error %g, lowest before %g", k + 1, rep.history[k], lowest);
-        CHECK(rep.energy_history[k] <= rep.energy_history[k - 1]);
-        lowest = rep.history[k] < lowest ? rep.history[k] : lowest;
+    for (coarse = 0; coarse <= 1; coarse++) {
+        int grid_iterations;
+        o.coarse_iterations = coarse ? 25 : 0;
+        o.max_iterations = coarse ? sqffd_fit_options_default().max_iterations : 30;
+        grid_iterations = o.max_iterations - o.coarse_iterations;
+        CHECK_RESULT(run_fit(pts, N, &o, &m, &rep), SQFFD_OK);
+        CHECK(rep.coarse_iterations == o.coarse_iterations);
+        CHECK(rep.iterations == grid_iterations && rep.history_count == grid_iterations);
+        CHECK(rep.history[0] <= rep.sq_error.rms_relative);
+        for (k = 1, lowest = rep.history[0]; k < rep.history_count; k++) {
+            CHECK_MSG(rep.history[k] <= 1.1 * lowest, "iteration %d: error %g, lowest before %g", k + 1, rep.history[k],
+                      lowest);
+            CHECK(rep.energy_history[k] <= rep.energy_history[k - 1]);
+            lowest = rep.history[k] < lowest ? rep.history[k] : lowest;
+        }
+        CHECK_NEAR(rep.history[grid_iterations - 1], rep.error.rms_relative, 0.0);
+        CHECK_MSG(3.0 * rep.error.rms_relative <= rep.sq_error.rms_relative, "error %g, superquadric alone %g",
+                  rep.error.rms_relative, rep.sq_error.rms_relative);
     }
-    CHECK_NEAR(rep.history[29], rep.error.rms_relative, 0.0);
-    CHECK_MSG(3.0 * rep.error.rms_relative <= rep.sq_error.rms_relative, "error %g, superquadric alone %g",
-              rep.error.rms_relative, rep.sq_error.rms_relative);
     free(pts);
 }
 
@@ -1042,7 +1051,7 @@ static void test_fit_superquadric_guard(void)
 }
 
 /* Same input, same bits; a second fit_ffd from the result (as tracking does
-   frame after frame) starts where the first ended and stays there. */
+   frame after frame) starts where the first ended and stays near it. */
 static void test_fit_deterministic_and_restartable(void)
 {
     enum { N = 2000 };
@@ -1058,7 +1067,9 @@ static void test_fit_deterministic_and_restartable(void)
     CHECK(memcmp(&r1, &r2, sizeof r1) == 0);
     CHECK_RESULT(run_fit_ffd(pts, N, &o, &m2, &r3), SQFFD_OK);
     CHECK_NEAR(r3.sq_error.rms_relative, r1.error.rms_relative, 1e-12);
-    CHECK(r3.error.rms_relative <= 1.01 * r1.error.rms_relative);
+    CHECK(r3.energy <= r1.energy); /* (from the same exact pass: the energy cannot rise) */
+    CHECK_MSG(r3.error.rms_relative <= 1.02 * r1.error.rms_relative, "restart %g, first %g", r3.error.rms_relative,
+              r1.error.rms_relative); /* (measured 1.0105: the energy, not the error, is what falls) */
     free(pts);
 }
 
@@ -1100,6 +1111,81 @@ static void test_fit_progress_and_cancel(void)
     CHECK_RESULT(run_fit_ffd(pts, N, &o, &m, &rep), SQFFD_OK);
     CHECK(rep.converged && rep.iterations < 30);
     free(pts);
+}
+
+/* sqffd_fit's coarse stage: the progress sees its iterations (stage COARSE,
+   1 .. 25) then the grid's (FFD, 1 .. 8); the error is exact on the grid and
+   close to that of the same iterations all on the grid (measured 1.05x on
+   this phantom, below 1 on the dev scans); the iterations split as
+   documented (never all coarse; none where the lattice is too fine for the
+   coarse grid); a negative count is refused, a cancel in the stage obeyed. */
+typedef struct stage_calls {
+    int coarse, grid, out_of_order, cancel_at;
+} stage_calls;
+
+static int count_stages(void *user, int stage, int iteration, double error)
+{
+    stage_calls *c = (stage_calls *)user;
+    if (stage == SQFFD_STAGE_COARSE) c->out_of_order += c->grid > 0 || iteration != ++c->coarse || !(error > 0.0);
+    if (stage == SQFFD_STAGE_FFD) c->out_of_order += iteration != ++c->grid || !(error > 0.0);
+    return c->coarse == c->cancel_at;
+}
+
+static void test_fit_coarse_stage(void)
+{
+    enum { N = 3000 };
+    phantom_lv ph = phantom_lv_default();
+    sqffd_fit_options o = sqffd_fit_options_default(), all_grid;
+    sqffd_fit_report rep, rep_grid;
+    sqffd_model m;
+    sqffd_distance_stats s;
+    stage_calls calls = {0, 0, 0, -1};
+    double *pts = (double *)malloc(3 * N * sizeof *pts);
+    size_t size;
+    void *ws;
+    phantom_lv_sample(&ph, 0.0, N, pts);
+    o.tolerance = 0.0;
+    o.progress = count_stages;
+    o.progress_user = &calls;
+    CHECK_RESULT(run_fit(pts, N, &o, &m, &rep), SQFFD_OK);
+    CHECK(rep.coarse_iterations == 25 && rep.iterations == o.max_iterations - 25 && rep.history_count == rep.iterations);
+    CHECK(calls.coarse == 25 && calls.grid == rep.iterations && calls.out_of_order == 0);
+    CHECK_RESULT(sqffd_model_distances_workspace_size(N, &m, &size), SQFFD_OK);
+    ws = malloc(size);
+    CHECK_RESULT(sqffd_model_distances(&m, pts, N, NULL, &s, ws, size), SQFFD_OK);
+    CHECK_NEAR(rep.error.rms, s.rms, 1e-12 * s.rms);
+    all_grid = o;
+    all_grid.coarse_iterations = 0;
+    all_grid.progress = NULL;
+    CHECK_RESULT(run_fit(pts, N, &all_grid, &m, &rep_grid), SQFFD_OK);
+    CHECK(rep_grid.coarse_iterations == 0 && rep_grid.iterations == o.max_iterations);
+    CHECK_NEAR(rep.sq_error.rms, rep_grid.sq_error.rms, 0.0); /* (both: the superquadric on the grid) */
+    printf("    coarse first %.4f%%, all on the grid %.4f%%\n", 100.0 * rep.error.rms_relative, 100.0 * rep_grid.error.rms_relative);
+    CHECK_MSG(rep.error.rms <= 1.15 * rep_grid.error.rms, "coarse first %g, all on the grid %g", rep.error.rms,
+              rep_grid.error.rms);
+    o.progress = NULL;
+    o.max_iterations = 3; /* never all coarse */
+    CHECK_RESULT(run_fit(pts, N, &o, &m, &rep), SQFFD_OK);
+    CHECK(rep.coarse_iterations == 2 && rep.iterations == 1);
+    o.max_iterations = 1;
+    CHECK_RESULT(run_fit(pts, N, &o, &m, &rep), SQFFD_OK);
+    CHECK(rep.coarse_iterations == 0 && rep.iterations == 1);
+    o.max_iterations = 10;
+    o.lattice[0] = o.lattice[1] = o.lattice[2] = 8; /* 512 control points: the 16 x 32 grid's 514 points are too few */
+    CHECK_RESULT(run_fit(pts, N, &o, &m, &rep), SQFFD_OK);
+    CHECK(rep.coarse_iterations == 0 && rep.iterations == 10);
+    o = sqffd_fit_options_default();
+    o.coarse_iterations = -1;
+    CHECK_RESULT(sqffd_fit_workspace_size(N, &o, &size), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(run_fit(pts, N, &o, &m, &rep), SQFFD_ERROR_INVALID_ARGUMENT);
+    o.coarse_iterations = 25;
+    o.progress = count_stages;
+    o.progress_user = &calls;
+    calls.coarse = calls.grid = 0;
+    calls.cancel_at = 4;
+    CHECK_RESULT(run_fit(pts, N, &o, &m, &rep), SQFFD_ERROR_CANCELLED);
+    CHECK(calls.coarse == 4 && calls.grid == 0);
+    free(ws); free(pts);
 }
 
 /* Stage 1 and the FFD iterations on subsamples: the fit stays close, and the
@@ -1295,6 +1381,7 @@ void suite_ffd(void)
     RUN_TEST(test_fit_superquadric_guard);
     RUN_TEST(test_fit_deterministic_and_restartable);
     RUN_TEST(test_fit_progress_and_cancel);
+    RUN_TEST(test_fit_coarse_stage);
     RUN_TEST(test_fit_subsamples);
     RUN_TEST(test_fit_bad_input);
     RUN_TEST(test_fit_workspace_canary);

@@ -81,6 +81,7 @@ class Stage(enum.IntEnum):
     SUPERQUADRIC = 1  # error = the current cost
     FFD = 2           # error = the relative RMS error after the iteration
     FRAME = 3         # track: iteration = the frame's index, error = the previous frame's error
+    COARSE = 4        # fit's coarse iterations: error = the relative RMS error on the coarse grid
 
 
 class SqCost(enum.IntEnum):
@@ -167,7 +168,7 @@ class _Model(ctypes.Structure):
 class _FitOptions(ctypes.Structure):
     _fields_ = [("sq", _SqFitOptions), ("lattice", _int * 3), ("box_margin", _double), ("grid", _int * 2),
                 ("alpha", _double), ("tether", _double), ("regularization", _int), ("solver", _int),
-                ("max_iterations", _int), ("tolerance", _double), ("model_to_data", _double),
+                ("max_iterations", _int), ("coarse_iterations", _int), ("tolerance", _double), ("model_to_data", _double),
                 ("sq_max_points", _size), ("ffd_max_points", _size), ("progress", _PROGRESS),
                 ("progress_user", _pointer)]
 
@@ -179,7 +180,8 @@ class _DistanceStats(ctypes.Structure):
 
 class _FitReport(ctypes.Structure):
     _fields_ = [("sq", _SqFitReport), ("sq_error", _DistanceStats), ("error", _DistanceStats),
-                ("iterations", _int), ("converged", _int), ("step", _double), ("history_count", _int),
+                ("coarse_iterations", _int), ("iterations", _int), ("converged", _int), ("step", _double),
+                ("history_count", _int),
                 ("history", _double * _FIT_HISTORY), ("energy", _double),
                 ("energy_history", _double * _FIT_HISTORY)]
 
@@ -467,6 +469,7 @@ class FitReport:
     sq: SuperquadricReport
     sq_error: DistanceStats   # the starting model's (fit: the superquadric alone)
     error: DistanceStats      # the final model's
+    coarse_iterations: int    # fit's iterations on the coarse grid, before those on the grid
     iterations: int
     converged: bool
     step: float
@@ -478,7 +481,7 @@ class FitReport:
     def _from_c(cls, r):
         count = min(r.history_count, _FIT_HISTORY)
         return cls(SuperquadricReport._from_c(r.sq), DistanceStats._from_c(r.sq_error), DistanceStats._from_c(r.error),
-                   r.iterations, bool(r.converged), r.step, _array(r.history[:count]), r.energy,
+                   r.coarse_iterations, r.iterations, bool(r.converged), r.step, _array(r.history[:count]), r.energy,
                    _array(r.energy_history[:count]))
 
 

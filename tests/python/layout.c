@@ -75,6 +75,7 @@ int main(void)
     FIELD(sqffd_fit_options, regularization);
     FIELD(sqffd_fit_options, solver);
     FIELD(sqffd_fit_options, max_iterations);
+    FIELD(sqffd_fit_options, coarse_iterations);
     FIELD(sqffd_fit_options, tolerance);
     FIELD(sqffd_fit_options, model_to_data);
     FIELD(sqffd_fit_options, sq_max_points);
@@ -95,6 +96,7 @@ int main(void)
     FIELD(sqffd_fit_report, sq);
     FIELD(sqffd_fit_report, sq_error);
     FIELD(sqffd_fit_report, error);
+    FIELD(sqffd_fit_report, coarse_iterations);
     FIELD(sqffd_fit_report, iterations);
     FIELD(sqffd_fit_report, converged);
     FIELD(sqffd_fit_report, step);
@@ -164,6 +166,7 @@ int main(void)
     CONST(SQFFD_STAGE_SUPERQUADRIC);
     CONST(SQFFD_STAGE_FFD);
     CONST(SQFFD_STAGE_FRAME);
+    CONST(SQFFD_STAGE_COARSE);
     CONST(SQFFD_SQ_COST_SOLINA);
     CONST(SQFFD_SQ_COST_RADIAL);
     CONST(SQFFD_SQ_OPTIMIZER_LM);

@@ -106,6 +106,7 @@ static int write_report(const char *path, const sqffd_fit_report *r)
     put(f, "sq.", "fallback", r->sq.fallback);
     put_stats(f, "sq_error.", &r->sq_error);
     put_stats(f, "error.", &r->error);
+    put(f, "", "coarse_iterations", r->coarse_iterations);
     put(f, "", "iterations", r->iterations);
     put(f, "", "converged", r->converged);
     put(f, "", "step", r->step);
@@ -199,6 +200,7 @@ static int set_option(sqffd_fit_options *o, const char *setting)
     else if (NAME_IS("model_to_data")) o->model_to_data = number;
     else if (NAME_IS("tolerance")) o->tolerance = number;
     else if (NAME_IS("max_iterations")) o->max_iterations = (int)number;
+    else if (NAME_IS("coarse_iterations")) o->coarse_iterations = (int)number;
     else if (NAME_IS("regularization")) o->regularization = (sqffd_regularization)(int)number;
     else if (NAME_IS("solver")) o->solver = (sqffd_solver)(int)number;
     else if (NAME_IS("sq_max_points")) o->sq_max_points = (size_t)number;

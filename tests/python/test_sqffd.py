@@ -144,10 +144,11 @@ class SameAsC(unittest.TestCase):
         FINDINGS["bunny"] = model.report.error.rms_relative
 
     def test_phantom_other_options(self):
-        c_options = ["lattice=4,5,6", "grid=24,48", "alpha=1e-4", "max_iterations=12", "model_to_data=0",
-                     "regularization=1", "sq.robust=1", "sq.taper=0"]
+        c_options = ["lattice=4,5,6", "grid=24,48", "alpha=1e-4", "max_iterations=12", "coarse_iterations=7",
+                     "model_to_data=0", "regularization=1", "sq.robust=1", "sq.taper=0"]
         python_options = dict(lattice=(4, 5, 6), grid=np.array([24, 48]), alpha=1e-4, max_iterations=12,
-                              model_to_data=0, regularization="position", sq=dict(robust=True, taper=False))
+                              coarse_iterations=7, model_to_data=0, regularization="position",
+                              sq=dict(robust=True, taper=False))
         model = self.check_fit("phantom", Data.frames[0], c_options, python_options)
         self.assertEqual((model.lattice, model.grid), ((4, 5, 6), (24, 48)))
         self.assertTrue(np.all(model.superquadric.taper == 0))
@@ -203,7 +204,8 @@ class ModelUse(unittest.TestCase):
             self.assertEqual(loaded, self.model)
             self.assertEqual(loaded.save(), data)
         self.assertIsNone(sqffd.load(data).report)
-        self.assertEqual(pickle.loads(pickle.dumps(self.model)).report.iterations, 5)
+        report = pickle.loads(pickle.dumps(self.model)).report
+        self.assertEqual((report.coarse_iterations, report.iterations), (4, 1))  # (never all coarse)
         self.assertTrue(np.allclose(self.model.superquadric.rotation @ self.model.superquadric.rotation.T, np.eye(3)))
         self.assertEqual(self.model.control_points.shape, (5, 5, 5, 3))
 
@@ -219,9 +221,10 @@ class ModelUse(unittest.TestCase):
         self.assertEqual(sqffd.track_options_default()["fit"]["max_iterations"], 100)
         self.assertEqual(sqffd.motion_options_default()["ed_frame"], 0)
         calls = []
-        sqffd.fit(Data.bunny, max_iterations=3, tolerance=0, progress=lambda *call: calls.append(call))
-        self.assertEqual([call[:2] for call in calls if call[0] == sqffd.Stage.FFD],
-                         [(sqffd.Stage.FFD, 1), (sqffd.Stage.FFD, 2), (sqffd.Stage.FFD, 3)])
+        sqffd.fit(Data.bunny, max_iterations=4, coarse_iterations=2, tolerance=0,
+                  progress=lambda *call: calls.append(call))
+        self.assertEqual([call[:2] for call in calls if call[0] in (sqffd.Stage.COARSE, sqffd.Stage.FFD)],
+                         [(sqffd.Stage.COARSE, 1), (sqffd.Stage.COARSE, 2), (sqffd.Stage.FFD, 1), (sqffd.Stage.FFD, 2)])
         self.assertTrue(any(call[0] == sqffd.Stage.SUPERQUADRIC for call in calls))
         with self.assertRaises(sqffd.SqffdError) as caught:
             sqffd.fit(Data.bunny, progress=lambda stage, iteration, error: stage == sqffd.Stage.FFD)
