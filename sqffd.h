@@ -6608,7 +6608,8 @@ typedef struct sqffd__fit_frame {
     sqffd_fit_report *report; /* where the report goes when the caller passes none (not on the stack: 1.4 KB) */
     sqffd__fit_work w;
     int coarse_grid[2];  /* the coarse stage (0 0: none) ... */
-    sqffd__fit_system coarse; /* ... its system and scratch */
+    sqffd_model *coarse_model; /* ... its model (not on the stack: 12 KB), system and scratch */
+    sqffd__fit_system coarse;
     sqffd__fit_work coarse_w;
 } sqffd__fit_frame;
 
@@ -6653,6 +6654,7 @@ static void sqffd__fit_frame_layout(sqffd__arena *a, size_t n, const int dims[3]
     }
     if (whole && sqffd__fit_coarse_grid(o, dims, grid, f->coarse_grid)) {
         sqffd_fit_options c = sqffd__fit_coarse_options(o);
+        f->coarse_model = (sqffd_model *)sqffd__arena_take(a, 1, sizeof(sqffd_model));
         sqffd__fit_system_layout(a, dims, f->coarse_grid, &f->coarse);
         sqffd__fit_work_layout(a, n, dims, f->coarse_grid, &c, &f->coarse_w);
     } else
@@ -6800,16 +6802,17 @@ static sqffd_result sqffd__fit_coarse_first(const sqffd_points *points, double d
                                             sqffd_fit_report *rep)
 {
     sqffd_fit_options c = sqffd__fit_coarse_options(o), fine = *o;
-    sqffd_model coarse = *model;
+    sqffd_model *coarse = f->coarse_model;
     sqffd_distance_stats start;
     sqffd_result res = sqffd__fit_error(points, diagonal, s, &f->w, model, &start);
-    coarse.grid[0] = f->coarse_grid[0];
-    coarse.grid[1] = f->coarse_grid[1];
-    if (res == SQFFD_OK) res = sqffd__fit_prepare(&coarse, o->alpha, o->tether, o->regularization, &f->coarse);
-    if (res == SQFFD_OK) res = sqffd__fit_run(points, diagonal, &c, &f->coarse, &f->coarse_w, SQFFD__FIT_COARSE, &coarse, rep);
+    *coarse = *model;
+    coarse->grid[0] = f->coarse_grid[0];
+    coarse->grid[1] = f->coarse_grid[1];
+    if (res == SQFFD_OK) res = sqffd__fit_prepare(coarse, o->alpha, o->tether, o->regularization, &f->coarse);
+    if (res == SQFFD_OK) res = sqffd__fit_run(points, diagonal, &c, &f->coarse, &f->coarse_w, SQFFD__FIT_COARSE, coarse, rep);
     if (res != SQFFD_OK) return res;
     rep->coarse_iterations = rep->iterations;
-    memcpy(model->ffd.control, coarse.ffd.control, sizeof model->ffd.control);
+    memcpy(model->ffd.control, coarse->ffd.control, sizeof model->ffd.control);
     f->w.nu2 = f->coarse_w.nu2;
     fine.max_iterations = o->max_iterations - rep->coarse_iterations;
     res = sqffd__fit_run(points, diagonal, &fine, s, &f->w, SQFFD__FIT_EXACT_START | SQFFD__FIT_EXACT_END, model, rep);
