@@ -826,7 +826,7 @@ typedef struct sqffd_fit_options {
     int coarse_iterations;       /* sqffd_fit only: how many of them at most (never all) run first on a coarse grid
                                     (half the rows and columns) with an even subsample of at most
                                     SQFFD_FIT_COARSE_POINTS points (default 25; 0: none). From the superquadric they
-                                    do most of the moving, at a third of the cost; skipped where the coarse grid
+                                    do most of the moving, at about half the cost; skipped where the coarse grid
                                     would have fewer than 4 model points a control point (e.g. an 8 x 8 x 8 lattice
                                     on the default grid) */
     double tolerance;            /* stop when the plain step moves the model points by at most this (RMS / diagonal; default 1e-4; 0 = always max_iterations) */
@@ -883,7 +883,7 @@ SQFFD_DEF sqffd_result sqffd_fit_workspace_size(size_t n, const sqffd_fit_option
    From the superquadric, the first options->coarse_iterations of the
    iterations run on a coarse grid (half the rows and columns) and an even
    subsample of at most SQFFD_FIT_COARSE_POINTS points, the same energy on
-   a coarser mesh at about a third of the cost; the rest on the grid start
+   a coarser mesh at about half the cost; the rest on the grid start
    with an exact pass (report->history and energy_history are theirs; the
    progress callback sees SQFFD_STAGE_COARSE, then SQFFD_STAGE_FFD).
    options NULL: the defaults; report may be NULL. Results: INVALID_ARGUMENT
@@ -6035,6 +6035,7 @@ typedef struct sqffd__fit_system {
     int grid[2];
     size_t lattice;      /* L = l m n control points */
     size_t count;        /* M model points */
+    size_t hold_step;    /* the model -> data term holds every hold_step-th row and column (sqffd__fit_holds) */
     size_t stride;       /* l + m + n */
     double *weights;     /* M x stride */
     sqffd__fit_ring *rings; /* M: the mesh's ring table */
@@ -6137,6 +6138,7 @@ static void sqffd__fit_system_layout(sqffd__arena *a, const int dims[3], const i
     s->grid[0] = grid[0]; s->grid[1] = grid[1];
     s->lattice = l;
     s->count = m;
+    s->hold_step = 2;
     s->stride = (size_t)(dims[0] + dims[1] + dims[2]);
     s->weights = (double *)sqffd__arena_take(a, m, s->stride * sizeof(double));
     s->run = (uint32_t *)sqffd__arena_take(a, m + 1, sizeof(uint32_t));
@@ -6407,18 +6409,21 @@ static double sqffd__fit_welsch_nu2(double *distance, size_t n)
     return nu * nu;
 }
 
-/* The model points the model -> data term holds: those of even row and
-   column (a quarter of the grid, enough to hold a smooth surface at a
-   quarter of the nearest-data queries) and the poles. */
-static int sqffd__fit_holds(const int grid[2], size_t v)
+/* The model points the model -> data term holds: those of every
+   hold_step-th row and column, and the poles. On the grid every other (a
+   quarter of the grid, enough to hold a smooth surface at a quarter of the
+   nearest-data queries); on the coarse grid, every point (as dense on the
+   surface). */
+static int sqffd__fit_holds(const sqffd__fit_system *s, size_t v)
 {
-    size_t cols = (size_t)grid[1];
-    return v >= (size_t)grid[0] * cols || ((v / cols) % 2 == 0 && (v % cols) % 2 == 0);
+    size_t cols = (size_t)s->grid[1], step = s->hold_step;
+    return v >= (size_t)s->grid[0] * cols || ((v / cols) % step == 0 && (v % cols) % step == 0);
 }
 
-static size_t sqffd__fit_holding(const int grid[2])
+static size_t sqffd__fit_holding(const sqffd__fit_system *s)
 {
-    return (((size_t)grid[0] + 1) / 2) * (((size_t)grid[1] + 1) / 2) + 2;
+    size_t step = s->hold_step;
+    return (((size_t)s->grid[0] + step - 1) / step) * (((size_t)s->grid[1] + step - 1) / step) + 2;
 }
 
 /* The data point nearest to model point v at y, from its last query's
@@ -6472,7 +6477,7 @@ static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagon
 {
     size_t m = s->count, l = s->lattice, size = 3 * l, v, p, i, n = points->count;
     double *x = w->x, *next = w->next, *t = w->target, *control = &model->ffd.control[0][0], *swap;
-    size_t holding = sqffd__fit_holding(s->grid);
+    size_t holding = sqffd__fit_holding(s);
     double scale = (double)m / (double)n, accepted = HUGE_VAL, omega = SQFFD__FIT_RELAX;
     double hold = o->model_to_data * (double)m / (double)holding;
     sqffd__fit_search search;
@@ -6518,7 +6523,7 @@ static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagon
         }
         if (data_tree) /* model -> data: each holding model point's nearest data point (into next, free until step 2) */
             for (v = 0; v < m; ++v)
-                if (sqffd__fit_holds(s->grid, v)) {
+                if (sqffd__fit_holds(s, v)) {
                     double q[3];
                     sqffd__points_get(&data_tree->points, sqffd__fit_nearest_data(data_tree, w, x + 3 * v, v), q);
                     reverse += sqffd__dist2_3(q, x + 3 * v);
@@ -6561,7 +6566,7 @@ static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagon
         for (v = 0; v < m; ++v) {
             double wv = scale * w->weights[v];
             for (p = 0; p < 3; ++p) t[3 * v + p] = scale * t[3 * v + p] + wv * x[3 * v + p];
-            if (data_tree && sqffd__fit_holds(s->grid, v)) {
+            if (data_tree && sqffd__fit_holds(s, v)) {
                 wv += hold;
                 for (p = 0; p < 3; ++p) t[3 * v + p] += hold * next[3 * v + p];
             }
@@ -6656,6 +6661,7 @@ static void sqffd__fit_frame_layout(sqffd__arena *a, size_t n, const int dims[3]
         sqffd_fit_options c = sqffd__fit_coarse_options(o);
         f->coarse_model = (sqffd_model *)sqffd__arena_take(a, 1, sizeof(sqffd_model));
         sqffd__fit_system_layout(a, dims, f->coarse_grid, &f->coarse);
+        f->coarse.hold_step = 1;
         sqffd__fit_work_layout(a, n, dims, f->coarse_grid, &c, &f->coarse_w);
     } else
         f->coarse_grid[0] = f->coarse_grid[1] = 0;
