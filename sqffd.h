@@ -155,6 +155,18 @@
        sqffd_points_subsample(_view)   an even subsample of points
 
    CHANGES
+       0.9.0 (2026-11)  sqffd_fit runs the first coarse_iterations (new
+                        option, default 25) of its max_iterations (default
+                        33, was 30) on a coarse grid (half the rows and
+                        columns) with at most SQFFD_FIT_COARSE_POINTS
+                        (2,000) points, then the rest on the grid from an
+                        exact pass; report.coarse_iterations,
+                        SQFFD_STAGE_COARSE; report.iterations and the
+                        histories are the grid's. A fit takes 0.77-0.96x
+                        0.8.0's time with errors 0.81-1.01x (phantom
+                        0.95x); sqffd_fit_ffd, prepared systems and
+                        tracking run every iteration on the grid (tracking
+                        unchanged: its frame 0 has coarse_iterations 0)
        0.8.0 (2026-11)  the exact closest-point passes walk a 4-wide tree
                         over the grid's patches that tests each cell's box
                         before its triangles (sqffd_model_distances
@@ -6471,6 +6483,7 @@ static size_t sqffd__fit_nearest_data(const sqffd_kdtree *tree, sqffd__fit_work 
 #define SQFFD__FIT_EXACT_START 1
 #define SQFFD__FIT_EXACT_END 2
 #define SQFFD__FIT_COARSE 4 /* the coarse stage: progress as SQFFD_STAGE_COARSE, no measures over all points */
+#define SQFFD__FIT_MEASURED 8 /* the caller measures the start's error over all points (sqffd__fit_run) */
 static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagonal, const sqffd_fit_options *o,
                                        const sqffd__fit_system *s, const sqffd_kdtree *data_tree, sqffd__fit_work *w,
                                        int mode, sqffd_model *model, sqffd_fit_report *rep)
@@ -6775,9 +6788,9 @@ static sqffd_result sqffd__fit_run(const sqffd_points *points, double diagonal, 
     sqffd_distance_stats start;
     sqffd_points data = w->sample ? sqffd_points_packed(w->sample, w->sample_count) : *points;
     sqffd_result res = SQFFD_OK;
-    int measure = w->sample && !(mode & SQFFD__FIT_COARSE);
+    int measure = w->sample && !(mode & SQFFD__FIT_COARSE), measure_start = measure && !(mode & SQFFD__FIT_MEASURED);
     if (w->sample) sqffd__subsample(points, w->sample_count, w->sample);
-    if (measure) res = sqffd__fit_error(points, diagonal, s, w, model, &start);
+    if (measure_start) res = sqffd__fit_error(points, diagonal, s, w, model, &start);
     if (res == SQFFD_OK && o->model_to_data > 0.0) {
         if (w->data) sqffd__subsample(&data, w->data_count, w->data);
         res = sqffd_kdtree_build_view(&data_tree, w->data ? sqffd_points_packed(w->data, w->data_count) : data,
@@ -6786,10 +6799,8 @@ static sqffd_result sqffd__fit_run(const sqffd_points *points, double diagonal, 
     if (res == SQFFD_OK)
         res = sqffd__fit_iterate(&data, diagonal, o, s, o->model_to_data > 0.0 ? &data_tree : NULL, w, mode, model,
                                  rep);
-    if (res == SQFFD_OK && measure) {
-        rep->sq_error = start;
-        res = sqffd__fit_error(points, diagonal, s, w, model, &rep->error);
-    }
+    if (res == SQFFD_OK && measure_start) rep->sq_error = start;
+    if (res == SQFFD_OK && measure) res = sqffd__fit_error(points, diagonal, s, w, model, &rep->error);
     return res;
 }
 
@@ -6821,7 +6832,8 @@ static sqffd_result sqffd__fit_coarse_first(const sqffd_points *points, double d
     memcpy(model->ffd.control, coarse->ffd.control, sizeof model->ffd.control);
     f->w.nu2 = f->coarse_w.nu2;
     fine.max_iterations = o->max_iterations - rep->coarse_iterations;
-    res = sqffd__fit_run(points, diagonal, &fine, s, &f->w, SQFFD__FIT_EXACT_START | SQFFD__FIT_EXACT_END, model, rep);
+    res = sqffd__fit_run(points, diagonal, &fine, s, &f->w,
+                         SQFFD__FIT_EXACT_START | SQFFD__FIT_EXACT_END | SQFFD__FIT_MEASURED, model, rep);
     rep->sq_error = start;
     return res;
 }

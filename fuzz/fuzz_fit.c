@@ -105,8 +105,8 @@ static void fuzz_model_fit(const double *points, size_t n, uint8_t flags, int la
     o.regularization = (flags & 16) ? SQFFD_REG_POSITION : SQFFD_REG_DISPLACEMENT;
     if (flags & 128) o.alpha = 0.0;
     o.lattice[0] = o.lattice[1] = o.lattice[2] = lattice;
-    o.grid[0] = 6;
-    o.grid[1] = 8;
+    o.grid[0] = (flags & 32) ? 12 : 6; /* 12 x 16: a 6 x 8 coarse stage for the 2 x 2 x 2 lattice */
+    o.grid[1] = (flags & 32) ? 16 : 8;
     o.max_iterations = 3;
     if (sqffd_fit_workspace_size(n, &o, &size) != SQFFD_OK) return;
     work = malloc(size);
@@ -120,7 +120,9 @@ static void fuzz_model_fit(const double *points, size_t n, uint8_t flags, int la
         if (sqffd_model_point(&model, 0.3, -1.0, p) != SQFFD_OK) abort();
         if (sqffd_model_save(&model, saved, sizeof saved) != SQFFD_OK) abort(); /* ... that saves and loads */
         if (sqffd_model_load(&back, saved, sqffd_model_save_size(&model)) != SQFFD_OK) abort();
-        if (!isfinite(report.error.rms) || report.iterations < 0 || report.iterations > 3) abort();
+        if (!isfinite(report.error.rms) || report.iterations < 0 || report.coarse_iterations < 0 ||
+            report.coarse_iterations + report.iterations > 3)
+            abort();
     }
     if (view) fuzz_view_fit(points, n, &o, result, &model, work, size);
     free(work);
