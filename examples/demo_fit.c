@@ -29,7 +29,7 @@ int main(void)
 {
     enum { ROWS = 60, COLS = 100, N = ROWS * COLS, MESH_ETA = 16, MESH_OMEGA = 32 };
     double *points = (double *)malloc(3 * sizeof(double) * N);
-    sqffd_fit_options opt = sqffd_fit_options_default(); /* 5x5x5 lattice, 30 iterations */
+    sqffd_fit_options opt = sqffd_fit_options_default(); /* 5x5x5 lattice, 33 iterations (25 coarse) */
     sqffd_model model;                                   /* 13 numbers + the lattice: a plain struct */
     sqffd_fit_report rep;
     size_t size, vertex_count, triangle_count;
@@ -56,8 +56,8 @@ int main(void)
     printf("superquadric: size %.3f %.3f %.3f, shape %.3f %.3f, taper %.3f %.3f\n", model.sq.size[0],
            model.sq.size[1], model.sq.size[2], model.sq.shape[0], model.sq.shape[1], model.sq.taper[0],
            model.sq.taper[1]);
-    printf("error (RMS distance / diagonal): superquadric %.4f%%, after %d FFD iterations %.4f%%\n",
-           100 * rep.sq_error.rms_relative, rep.iterations, 100 * rep.error.rms_relative);
+    printf("error (RMS distance / diagonal): superquadric %.4f%%, after %d + %d FFD iterations %.4f%%\n",
+           100 * rep.sq_error.rms_relative, rep.coarse_iterations, rep.iterations, 100 * rep.error.rms_relative);
 
     if (sqffd_model_point(&model, 1.5707963267948966, 0.0, top) != SQFFD_OK) return 1; /* eta = pi/2: the end of the local z axis */
     printf("model point (pi/2, 0) at %.3f %.3f %.3f\n", top[0], top[1], top[2]);
