@@ -1362,6 +1362,21 @@ static void *sqffd__arena_take(sqffd__arena *a, size_t count, size_t elem)
     return a->base + start;
 }
 
+/* Two layouts never live together share their bytes: with *mark where the
+   first began, sqffd__arena_rewind after it goes back there (*mark: where it
+   ended); sqffd__arena_past after the second goes past the longer. */
+static void sqffd__arena_rewind(sqffd__arena *a, size_t *mark)
+{
+    size_t end = a->used;
+    a->used = *mark;
+    *mark = end;
+}
+
+static void sqffd__arena_past(sqffd__arena *a, size_t end)
+{
+    if (a->used < end) a->used = end;
+}
+
 /* The error of a layout that did not fit the caller's block. */
 static sqffd_result sqffd__arena_error(const sqffd__arena *a)
 {
@@ -6661,6 +6676,7 @@ static sqffd_fit_options sqffd__fit_coarse_options(const sqffd_fit_options *o)
 static void sqffd__fit_frame_layout(sqffd__arena *a, size_t n, const int dims[3], const int grid[2],
                                     const sqffd_fit_options *o, int whole, sqffd__fit_frame *f)
 {
+    size_t mark = a->used;
     f->sample = NULL;
     f->sq_ws = NULL;
     f->sq_size = 0;
@@ -6670,16 +6686,26 @@ static void sqffd__fit_frame_layout(sqffd__arena *a, size_t n, const int dims[3]
         if (sqffd_sq_fit_workspace_size(k, &o->sq, &f->sq_size) != SQFFD_OK) sqffd__arena_too_large(a);
         f->sq_ws = sqffd__arena_take(a, f->sq_size, 1);
     }
+    /* The coarse stage's model and system over stage 1's memory, its scratch
+       over the grid's: never live together (stage 1 and the guard end before
+       the stage; each run sets up all it reads). */
     if (whole && sqffd__fit_coarse_grid(o, dims, grid, f->coarse_grid)) {
-        sqffd_fit_options c = sqffd__fit_coarse_options(o);
+        sqffd__arena_rewind(a, &mark);
         f->coarse_model = (sqffd_model *)sqffd__arena_take(a, 1, sizeof(sqffd_model));
         sqffd__fit_system_layout(a, dims, f->coarse_grid, &f->coarse);
         f->coarse.hold_step = 1;
-        sqffd__fit_work_layout(a, n, dims, f->coarse_grid, &c, &f->coarse_w);
+        sqffd__arena_past(a, mark);
     } else
         f->coarse_grid[0] = f->coarse_grid[1] = 0;
     f->report = (sqffd_fit_report *)sqffd__arena_take(a, 1, sizeof(sqffd_fit_report));
+    mark = a->used;
     sqffd__fit_work_layout(a, n, dims, grid, o, &f->w);
+    if (f->coarse_grid[0]) {
+        sqffd_fit_options c = sqffd__fit_coarse_options(o);
+        sqffd__arena_rewind(a, &mark);
+        sqffd__fit_work_layout(a, n, dims, f->coarse_grid, &c, &f->coarse_w);
+        sqffd__arena_past(a, mark);
+    }
 }
 
 /* A prepared system kept in the caller's memory: its bookkeeping struct
