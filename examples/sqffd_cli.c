@@ -510,9 +510,9 @@ static int track_progress_report(void *user, int stage, int iteration, double er
     if (p->frames && stage == SQFFD_STAGE_FRAME)
         fprintf(stderr, p->terminal ? "\rsqffd track: frame %d of %lu" : "sqffd track: frame %d of %lu\n", iteration + 1,
                 (unsigned long)p->frames);
-    else if (!p->frames && stage == SQFFD_STAGE_FFD)
-        fprintf(stderr, p->terminal ? "\rsqffd fit: FFD iteration %d, error %.4f %%" : "sqffd fit: FFD iteration %d, error %.4f %%\n",
-                iteration, 100.0 * error);
+    else if (!p->frames && (stage == SQFFD_STAGE_FFD || stage == SQFFD_STAGE_COARSE))
+        fprintf(stderr, p->terminal ? "\rsqffd fit: %s iteration %d, error %.4f %%" : "sqffd fit: %s iteration %d, error %.4f %%\n",
+                stage == SQFFD_STAGE_COARSE ? "coarse" : "FFD", iteration, 100.0 * error);
     else
         return 0;
     p->shown = p->terminal;
