@@ -6497,6 +6497,7 @@ static size_t sqffd__fit_nearest_data(const sqffd_kdtree *tree, sqffd__fit_work 
    rep->sq_error receives the error of the starting model. */
 #define SQFFD__FIT_EXACT_START 1
 #define SQFFD__FIT_EXACT_END 2
+#define SQFFD__FIT_EXACT (SQFFD__FIT_EXACT_START | SQFFD__FIT_EXACT_END)
 #define SQFFD__FIT_COARSE 4 /* the coarse stage: progress as SQFFD_STAGE_COARSE, no measures over all points */
 #define SQFFD__FIT_MEASURED 8 /* the caller measures the start's error over all points (sqffd__fit_run) */
 static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagonal, const sqffd_fit_options *o,
@@ -6859,7 +6860,7 @@ static sqffd_result sqffd__fit_coarse_first(const sqffd_points *points, double d
     f->w.nu2 = f->coarse_w.nu2;
     fine.max_iterations = o->max_iterations - rep->coarse_iterations;
     res = sqffd__fit_run(points, diagonal, &fine, s, &f->w,
-                         SQFFD__FIT_EXACT_START | SQFFD__FIT_EXACT_END | SQFFD__FIT_MEASURED, model, rep);
+                         SQFFD__FIT_EXACT | SQFFD__FIT_MEASURED, model, rep);
     rep->sq_error = start;
     return res;
 }
@@ -6893,9 +6894,7 @@ SQFFD_DEF sqffd_result sqffd_fit_ffd_view(sqffd_points points, const sqffd_fit_o
     rep = report ? report : f.report;
     memset(rep, 0, sizeof *rep);
     res = sqffd__fit_prepare(model, options->alpha, options->tether, options->regularization, &s);
-    return res == SQFFD_OK ? sqffd__fit_run(&points, diagonal, options, &s, &f.w,
-                                            SQFFD__FIT_EXACT_START | SQFFD__FIT_EXACT_END, model, rep)
-                           : res;
+    return res == SQFFD_OK ? sqffd__fit_run(&points, diagonal, options, &s, &f.w, SQFFD__FIT_EXACT, model, rep) : res;
 }
 
 /* Stage 1's guard by the error itself: the superquadric's error (its grid
@@ -6965,8 +6964,7 @@ static sqffd_result sqffd__fit_whole(const sqffd_points *points, double diagonal
     if (res == SQFFD_OK) res = sqffd__fit_prepare(model, o->alpha, o->tether, o->regularization, s);
     if (res != SQFFD_OK) return res;
     return f->coarse_grid[0] ? sqffd__fit_coarse_first(points, diagonal, o, s, f, model, rep)
-                             : sqffd__fit_run(points, diagonal, o, s, &f->w, SQFFD__FIT_EXACT_START | SQFFD__FIT_EXACT_END,
-                                              model, rep);
+                             : sqffd__fit_run(points, diagonal, o, s, &f->w, SQFFD__FIT_EXACT, model, rep);
 }
 
 SQFFD_DEF sqffd_result sqffd_fit(const double *points, size_t n, const sqffd_fit_options *options,
@@ -7112,10 +7110,10 @@ SQFFD_DEF sqffd_result sqffd_fit_prepared(const sqffd_ffd_system *system, const 
 }
 
 /* The FFD stage against a system, from the model's control points, with
-   the system's options merged in; exact_start 0: a tracking frame's start
-   (no exact first pass). */
+   the system's options merged in; mode as sqffd__fit_run's (a tracking
+   frame's: no exact first pass). */
 static sqffd_result sqffd__fit_prepared(const sqffd_ffd_system *system, const sqffd_points *points,
-                                        const sqffd_fit_options *options, int exact_start, sqffd_model *model,
+                                        const sqffd_fit_options *options, int mode, sqffd_model *model,
                                         sqffd_fit_report *report, void *workspace, size_t workspace_size)
 {
     sqffd__arena a;
@@ -7136,15 +7134,14 @@ static sqffd_result sqffd__fit_prepared(const sqffd_ffd_system *system, const sq
     if (a.overflow) return sqffd__arena_error(&a);
     rep = report ? report : f.report;
     memset(rep, 0, sizeof *rep);
-    return sqffd__fit_run(points, diagonal, &o, (const sqffd__fit_system *)system->state, &f.w,
-                          SQFFD__FIT_EXACT_END | (exact_start ? SQFFD__FIT_EXACT_START : 0), model, rep);
+    return sqffd__fit_run(points, diagonal, &o, (const sqffd__fit_system *)system->state, &f.w, mode, model, rep);
 }
 
 SQFFD_DEF sqffd_result sqffd_fit_prepared_view(const sqffd_ffd_system *system, sqffd_points points,
                                                const sqffd_fit_options *options, sqffd_model *model,
                                                sqffd_fit_report *report, void *workspace, size_t workspace_size)
 {
-    return sqffd__fit_prepared(system, &points, options, 1, model, report, workspace, workspace_size);
+    return sqffd__fit_prepared(system, &points, options, SQFFD__FIT_EXACT, model, report, workspace, workspace_size);
 }
 
 /* ---- tracking ------------------------------------------------------------ */
@@ -7300,7 +7297,7 @@ SQFFD_DEF sqffd_result sqffd_track_frame(const sqffd_ffd_system *system, sqffd_p
     const sqffd_track_options *opt = options ? options : &defaults;
     sqffd_fit_options o = sqffd__track_frame_options(opt);
     if (opt->frame_iterations < 0) return SQFFD_ERROR_INVALID_ARGUMENT;
-    return sqffd__fit_prepared(system, &points, &o, 0, model, report, workspace, workspace_size);
+    return sqffd__fit_prepared(system, &points, &o, SQFFD__FIT_EXACT_END, model, report, workspace, workspace_size);
 }
 
 /* ---- motion -------------------------------------------------------------- */

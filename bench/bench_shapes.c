@@ -202,8 +202,7 @@ int main(void)
     printf("(errors in %% of the bounding-box diagonal, over all points: sq = superquadric alone, err = the model\n"
            " (data -> model RMS), m->d = model -> data RMS; its = FFD iterations used, coarse + grid; ms = whole fit,\n"
            " median of %d; stored, not recomputed, from 0.1.0 (commit 12b1035), measured with the exact error:\n"
-           " ref = its error"
-           " after up to 1,000 iterations, ref its = the iterations it used (tolerance 1e-4), today err and today\n"
+           " ref = its error after up to 1,000 iterations, ref its = the iterations it used (tolerance 1e-4), today err and today\n"
            " m->d = 0.1.0 at default settings; flags: the targets below, ok or MISS, - where a target does not apply)\n\n",
            RUNS);
     printf("%-19s %6s %7s %7s %7s %5s %6s %7s %4s %7s %7s %7s  %-4s %-4s %s\n", "shape", "points", "sq err", "err",
