@@ -1,4 +1,4 @@
-/* sqffd.h - v0.9.0 - superquadric + free-form deformation shape fitting
+/* sqffd.h - v0.10.0 - superquadric + free-form deformation shape fitting
    Public domain or MIT, your choice (see the end of this file).
 
    Turns 3-D points into a compact global shape model: a superquadric with
@@ -155,6 +155,14 @@
        sqffd_points_subsample(_view)   an even subsample of points
 
    CHANGES
+       0.10.0 (2026-11) the FFD step's solve: the first step of a run
+                        factors the weighted normal matrix, the later ones
+                        take two conjugate-gradient steps preconditioned by
+                        that factor (refactored when they leave over 10% of
+                        the residual; convergence is decided by a factored
+                        step). Energy still never rises; a fit takes
+                        0.84-1.05x 0.9.0's time (median ~0.92), tracking
+                        ~0.9x; the workspace grows by 15 x L doubles
        0.9.0 (2026-11)  sqffd_fit runs the first coarse_iterations (new
                         option, default 25) of its max_iterations (default
                         33, was 30) on a coarse grid (half the rows and
@@ -244,9 +252,9 @@
 #include <stdint.h>
 
 #define SQFFD_VERSION_MAJOR 0
-#define SQFFD_VERSION_MINOR 9
+#define SQFFD_VERSION_MINOR 10
 #define SQFFD_VERSION_PATCH 0
-#define SQFFD_VERSION_STRING "0.9.0"
+#define SQFFD_VERSION_STRING "0.10.0"
 
 #ifndef SQFFD_DEF
 #ifdef SQFFD_STATIC
@@ -6127,6 +6135,8 @@ typedef struct sqffd__fit_work {
     size_t sample_count;
     sqffd_solver solver;
     double *matrix;      /* L x L: the step's normal matrix, then its factor */
+    int factored;        /* matrix holds the Cholesky factor of an earlier step of this run (sqffd__fit_step) */
+    double *cg;          /* 5 x 3 x L: the conjugate-gradient steps' vectors */
     double *singular;    /* L: SVD solves: singular values, then their kept inverses */
     double *v;           /* L x L: SVD solves: V (NULL: Cholesky only) */
     void *svd_ws;
@@ -6197,6 +6207,7 @@ static void sqffd__fit_work_layout(sqffd__arena *a, size_t n, const int dims[3],
     w->target = (double *)sqffd__arena_take(a, m, 3 * sizeof(double));
     w->weights = (double *)sqffd__arena_take(a, m, sizeof(double));
     w->rhs = (double *)sqffd__arena_take(a, 3 * l, sizeof(double));
+    w->cg = (double *)sqffd__arena_take(a, 5 * 3 * l, sizeof(double));
     w->scratch = (double *)sqffd__arena_take(a, l, sizeof(double));
     w->accepted = (double *)sqffd__arena_take(a, 3 * l, sizeof(double));
     w->plain = (double *)sqffd__arena_take(a, 3 * l, sizeof(double));
@@ -6261,21 +6272,23 @@ static void sqffd__fit_gram(const sqffd__fit_system *s, const double *w, double 
     }
 }
 
-/* rhs (3 x L) = B^T y + rhs0, run by run. */
-static void sqffd__fit_project(const sqffd__fit_system *s, const double *y, double (*SQFFD__RESTRICT sum)[3],
-                               double *SQFFD__RESTRICT rhs)
+/* rhs (3 x L) = B^T W y + base, run by run (weights NULL: W = I; base NULL: 0). */
+static void sqffd__fit_project(const sqffd__fit_system *s, const double *y, const double *weights, const double *base,
+                               double (*SQFFD__RESTRICT sum)[3], double *SQFFD__RESTRICT rhs)
 {
     const int *d = s->dims;
     size_t l = s->lattice, lm = (size_t)(d[0] * d[1]), n = (size_t)d[2], r, v, e, k, i, j;
-    memcpy(rhs, s->rhs0, 3 * l * sizeof(double));
+    if (base) memcpy(rhs, base, 3 * l * sizeof(double));
+    else memset(rhs, 0, 3 * l * sizeof(double));
     for (r = 0; r < s->runs; ++r) {
         const double *c = s->weights + (size_t)s->run[r] * s->stride + d[0] + d[1];
         memset(sum, 0, lm * sizeof *sum);
-        for (v = s->run[r]; v < s->run[r + 1]; ++v) { /* sum += (a (x) b) y_v */
+        for (v = s->run[r]; v < s->run[r + 1]; ++v) { /* sum += (a (x) b) W_v y_v */
             const double *a = s->weights + v * s->stride, *b = a + d[0], *yv = y + 3 * v;
+            double wv = weights ? weights[v] : 1.0;
             for (i = 0; i < (size_t)d[0]; ++i) {
-                double ay[3];
-                ay[0] = a[i] * yv[0]; ay[1] = a[i] * yv[1]; ay[2] = a[i] * yv[2];
+                double ay[3], aw = a[i] * wv;
+                ay[0] = aw * yv[0]; ay[1] = aw * yv[1]; ay[2] = aw * yv[2];
                 for (j = 0; j < (size_t)d[1]; ++j) {
                     double *t = sum[i * (size_t)d[1] + j];
                     t[0] += b[j] * ay[0]; t[1] += b[j] * ay[1]; t[2] += b[j] * ay[2];
@@ -6326,6 +6339,24 @@ static double sqffd__fit_prior(const sqffd__fit_system *s, const double *control
     return s->spring * springs + s->tether * tether;
 }
 
+/* out (3 x L) = fixed V, from the fixed part's lower triangle; V's element
+   (control point p, coordinate c) at v[p * point_stride + c * coord_stride]. */
+static void sqffd__fit_fixed_times(const sqffd__fit_system *s, const double *v, size_t point_stride, size_t coord_stride,
+                                   double *out)
+{
+    size_t l = s->lattice, p, q, c;
+    memset(out, 0, 3 * l * sizeof(double));
+    for (p = 0; p < l; ++p)
+        for (q = 0; q <= p; ++q) {
+            const double h = s->fixed[p * l + q];
+            if (h == 0.0) continue; /* (the springs alone: a few a row) */
+            for (c = 0; c < 3; ++c) {
+                out[c * l + p] += h * v[q * point_stride + c * coord_stride];
+                if (q < p) out[c * l + q] += h * v[p * point_stride + c * coord_stride];
+            }
+        }
+}
+
 /* B's rows, the fixed part of the normal matrix and of the right-hand side,
    from the model's superquadric, box and grid. */
 static sqffd_result sqffd__fit_prepare(const sqffd_model *model, double alpha, double tether,
@@ -6356,15 +6387,7 @@ static sqffd_result sqffd__fit_prepare(const sqffd_model *model, double alpha, d
        rhs0 = fixed P0, less the springs' part for the paper's ||D P||^2 */
     memset(s->fixed, 0, l * l * sizeof(double));
     if (s->tether > 0.0) sqffd__fit_gram(s, NULL, s->tether, s->pairs, s->block, s->fixed);
-    memset(s->rhs0, 0, 3 * l * sizeof(double));
-    for (p = 0; p < l; ++p)
-        for (q = 0; q <= p; ++q) {
-            const double h = s->fixed[p * l + q];
-            for (c = 0; c < 3; ++c) {
-                s->rhs0[c * l + p] += h * s->rest_control[3 * q + c];
-                if (q < p) s->rhs0[c * l + q] += h * s->rest_control[3 * p + c];
-            }
-        }
+    sqffd__fit_fixed_times(s, s->rest_control, 3, 1, s->rhs0);
     for (p = 0; p < l; ++p)
         for (axis = 0; axis < 3; ++axis)
             if (sqffd__fit_spring(s->dims, p, axis, &q)) {
@@ -6395,6 +6418,7 @@ static sqffd_result sqffd__fit_solve(const sqffd__fit_system *s, sqffd__fit_work
     memcpy(w->matrix, s->fixed, l * l * sizeof(double));
     sqffd__fit_gram(s, w->weights, 1.0, w->pairs, w->block, w->matrix);
     if (w->solver == SQFFD_SOLVER_CHOLESKY) res = sqffd_cholesky_factor(w->matrix, l);
+    w->factored = res == SQFFD_OK;
     if (res == SQFFD_OK) {
         for (c = 0; c < 3; ++c) sqffd_cholesky_solve(w->matrix, l, rhs + c * l);
         return SQFFD_OK;
@@ -6420,6 +6444,113 @@ static sqffd_result sqffd__fit_solve(const sqffd__fit_system *s, sqffd__fit_work
             b[r] = sum;
         }
     }
+    return SQFFD_OK;
+}
+
+/* out (3 x L) = the springs' part of the fixed matrix times V (3 x L): the
+   spring weight times the lattice's graph Laplacian. */
+static void sqffd__fit_springs_times(const sqffd__fit_system *s, const double *v, double *out)
+{
+    size_t l = s->lattice, p, q, c;
+    int axis;
+    memset(out, 0, 3 * l * sizeof(double));
+    for (p = 0; p < l; ++p)
+        for (axis = 0; axis < 3; ++axis)
+            if (sqffd__fit_spring(s->dims, p, axis, &q))
+                for (c = 0; c < 3; ++c) {
+                    double f = s->spring * (v[c * l + p] - v[c * l + q]);
+                    out[c * l + p] += f;
+                    out[c * l + q] -= f;
+                }
+}
+
+/* Step 2 with its move: the plain step G(P) into w->plain, G(P) - P into
+   w->rhs (both in sqffd_ffd's layout) and B (G(P) - P) into bmove, from the
+   current control points P, model points x = B P, W_v y_v in t and W_v in
+   w->weights (both overwritten).
+   Building and factoring the normal matrix A = springs + B^T (W + tether) B
+   is most of a solve, and W changes little from one iteration to the next.
+   So a factor made by an earlier iteration of the run serves as the
+   preconditioner of SQFFD__FIT_CG_STEPS conjugate-gradient steps from P on
+   the current A (each a product with B and one with B^T). They lower the
+   step's quadratic below its value at P, which is all the energy bound asks
+   of a step (majorisation-minimisation), though they stop short of its
+   minimum; after steps that left more than SQFFD__FIT_CG_KEEP of the
+   residual the next iteration makes a new factor. *direct tells which
+   kind the step was. */
+#define SQFFD__FIT_CG_STEPS 2
+#define SQFFD__FIT_CG_KEEP 0.1
+
+static sqffd_result sqffd__fit_step(const sqffd__fit_system *s, sqffd__fit_work *w, const double *control,
+                                    const double *x, double *t, double *bmove, int *direct)
+{
+    size_t l = s->lattice, m = s->count, size = 3 * l, p, i, v;
+    double *r = w->cg, *z = r + size, *d = z + size, *ad = d + size, *move = ad + size;
+    double rz[3] = {0.0, 0.0, 0.0}, alpha[3], r0 = 0.0;
+    int k;
+    *direct = !w->factored;
+    if (*direct) {
+        sqffd_result res;
+        sqffd__fit_project(s, t, NULL, s->rhs0, (double (*)[3])w->block, w->rhs);
+        res = sqffd__fit_solve(s, w);
+        if (res != SQFFD_OK) return res;
+        for (p = 0; p < l; ++p)
+            for (i = 0; i < 3; ++i) w->plain[3 * p + i] = w->rhs[i * l + p];
+    } else {
+        /* the residual b - A P = B^T (W y - (W + tether) B P) + rhs0 - springs P */
+        for (v = 0; v < m; ++v) {
+            w->weights[v] += s->tether;
+            for (i = 0; i < 3; ++i) t[3 * v + i] -= w->weights[v] * x[3 * v + i];
+        }
+        sqffd__fit_project(s, t, NULL, s->rhs0, (double (*)[3])w->block, r);
+        for (p = 0; p < l; ++p)
+            for (i = 0; i < 3; ++i) d[i * l + p] = control[3 * p + i];
+        sqffd__fit_springs_times(s, d, ad);
+        for (p = 0; p < size; ++p) {
+            r[p] -= ad[p];
+            r0 += r[p] * r[p];
+            move[p] = 0.0;
+        }
+        memcpy(d, r, size * sizeof(double));
+        memset(bmove, 0, 3 * m * sizeof(double));
+        for (k = 0; k < SQFFD__FIT_CG_STEPS; ++k) {
+            for (i = 0; i < 3; ++i) { /* z = M^-1 r; the next direction d */
+                double *zi = z + i * l, *di = d + i * l, previous = rz[i];
+                memcpy(zi, r + i * l, l * sizeof(double));
+                sqffd_cholesky_solve(w->matrix, l, zi);
+                rz[i] = sqffd__la_dot(r + i * l, zi, l);
+                for (p = 0; p < l; ++p) di[p] = k == 0 ? zi[p] : zi[p] + (previous > 0.0 ? rz[i] / previous : 0.0) * di[p];
+            }
+            /* ad = A d: B d into t (free now), then B^T (W + tether) (B d) + springs d */
+            for (p = 0; p < l; ++p)
+                for (i = 0; i < 3; ++i) w->plain[3 * p + i] = d[i * l + p];
+            sqffd__fit_evaluate(s, (const double (*)[3])w->plain, (double (*)[4])w->block, t);
+            sqffd__fit_project(s, t, w->weights, NULL, (double (*)[3])w->block, ad);
+            sqffd__fit_springs_times(s, d, z);
+            for (i = 0; i < 3; ++i) {
+                double den = 0.0;
+                for (p = i * l; p < (i + 1) * l; ++p) {
+                    ad[p] += z[p];
+                    den += d[p] * ad[p];
+                }
+                alpha[i] = den > 0.0 ? rz[i] / den : 0.0;
+                for (p = i * l; p < (i + 1) * l; ++p) {
+                    move[p] += alpha[i] * d[p];
+                    r[p] -= alpha[i] * ad[p];
+                }
+            }
+            for (v = 0; v < m; ++v)
+                for (i = 0; i < 3; ++i) bmove[3 * v + i] += alpha[i] * t[3 * v + i];
+        }
+        w->factored = sqffd__la_dot(r, r, size) <= SQFFD__FIT_CG_KEEP * SQFFD__FIT_CG_KEEP * r0;
+        for (p = 0; p < l; ++p)
+            for (i = 0; i < 3; ++i) w->plain[3 * p + i] = control[3 * p + i] + move[i * l + p];
+    }
+    for (p = 0; p < size; ++p) {
+        if (!isfinite(w->plain[p])) return SQFFD_ERROR_NON_FINITE;
+        w->rhs[p] = w->plain[p] - control[p];
+    }
+    if (*direct) sqffd__fit_evaluate(s, (const double (*)[3])w->rhs, (double (*)[4])w->block, bmove);
     return SQFFD_OK;
 }
 
@@ -6511,7 +6642,7 @@ static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagon
     double hold = o->model_to_data * (double)m / (double)holding;
     sqffd__fit_search search;
     sqffd__fit_step1 step1;
-    int it = 0, extrapolated = 0, stop = 0, scaled = !w->distance || w->nu2 > 0.0, scaled_now = 0;
+    int it = 0, extrapolated = 0, stop = 0, scaled = !w->distance || w->nu2 > 0.0, scaled_now = 0, direct;
     SQFFD_ASSERT(t && x && next); /* (the arena's: never NULL here) */
     sqffd__fit_evaluate(s, (const double (*)[3])model->ffd.control, (double (*)[4])w->block, x);
     sqffd__fit_search_init(&search, x, s->grid, s->rings, w->tree_ws, w->tree_size, &w->bvh);
@@ -6523,6 +6654,7 @@ static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagon
     }
     if (data_tree)
         for (v = 0; v < m; ++v) w->data_near[SQFFD__FIT_DATA_KNN * v] = UINT32_MAX;
+    w->factored = 0;
     step1.weights = w->weights;
     step1.nu2 = w->nu2;
     rep->iterations = 0;
@@ -6601,23 +6733,15 @@ static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagon
             }
             w->weights[v] = wv;
         }
-        /* step 2: the weighted problem's minimiser, the plain step G(P) */
-        sqffd__fit_project(s, t, (double (*)[3])w->block, w->rhs);
-        res = sqffd__fit_solve(s, w);
+        /* step 2: the weighted problem's minimiser, the plain step G(P); its move
+           B (G(P) - P) decides convergence; once it is within the tolerance the
+           plain step itself is taken (an extrapolation would only overshoot) */
+        res = sqffd__fit_step(s, w, control, x, t, next, &direct);
         if (res != SQFFD_OK) return res;
-        for (p = 0; p < l; ++p)
-            for (i = 0; i < 3; ++i) {
-                double g = w->rhs[i * l + p];
-                if (!isfinite(g)) return SQFFD_ERROR_NON_FINITE;
-                w->plain[3 * p + i] = g;
-            }
-        /* the plain step's move B (G(P) - P) decides convergence; once it is within the
-           tolerance the plain step itself is taken (an extrapolation would only overshoot) */
-        for (i = 0; i < size; ++i) w->rhs[i] = w->plain[i] - control[i];
-        sqffd__fit_evaluate(s, (const double (*)[3])w->rhs, (double (*)[4])w->block, next);
         rep->step = sqrt(sqffd__la_dot(next, next, 3 * m) / (double)m) / diagonal;
         rep->iterations = ++it;
-        rep->converged = rep->step <= o->tolerance;
+        rep->converged = rep->step <= o->tolerance && direct;
+        if (rep->step <= o->tolerance && !direct) w->factored = 0; /* (a lagged step may stop short: a direct one decides) */
         /* else over-relaxed (see SQFFD__FIT_RELAX): after an accepted extrapolation omega grows */
         omega = extrapolated ? (omega * SQFFD__FIT_RELAX_GROW < SQFFD__FIT_RELAX_MAX ? omega * SQFFD__FIT_RELAX_GROW
                                                                                      : SQFFD__FIT_RELAX_MAX)

@@ -29,6 +29,7 @@ typedef struct phantom_score {
     int hypokinetic[SQFFD_SEGMENTS]; /* the library's flag */
     double ef, true_ef, ef_error;    /* fractions */
     int zone_vertices, lid_in_wall;  /* vertices in the true zone; valve-plane vertices the library calls wall */
+    int lid_vertices;                /* the valve-plane vertices */
 } phantom_score;
 
 /* Returns 0, or -1 when the motion analysis fails or memory runs out. */
@@ -89,6 +90,7 @@ static int phantom_score_track(const phantom_lv *p, const sqffd_model *models, s
         double move[3], *n = normal + 3 * v, len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
         int label = phantom_lv_locate_motion(p, x, move), in_zone = label == PHANTOM_ZONE;
         if (label == PHANTOM_LID) {
+            score->lid_vertices++;
             score->lid_in_wall += segment[v] != 0;
             continue;
         }

@@ -107,7 +107,123 @@ static void test_internal_triangle_tree(void)
     }
 }
 
+/* e^T A e for A = springs + B^T (W + tether) B, e in sqffd_ffd's layout:
+   the step's quadratic's excess over its minimum is half this of X - G. */
+static double lagged_a_norm2(const sqffd__fit_system *s, const double *weights, const double *e, double *bx,
+                             double (*block)[4], double *by_coord, double *springs)
+{
+    size_t l = s->lattice, v, p, i;
+    double sum = 0.0;
+    sqffd__fit_evaluate(s, (const double (*)[3])e, block, bx);
+    for (v = 0; v < s->count; v++)
+        for (i = 0; i < 3; i++) sum += (weights[v] + s->tether) * bx[3 * v + i] * bx[3 * v + i];
+    for (p = 0; p < l; p++)
+        for (i = 0; i < 3; i++) by_coord[i * l + p] = e[3 * p + i];
+    sqffd__fit_springs_times(s, by_coord, springs);
+    for (p = 0; p < 3 * l; p++) sum += by_coord[p] * springs[p];
+    return sum;
+}
+
+/* A step's inputs: W_v into the work's weights, W_v y_v into target. */
+static void lagged_load(size_t m, const double *weights, const double *y, double *work_weights, double *target)
+{
+    size_t v, c;
+    memcpy(work_weights, weights, m * sizeof(double));
+    for (v = 0; v < m; v++)
+        for (c = 0; c < 3; c++) target[3 * v + c] = weights[v] * y[3 * v + c];
+}
+
+/* The step's lagged factor (sqffd__fit_step): with the factor of one set of
+   weights, the conjugate-gradient steps on a system whose weights changed
+   by up to +-40% (and a tether, so the fixed part is dense) land near the
+   direct solve's G: within 5% of |P - G| in A's norm (the quadratic's
+   excess over its minimum), and B (X - P) is the move they report. */
+static void test_internal_lagged_step(void)
+{
+    static const int dims[3] = {5, 5, 5}, grid[2] = {16, 32};
+    sqffd_fit_options o = sqffd_fit_options_default();
+    sqffd_superquadric sq;
+    sqffd_model model;
+    sqffd__fit_system s;
+    sqffd__fit_work w;
+    sqffd__arena a;
+    size_t size, m, l, v, p, trial;
+    int direct;
+    void *memory;
+    double *start, *exact, *weights, *changed, *targets, *bx, *by_coord, *springs, *target;
+    memset(&sq, 0, sizeof sq);
+    sq.size[0] = 1.0; sq.size[1] = 0.7; sq.size[2] = 1.5;
+    sq.shape[0] = 0.8; sq.shape[1] = 1.2;
+    sq.taper[0] = 0.2;
+    sq.rotation[0] = sq.rotation[4] = sq.rotation[8] = 1.0;
+    o.grid[0] = grid[0];
+    o.grid[1] = grid[1];
+    CHECK_RESULT(sqffd_model_init(&model, &sq, &o), SQFFD_OK);
+    sqffd__arena_measure(&a);
+    sqffd__fit_system_layout(&a, dims, grid, &s);
+    sqffd__fit_work_layout(&a, 100, dims, grid, &o, &w);
+    size = a.used + 64;
+    memory = malloc(size);
+    sqffd__arena_init(&a, memory, size);
+    sqffd__fit_system_layout(&a, dims, grid, &s);
+    sqffd__fit_work_layout(&a, 100, dims, grid, &o, &w);
+    CHECK(!a.overflow);
+    m = s.count;
+    l = s.lattice;
+    start = (double *)malloc(3 * l * sizeof(double));
+    exact = (double *)malloc(3 * l * sizeof(double));
+    weights = (double *)malloc(m * sizeof(double));
+    changed = (double *)malloc(m * sizeof(double));
+    targets = (double *)malloc(3 * m * sizeof(double));
+    target = (double *)malloc(3 * m * sizeof(double));
+    bx = (double *)malloc(3 * m * sizeof(double));
+    by_coord = (double *)malloc(3 * l * sizeof(double));
+    springs = (double *)malloc(3 * l * sizeof(double));
+    srand(11);
+    CHECK_RESULT(sqffd__fit_prepare(&model, 1e-3, 0.05, SQFFD_REG_DISPLACEMENT, &s), SQFFD_OK);
+    for (p = 0; p < 3 * l; p++) /* a start off the rest lattice */
+        start[p] = (&model.ffd.control[0][0])[p] + 0.05 * ((double)rand() / RAND_MAX - 0.5);
+    for (v = 0; v < m; v++) {
+        weights[v] = 0.2 + 2.0 * (double)rand() / RAND_MAX;
+        for (p = 0; p < 3; p++) targets[3 * v + p] = s.rest[3 * v + p] * 1.1 + 0.02 * ((double)rand() / RAND_MAX - 0.5);
+    }
+    for (trial = 0; trial < 6; trial++) {
+        double excess_start, excess_lagged, move_error = 0.0, move2 = 0.0;
+        sqffd__fit_evaluate(&s, (const double (*)[3])start, (double (*)[4])w.block, w.x);
+        for (v = 0; v < m; v++) changed[v] = weights[v] * (0.6 + 0.8 * (double)rand() / RAND_MAX);
+        /* G: the direct step on the changed weights */
+        lagged_load(m, changed, targets, w.weights, target);
+        w.factored = 0;
+        CHECK_RESULT(sqffd__fit_step(&s, &w, start, w.x, target, w.next, &direct), SQFFD_OK);
+        CHECK(w.factored && direct);
+        memcpy(exact, w.plain, 3 * l * sizeof(double));
+        /* the factor of the weights before, then the lagged step on the changed ones */
+        memcpy(w.weights, weights, m * sizeof(double));
+        CHECK_RESULT(sqffd__fit_solve(&s, &w), SQFFD_OK);
+        lagged_load(m, changed, targets, w.weights, target);
+        CHECK_RESULT(sqffd__fit_step(&s, &w, start, w.x, target, w.next, &direct), SQFFD_OK);
+        CHECK(!direct);
+        for (p = 0; p < 3 * l; p++) by_coord[p] = start[p] - exact[p];
+        excess_start = lagged_a_norm2(&s, changed, by_coord, bx, (double (*)[4])w.block, springs, target);
+        for (p = 0; p < 3 * l; p++) by_coord[p] = w.plain[p] - exact[p];
+        excess_lagged = lagged_a_norm2(&s, changed, by_coord, bx, (double (*)[4])w.block, springs, target);
+        CHECK_MSG(excess_lagged <= 0.05 * 0.05 * excess_start, "trial %zu: %.3g of the start's distance to G", trial,
+                  sqrt(excess_lagged / excess_start));
+        sqffd__fit_evaluate(&s, (const double (*)[3])w.rhs, (double (*)[4])w.block, bx);
+        for (v = 0; v < 3 * m; v++) {
+            move_error += (bx[v] - w.next[v]) * (bx[v] - w.next[v]);
+            move2 += bx[v] * bx[v];
+        }
+        CHECK_MSG(move_error <= 1e-24 * move2, "trial %zu: reported move off by %.3g", trial, sqrt(move_error / move2));
+        memcpy(start, w.plain, 3 * l * sizeof(double));
+        memcpy(weights, changed, m * sizeof(double));
+    }
+    free(start); free(exact); free(weights); free(changed); free(targets); free(target); free(bx); free(by_coord); free(springs);
+    free(memory);
+}
+
 void suite_internal(void)
 {
     RUN_TEST(test_internal_triangle_tree);
+    RUN_TEST(test_internal_lagged_step);
 }
