@@ -162,7 +162,10 @@
                         the residual; convergence is decided by a factored
                         step). Energy still never rises; a fit takes
                         0.84-1.05x 0.9.0's time (median ~0.92), tracking
-                        ~0.9x; the workspace grows by 15 x L doubles
+                        ~0.9x; the workspace grows by 15 x L doubles.
+                        The passes visit the data points in Morton order
+                        (4 bytes a point): scans sampled in random order
+                        a further 0.91-0.95x
        0.9.0 (2026-11)  sqffd_fit runs the first coarse_iterations (new
                         option, default 25) of its max_iterations (default
                         33, was 30) on a coarse grid (half the rows and
@@ -5240,6 +5243,7 @@ typedef struct sqffd__fit_search {
     int exact;               /* 0: a pass between a fit's first and last (see above) */
     int final;               /* an exact pass no other follows: a point starts the tree walk from its matched
                                 triangle (of the pass before), and its last answer is neither read nor kept */
+    const uint32_t *order;   /* the order a pass visits the data points in (NULL: theirs; see sqffd__fit_order) */
 } sqffd__fit_search;
 
 /* The tree over the mesh vertices as they are: built when first asked after
@@ -5520,6 +5524,69 @@ static void sqffd__fit_search_init(sqffd__fit_search *s, const double *x, const 
     sqffd__fit_bvh_build(grid, bvh->nodes); /* (its boxes are measured when an exact pass needs them) */
 }
 
+/* ---- the order of the passes ----------------------------------------------
+   A pass visits the data points in Morton (Z-curve) order of their
+   coordinates: consecutive points then lie close together, and so do their
+   closest-point searches through the mesh and its trees (an exact pass over
+   6,000 points sampled in random order on a scan: 15-30% faster). The keys
+   are 10 bits an axis over the points' bounding box, sorted by a radix sort
+   of 6 digits of 5 bits (stable: equal keys keep their points' order). */
+static uint32_t sqffd__fit_spread(uint32_t v) /* the low 10 bits of v to every third bit */
+{
+    v &= 0x3ffu;
+    v = (v | (v << 16)) & 0x030000ffu;
+    v = (v | (v << 8)) & 0x0300f00fu;
+    v = (v | (v << 4)) & 0x030c30c3u;
+    return (v | (v << 2)) & 0x09249249u;
+}
+
+/* order (n) <- the points' indices in Morton order; key, spare_key and
+   spare_order (n each) are scratch. Points must be finite (checked before). */
+static void sqffd__fit_order(const sqffd_points *points, uint32_t *order, uint32_t *key, uint32_t *spare_key,
+                             uint32_t *spare_order)
+{
+    size_t n = points->count, i;
+    double lo[3], scale[3], p[3];
+    uint32_t count[32], *from_key = key, *from_order = order, *to_key = spare_key, *to_order = spare_order, *swap;
+    int c, digit;
+    for (c = 0; c < 3; ++c) { lo[c] = HUGE_VAL; scale[c] = -HUGE_VAL; }
+    for (i = 0; i < n; ++i) {
+        sqffd__points_get(points, i, p);
+        for (c = 0; c < 3; ++c) {
+            lo[c] = p[c] < lo[c] ? p[c] : lo[c];
+            scale[c] = p[c] > scale[c] ? p[c] : scale[c]; /* (the high end, for now) */
+        }
+    }
+    for (c = 0; c < 3; ++c) scale[c] = scale[c] > lo[c] ? 1023.0 / (scale[c] - lo[c]) : 0.0;
+    for (i = 0; i < n; ++i) {
+        uint32_t cell[3];
+        sqffd__points_get(points, i, p);
+        for (c = 0; c < 3; ++c) {
+            double f = (p[c] - lo[c]) * scale[c];
+            cell[c] = f < 1023.0 ? (uint32_t)f : 1023u; /* (the box's top face rounds past 1023) */
+        }
+        key[i] = sqffd__fit_spread(cell[0]) | sqffd__fit_spread(cell[1]) << 1 | sqffd__fit_spread(cell[2]) << 2;
+        order[i] = (uint32_t)i;
+    }
+    for (digit = 0; digit < 6; ++digit) { /* (an even number of passes: the result ends in order) */
+        uint32_t sum = 0, shift = 5u * (uint32_t)digit;
+        memset(count, 0, sizeof count);
+        for (i = 0; i < n; ++i) ++count[(from_key[i] >> shift) & 31u];
+        for (c = 0; c < 32; ++c) {
+            uint32_t k = count[c];
+            count[c] = sum;
+            sum += k;
+        }
+        for (i = 0; i < n; ++i) {
+            uint32_t at = count[(from_key[i] >> shift) & 31u]++;
+            to_key[at] = from_key[i];
+            to_order[at] = from_order[i];
+        }
+        swap = from_key; from_key = to_key; to_key = swap;
+        swap = from_order; from_order = to_order; to_order = swap;
+    }
+}
+
 /* Step 1's accumulators of a pass. */
 typedef struct sqffd__fit_step1 {
     double *sums;    /* M x 3: summed weighted displacements per model point (NULL: measure only) */
@@ -5549,11 +5616,13 @@ static sqffd_result sqffd__fit_pass(const sqffd_points *points, sqffd__fit_searc
     int k;
     for (first = 0; first < n; first += SQFFD__FIT_BATCH) {
         size_t count = n - first < SQFFD__FIT_BATCH ? n - first : SQFFD__FIT_BATCH, tri[SQFFD__FIT_BATCH][3];
+        size_t index[SQFFD__FIT_BATCH];
         double w[SQFFD__FIT_BATCH][3], dist2[SQFFD__FIT_BATCH], data[SQFFD__FIT_BATCH][3];
         for (j = 0; j < count; ++j) {
             sqffd_result res;
-            sqffd__points_get(points, first + j, data[j]);
-            res = sqffd__fit_closest(search, first + j, data[j], dist2 + j, tri[j], w[j]);
+            index[j] = search->order ? search->order[first + j] : first + j;
+            sqffd__points_get(points, index[j], data[j]);
+            res = sqffd__fit_closest(search, index[j], data[j], dist2 + j, tri[j], w[j]);
             if (res != SQFFD_OK) return res;
         }
         for (j = 0; j < count; ++j) {
@@ -5562,7 +5631,7 @@ static sqffd_result sqffd__fit_pass(const sqffd_points *points, sqffd__fit_searc
             energy += nu2 > 0.0 ? nu2 * (1.0 - robust) : dist2[j];
             sum += d; sum2 += dist2[j];
             if (d > max) max = d;
-            if (per_point) per_point[first + j] = d;
+            if (per_point) per_point[index[j]] = d;
             if (sums) { /* (scalars, not a small array: a store-to-load stall per point otherwise) */
                 const double *a = x + 3 * tri[j][0], *b = x + 3 * tri[j][1], *e = x + 3 * tri[j][2];
                 double dx = q[0] - (wj[0] * a[0] + wj[1] * b[0] + wj[2] * e[0]);
@@ -6122,6 +6191,7 @@ typedef struct sqffd__fit_work {
     uint32_t (*triangle)[3]; /* per FFD data point: the closest-point search's warm start */
     uint32_t (*matched)[3]; /* per FFD data point: its triangle in the last pass */
     uint32_t (*matched_accepted)[3]; /* and in the last accepted one */
+    uint32_t *order;     /* per FFD data point: the passes' order (NULL: the points' own, past 2^32 points) */
     sqffd__fit_bvh bvh;  /* the exact passes' tree over the triangles */
     void *data_ws;       /* tree over the data of the model -> data term */
     size_t data_size;
@@ -6221,6 +6291,7 @@ static void sqffd__fit_work_layout(sqffd__arena *a, size_t n, const int dims[3],
     w->triangle = (uint32_t (*)[3])sqffd__arena_take(a, w->sample_count, 3 * sizeof(uint32_t));
     w->matched = (uint32_t (*)[3])sqffd__arena_take(a, w->sample_count, 3 * sizeof(uint32_t));
     w->matched_accepted = (uint32_t (*)[3])sqffd__arena_take(a, w->sample_count, 3 * sizeof(uint32_t));
+    if (w->sample_count <= (size_t)UINT32_MAX) w->order = (uint32_t *)sqffd__arena_take(a, w->sample_count, sizeof(uint32_t));
     sqffd__fit_bvh_layout(a, grid, &w->bvh);
     if (o->model_to_data > 0.0) {
         w->data_count = sqffd__fit_cap(w->sample_count, SQFFD__FIT_DATA_MAX);
@@ -6231,6 +6302,17 @@ static void sqffd__fit_work_layout(sqffd__arena *a, size_t n, const int dims[3],
         w->data_at = (double *)sqffd__arena_take(a, m, 3 * sizeof(double));
         w->data_far = (double *)sqffd__arena_take(a, m, sizeof(double));
     }
+}
+
+/* The search's order over points (sqffd__fit_order), where the work has
+   room for them: the warm start's arrays are its scratch, so it is made
+   before an iteration sets them or after it is done with them. */
+static void sqffd__fit_ordered(const sqffd_points *points, sqffd__fit_work *w, sqffd__fit_search *search)
+{
+    size_t n = points->count;
+    if (!w->order || n > w->sample_count) return;
+    sqffd__fit_order(points, w->order, &w->triangle[0][0], &w->triangle[0][0] + n, &w->matched[0][0]);
+    search->order = w->order;
 }
 
 /* matrix (L x L, lower triangle) += B^T diag(scale w) B, run by run (w NULL: all 1). */
@@ -6648,6 +6730,7 @@ static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagon
     sqffd__fit_search_init(&search, x, s->grid, s->rings, w->tree_ws, w->tree_size, &w->bvh);
     search.triangle = w->triangle;
     search.matched = w->matched;
+    sqffd__fit_ordered(points, w, &search);
     for (i = 0; i < n; ++i) { /* no warm start yet */
         w->matched[i][0] = UINT32_MAX;
         w->triangle[i][0] = UINT32_MAX;
@@ -6922,6 +7005,7 @@ static sqffd_result sqffd__fit_error(const sqffd_points *points, double diagonal
     sqffd__fit_search search;
     sqffd__fit_evaluate(s, model->ffd.control, (double (*)[4])w->block, w->x);
     sqffd__fit_search_init(&search, w->x, s->grid, s->rings, w->tree_ws, w->tree_size, &w->bvh);
+    sqffd__fit_ordered(points, w, &search);
     return sqffd__fit_pass(points, &search, diagonal, NULL, NULL, stats);
 }
 

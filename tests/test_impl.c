@@ -222,8 +222,59 @@ static void test_internal_lagged_step(void)
     free(memory);
 }
 
+/* The passes' visiting order (sqffd__fit_order): a permutation of the
+   points, their Morton keys (recomputed here bit by bit) never falling
+   along it, equal keys in the points' own order; all points in one place
+   keep theirs. */
+static void test_internal_pass_order(void)
+{
+    static const size_t counts[] = {1, 2, 7, 1000, 4099};
+    size_t t, i;
+    srand(5);
+    for (t = 0; t < sizeof counts / sizeof counts[0]; t++) {
+        size_t n = counts[t];
+        double *p = (double *)malloc(3 * n * sizeof(double)), lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL},
+               hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+        uint32_t *order = (uint32_t *)malloc(4 * n * sizeof(uint32_t)), *seen = (uint32_t *)calloc(n, sizeof(uint32_t));
+        unsigned long long previous = 0;
+        int bad_order = 0, bad_key = 0, c, b;
+        sqffd_points view = sqffd_points_packed(p, n);
+        for (i = 0; i < 3 * n; i++) p[i] = (double)(rand() % 50) * 0.37 - 4.0 * (double)(i % 3); /* (ties) */
+        for (i = 0; i < n; i++)
+            for (c = 0; c < 3; c++) {
+                lo[c] = p[3 * i + c] < lo[c] ? p[3 * i + c] : lo[c];
+                hi[c] = p[3 * i + c] > hi[c] ? p[3 * i + c] : hi[c];
+            }
+        sqffd__fit_order(&view, order, order + n, order + 2 * n, order + 3 * n);
+        for (i = 0; i < n; i++) {
+            unsigned long long key = 0;
+            uint32_t k = order[i];
+            if (k >= n || seen[k]++) {
+                bad_order++;
+                continue;
+            }
+            for (b = 9; b >= 0; b--) /* x's bit lowest in each triple, as the library lays them */
+                for (c = 2; c >= 0; c--) {
+                    double f = hi[c] > lo[c] ? (p[3 * k + (size_t)c] - lo[c]) * (1023.0 / (hi[c] - lo[c])) : 0.0;
+                    unsigned cell = f < 1023.0 ? (unsigned)f : 1023u;
+                    key = key << 1 | ((cell >> b) & 1u);
+                }
+            if (i > 0 && (key < previous || (key == previous && order[i] < order[i - 1]))) bad_key++;
+            previous = key;
+        }
+        CHECK_MSG(bad_order == 0, "%zu points: %d indices repeated or out of range", n, bad_order);
+        CHECK_MSG(bad_key == 0, "%zu points: %d out of Morton order", n, bad_key);
+        for (i = 0; i < 3 * n; i++) p[i] = 2.5; /* one place: the points' own order */
+        sqffd__fit_order(&view, order, order + n, order + 2 * n, order + 3 * n);
+        for (i = 0; i < n; i++) bad_order += order[i] != (uint32_t)i;
+        CHECK_MSG(bad_order == 0, "%zu points in one place: %d moved", n, bad_order);
+        free(p); free(order); free(seen);
+    }
+}
+
 void suite_internal(void)
 {
     RUN_TEST(test_internal_triangle_tree);
     RUN_TEST(test_internal_lagged_step);
+    RUN_TEST(test_internal_pass_order);
 }
