@@ -5530,7 +5530,11 @@ static void sqffd__fit_search_init(sqffd__fit_search *s, const double *x, const 
    closest-point searches through the mesh and its trees (an exact pass over
    6,000 points sampled in random order on a scan: 15-30% faster). The keys
    are 10 bits an axis over the points' bounding box, sorted by a radix sort
-   of 6 digits of 5 bits (stable: equal keys keep their points' order). */
+   of 6 digits of 5 bits (stable: equal keys keep their points' order).
+   Only up to SQFFD__FIT_ORDER_MAX points: past the caches, visiting the
+   points' arrays out of their order costs more than it saves (10^6 points:
+   an iteration 4x slower). */
+#define SQFFD__FIT_ORDER_MAX 16384
 static uint32_t sqffd__fit_spread(uint32_t v) /* the low 10 bits of v to every third bit */
 {
     v &= 0x3ffu;
@@ -6191,7 +6195,7 @@ typedef struct sqffd__fit_work {
     uint32_t (*triangle)[3]; /* per FFD data point: the closest-point search's warm start */
     uint32_t (*matched)[3]; /* per FFD data point: its triangle in the last pass */
     uint32_t (*matched_accepted)[3]; /* and in the last accepted one */
-    uint32_t *order;     /* per FFD data point: the passes' order (NULL: the points' own, past 2^32 points) */
+    uint32_t *order;     /* per FFD data point: the passes' order (NULL: the points' own, past SQFFD__FIT_ORDER_MAX) */
     sqffd__fit_bvh bvh;  /* the exact passes' tree over the triangles */
     void *data_ws;       /* tree over the data of the model -> data term */
     size_t data_size;
@@ -6291,7 +6295,7 @@ static void sqffd__fit_work_layout(sqffd__arena *a, size_t n, const int dims[3],
     w->triangle = (uint32_t (*)[3])sqffd__arena_take(a, w->sample_count, 3 * sizeof(uint32_t));
     w->matched = (uint32_t (*)[3])sqffd__arena_take(a, w->sample_count, 3 * sizeof(uint32_t));
     w->matched_accepted = (uint32_t (*)[3])sqffd__arena_take(a, w->sample_count, 3 * sizeof(uint32_t));
-    if (w->sample_count <= (size_t)UINT32_MAX) w->order = (uint32_t *)sqffd__arena_take(a, w->sample_count, sizeof(uint32_t));
+    if (w->sample_count <= SQFFD__FIT_ORDER_MAX) w->order = (uint32_t *)sqffd__arena_take(a, w->sample_count, sizeof(uint32_t));
     sqffd__fit_bvh_layout(a, grid, &w->bvh);
     if (o->model_to_data > 0.0) {
         w->data_count = sqffd__fit_cap(w->sample_count, SQFFD__FIT_DATA_MAX);
@@ -6421,24 +6425,6 @@ static double sqffd__fit_prior(const sqffd__fit_system *s, const double *control
     return s->spring * springs + s->tether * tether;
 }
 
-/* out (3 x L) = fixed V, from the fixed part's lower triangle; V's element
-   (control point p, coordinate c) at v[p * point_stride + c * coord_stride]. */
-static void sqffd__fit_fixed_times(const sqffd__fit_system *s, const double *v, size_t point_stride, size_t coord_stride,
-                                   double *out)
-{
-    size_t l = s->lattice, p, q, c;
-    memset(out, 0, 3 * l * sizeof(double));
-    for (p = 0; p < l; ++p)
-        for (q = 0; q <= p; ++q) {
-            const double h = s->fixed[p * l + q];
-            if (h == 0.0) continue; /* (the springs alone: a few a row) */
-            for (c = 0; c < 3; ++c) {
-                out[c * l + p] += h * v[q * point_stride + c * coord_stride];
-                if (q < p) out[c * l + q] += h * v[p * point_stride + c * coord_stride];
-            }
-        }
-}
-
 /* B's rows, the fixed part of the normal matrix and of the right-hand side,
    from the model's superquadric, box and grid. */
 static sqffd_result sqffd__fit_prepare(const sqffd_model *model, double alpha, double tether,
@@ -6469,7 +6455,15 @@ static sqffd_result sqffd__fit_prepare(const sqffd_model *model, double alpha, d
        rhs0 = fixed P0, less the springs' part for the paper's ||D P||^2 */
     memset(s->fixed, 0, l * l * sizeof(double));
     if (s->tether > 0.0) sqffd__fit_gram(s, NULL, s->tether, s->pairs, s->block, s->fixed);
-    sqffd__fit_fixed_times(s, s->rest_control, 3, 1, s->rhs0);
+    memset(s->rhs0, 0, 3 * l * sizeof(double));
+    for (p = 0; p < l; ++p)
+        for (q = 0; q <= p; ++q) {
+            const double h = s->fixed[p * l + q];
+            for (c = 0; c < 3; ++c) {
+                s->rhs0[c * l + p] += h * s->rest_control[3 * q + c];
+                if (q < p) s->rhs0[c * l + q] += h * s->rest_control[3 * p + c];
+            }
+        }
     for (p = 0; p < l; ++p)
         for (axis = 0; axis < 3; ++axis)
             if (sqffd__fit_spring(s->dims, p, axis, &q)) {
