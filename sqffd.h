@@ -831,7 +831,7 @@ typedef enum sqffd_regularization {
 } sqffd_regularization;
 
 typedef enum sqffd_solver {
-    SQFFD_SOLVER_CHOLESKY = 0,  /* Cholesky factor of each step's normal matrix (default); where it is singular (alpha = 0 with parts of the lattice no data reach) the SVD's minimum-norm solution instead */
+    SQFFD_SOLVER_CHOLESKY = 0,  /* Cholesky factor of a step's normal matrix (default), later steps of the run by two conjugate-gradient steps it preconditions (refactored when they fall short); where it is singular (alpha = 0 with parts of the lattice no data reach) the SVD's minimum-norm solution instead, every step */
     SQFFD_SOLVER_SVD = 1        /* every step by the SVD of its normal matrix: pseudo-inverse solution, singular values below 1e-10 of the largest dropped (as the paper's resolution; slower) */
 } sqffd_solver;
 
