@@ -164,8 +164,8 @@
                         0.84-1.05x 0.9.0's time (median ~0.92), tracking
                         ~0.9x; the workspace grows by 15 x L doubles.
                         The passes visit the data points in Morton order
-                        (4 bytes a point): scans sampled in random order
-                        a further 0.91-0.95x
+                        (up to 16,384 points; 4 bytes a point): scans
+                        sampled in random order a further 0.91-0.95x
        0.9.0 (2026-11)  sqffd_fit runs the first coarse_iterations (new
                         option, default 25) of its max_iterations (default
                         33, was 30) on a coarse grid (half the rows and
