@@ -5550,27 +5550,20 @@ static void sqffd__fit_order(const sqffd_points *points, uint32_t *order, uint32
                              uint32_t *spare_order)
 {
     size_t n = points->count, i;
-    double lo[3], scale[3], p[3];
+    double box[2][3], scale[3], p[3];
     uint32_t count[32], *from_key = key, *from_order = order, *to_key = spare_key, *to_order = spare_order, *swap;
     int c, digit;
-    for (c = 0; c < 3; ++c) { lo[c] = HUGE_VAL; scale[c] = -HUGE_VAL; }
-    for (i = 0; i < n; ++i) {
-        sqffd__points_get(points, i, p);
-        for (c = 0; c < 3; ++c) {
-            lo[c] = p[c] < lo[c] ? p[c] : lo[c];
-            scale[c] = p[c] > scale[c] ? p[c] : scale[c]; /* (the high end, for now) */
-        }
-    }
-    for (c = 0; c < 3; ++c) scale[c] = scale[c] > lo[c] ? 1023.0 / (scale[c] - lo[c]) : 0.0;
+    for (i = 0; i < n; ++i) order[i] = (uint32_t)i;
+    sqffd__kd_bounds(points, order, 0, n, box);
+    for (c = 0; c < 3; ++c) scale[c] = box[1][c] > box[0][c] ? 1023.0 / (box[1][c] - box[0][c]) : 0.0;
     for (i = 0; i < n; ++i) {
         uint32_t cell[3];
         sqffd__points_get(points, i, p);
         for (c = 0; c < 3; ++c) {
-            double f = (p[c] - lo[c]) * scale[c];
+            double f = (p[c] - box[0][c]) * scale[c];
             cell[c] = f < 1023.0 ? (uint32_t)f : 1023u; /* (the box's top face rounds past 1023) */
         }
         key[i] = sqffd__fit_spread(cell[0]) | sqffd__fit_spread(cell[1]) << 1 | sqffd__fit_spread(cell[2]) << 2;
-        order[i] = (uint32_t)i;
     }
     for (digit = 0; digit < 6; ++digit) { /* (an even number of passes: the result ends in order) */
         uint32_t sum = 0, shift = 5u * (uint32_t)digit;
