@@ -155,10 +155,11 @@
        sqffd_points_subsample(_view)   an even subsample of points
 
    CHANGES
-       0.11.0 (2026-11) sqffd_fit's stage 1 stops where the winner has
-                        converged on its 384-point subsample (sqffd_sq_fit
-                        still ends with a run on up to 1,536 points): fits
-                        0.77-0.99x 0.10.0's time (median ~0.94), errors
+       0.11.0 (2026-11) sqffd_sq_fit_options.final_points (new; default
+                        1,536 as before): the winner's last run. sqffd_fit's
+                        defaults set 384, so its stage 1 stops where the
+                        winner has converged on its 384-point subsample:
+                        fits 0.77-0.99x 0.10.0's time (median ~0.94), errors
                         0.97-1.06x (within the path's own spread).
                         sqffd_track_options.frame_iterations defaults to 5
                         (was 10): tracking 0.80x the time, a later frame's
@@ -671,6 +672,9 @@ typedef struct sqffd_sq_fit_options {
     double taper_max;          /* |K| bound (default 0.95, < 1) */
     int max_iterations;        /* per optimiser run (default 100; the CG gets 4 times as many) */
     double tolerance;          /* relative cost decrease that counts as converged (default 1e-5) */
+    size_t final_points;       /* the winner's last run, after it has converged on a 384-point subsample: on an
+                                  even subsample of at most this many points (default 1,536; 0 = all; 384 or
+                                  fewer: no last run, as sqffd_fit_options_default() sets it) */
     int robust;                /* non-zero: outlier-robust mode (Gaussian + uniform mixture weights) */
     int robust_rounds;         /* EM rounds in robust mode (default 4) */
     sqffd_progress_fn progress;   /* called once per optimiser iteration (may be NULL) */
@@ -701,8 +705,8 @@ SQFFD_DEF sqffd_result sqffd_sq_fit_workspace_size(size_t n, const sqffd_sq_fit_
    z, several (e1, e2) seeds, axes turned 45 degrees where two eigenvalues
    are close), are screened on a small subsample, the best ranked by a few
    iterations on a larger one, where the winner runs to convergence, then
-   on all points (at most 1,536 of them, evenly spread: more move the fit
-   little). Robust mode starts from the points that are not isolated (a
+   on all points (at most options->final_points of them, evenly spread:
+   more move the fit little). Robust mode starts from the points that are not isolated (a
    nearest-neighbour density test), ranks the best starts on them, and
    alternates EM re-weighting with weighted fits of the radial distance (on
    the larger subsample, then on all points). A fit whose RMS radial
@@ -923,9 +927,8 @@ SQFFD_DEF sqffd_result sqffd_fit_workspace_size(size_t n, const sqffd_fit_option
    bad options), TOO_LARGE (grid), NON_FINITE (a NaN or infinite coordinate, or
    one beyond +-1e100), TOO_FEW_POINTS, DEGENERATE,
    WORKSPACE_TOO_SMALL, CANCELLED, and whatever sqffd_sq_fit rejects.
-   Stage 1 is sqffd_sq_fit's, except that in plain mode the winner stops
-   where it has converged on the 384-point subsample (no last run on up to
-   1,536 points). It is guarded: where the superquadric's error is above
+   Stage 1 is sqffd_sq_fit with options->sq (whose defaults here have no
+   last run: final_points 384). It is guarded: where the superquadric's error is above
    its best start's (report->sq.best_start) on up to 512 of the stage's
    points (the RMS; robust mode: the third quartile), the start is kept and
    report->sq.fallback set. */
@@ -3411,8 +3414,8 @@ SQFFD_DEF sqffd_result sqffd_sq_iou(const sqffd_superquadric *a, const sqffd_sup
 #define SQFFD__SQ_KEEP 2               /* best starts ranked ... */
 #define SQFFD__SQ_POLISH 384           /* ... on this subsample, where the winner then converges */
 #define SQFFD__SQ_RANK_ITERATIONS 4    /* LM iterations per start that rank them (robust mode: none) */
-#define SQFFD__SQ_FINAL 1536           /* the winner's last run: on at most this many points (an even
-                                          subsample; more move the fit little and cost linear time) */
+#define SQFFD__SQ_FINAL 1536           /* the winner's last run (final_points): on at most this many points
+                                          (an even subsample; more move the fit little and cost linear time) */
 #define SQFFD__SQ_CLEAR_WIN 1e-2       /* a start this much costlier than the best is not ranked */
 #define SQFFD__SQ_CLOSE_RATIO 0.7      /* eigenvalues or sizes this close count as ambiguous axes */
 #define SQFFD__SQ_HISTOGRAM 512        /* bins per axis for the robust initial sizes */
@@ -4065,7 +4068,7 @@ typedef struct sqffd__sq_work {
     double *weights; /* n robust weights (robust mode only) */
     double *screen;  /* 3 * min(n, SQFFD__SQ_SCREEN) subsample */
     double *polish;  /* 3 * min(n, SQFFD__SQ_POLISH) subsample */
-    double *final;   /* 3 * SQFFD__SQ_FINAL subsample when n is larger (else all points are the final set) */
+    double *final;   /* 3 * final_points subsample when n is larger (else all points are the final set) */
     double *dense;   /* robust mode: the polish points that are not isolated */
     void *tree;      /* robust mode: kd-tree over the polish points */
     size_t tree_size;
@@ -4076,6 +4079,13 @@ typedef struct sqffd__sq_work {
     sqffd__sq_shortlist *list; /* the starts kept (not on the stack) */
 } sqffd__sq_work;
 
+/* Whether a plain fit of n points has a last run (on more points than the polish subsample). */
+static int sqffd__sq_final_run(size_t n, const sqffd_sq_fit_options *o)
+{
+    size_t m = o->final_points && o->final_points < n ? o->final_points : n;
+    return m > SQFFD__SQ_POLISH;
+}
+
 static void sqffd__sq_fit_layout(sqffd__arena *a, size_t n, const sqffd_sq_fit_options *o, sqffd__sq_work *w)
 {
     w->points = (double *)sqffd__arena_take(a, n, 3 * sizeof(double));
@@ -4083,7 +4093,9 @@ static void sqffd__sq_fit_layout(sqffd__arena *a, size_t n, const sqffd_sq_fit_o
     w->weights = o->robust ? (double *)sqffd__arena_take(a, n > 2 * SQFFD__SQ_POLISH ? n : 2 * SQFFD__SQ_POLISH, sizeof(double)) : NULL;
     w->screen = (double *)sqffd__arena_take(a, n < SQFFD__SQ_SCREEN ? n : SQFFD__SQ_SCREEN, 3 * sizeof(double));
     w->polish = (double *)sqffd__arena_take(a, n < SQFFD__SQ_POLISH ? n : SQFFD__SQ_POLISH, 3 * sizeof(double));
-    w->final = n > SQFFD__SQ_FINAL ? (double *)sqffd__arena_take(a, SQFFD__SQ_FINAL, 3 * sizeof(double)) : NULL;
+    w->final = sqffd__sq_final_run(n, o) && o->final_points && o->final_points < n
+                   ? (double *)sqffd__arena_take(a, o->final_points, 3 * sizeof(double))
+                   : NULL;
     w->dense = o->robust ? (double *)sqffd__arena_take(a, n < SQFFD__SQ_POLISH ? n : SQFFD__SQ_POLISH, 3 * sizeof(double)) : NULL;
     w->tree_size = 0;
     if (o->robust && sqffd_kdtree_workspace_size(n < SQFFD__SQ_POLISH ? n : SQFFD__SQ_POLISH, &w->tree_size) != SQFFD_OK)
@@ -4110,6 +4122,7 @@ SQFFD_DEF sqffd_sq_fit_options sqffd_sq_fit_options_default(void)
     o.taper_max = 0.95;
     o.max_iterations = 100;
     o.tolerance = 1e-5;
+    o.final_points = SQFFD__SQ_FINAL;
     o.robust = 0;
     o.robust_rounds = 4;
     o.progress = NULL;
@@ -4493,16 +4506,15 @@ static double sqffd__sq_rank(sqffd__sq_fit *fit, sqffd_superquadric *sq, const s
     return cost;
 }
 
-/* The fit, its last run on at most final_max points (SQFFD__SQ_FINAL, or
-   SQFFD__SQ_POLISH for none after the polish subsample's). */
-static sqffd_result sqffd__sq_fit_run(sqffd_points points, const sqffd_sq_fit_options *options, size_t final_max,
-                                      sqffd_superquadric *sq, sqffd_sq_fit_report *report, void *workspace,
-                                      size_t workspace_size)
+SQFFD_DEF sqffd_result sqffd_sq_fit_view(sqffd_points points, const sqffd_sq_fit_options *options,
+                                         sqffd_superquadric *sq, sqffd_sq_fit_report *report, void *workspace,
+                                         size_t workspace_size)
 {
     size_t n = points.count;
     sqffd_sq_fit_options defaults = sqffd_sq_fit_options_default();
     const sqffd_sq_fit_options *o = options ? options : &defaults;
-    size_t m_polish = n < SQFFD__SQ_POLISH ? n : SQFFD__SQ_POLISH, m_final = n < final_max ? n : final_max;
+    size_t m_polish = n < SQFFD__SQ_POLISH ? n : SQFFD__SQ_POLISH;
+    size_t m_final = o->final_points && o->final_points < n ? o->final_points : n;
     size_t m_start, m_screen, i;
     sqffd__sq_shortlist *list;
     sqffd__sq_sets sets;
@@ -4559,11 +4571,12 @@ static sqffd_result sqffd__sq_fit_run(sqffd_points points, const sqffd_sq_fit_op
        subsample without its isolated points. Every start is screened on a
        small subsample, the best few are ranked on a larger one (polish),
        and the winner runs to convergence there, then on the final set (all
-       points, or an even subsample of SQFFD__SQ_FINAL). */
+       points, or an even subsample of final_points; none where that is no
+       more than the polish subsample). */
     all = sqffd_points_packed(w.points, n);
     sqffd__subsample(&all, m_polish, w.polish);
     final_pts = w.points;
-    if (m_final > m_polish && m_final < n) { /* (w.final exists where n > SQFFD__SQ_FINAL) */
+    if (sqffd__sq_final_run(n, o) && m_final < n) {
         sqffd__subsample(&all, m_final, w.final);
         final_pts = w.final;
     }
@@ -4653,13 +4666,6 @@ static sqffd_result sqffd__sq_fit_run(sqffd_points points, const sqffd_sq_fit_op
         sq->center[k] = centroid[k] + scale * best.center[k];
     }
     return SQFFD_OK;
-}
-
-SQFFD_DEF sqffd_result sqffd_sq_fit_view(sqffd_points points, const sqffd_sq_fit_options *options,
-                                         sqffd_superquadric *sq, sqffd_sq_fit_report *report, void *workspace,
-                                         size_t workspace_size)
-{
-    return sqffd__sq_fit_run(points, options, SQFFD__SQ_FINAL, sq, report, workspace, workspace_size);
 }
 
 SQFFD_DEF sqffd_result sqffd_sq_fit(const double *points, size_t n, const sqffd_sq_fit_options *options,
@@ -6044,6 +6050,12 @@ SQFFD_DEF sqffd_fit_options sqffd_fit_options_default(void)
     sqffd_fit_options o;
     memset(&o, 0, sizeof o);
     o.sq = sqffd_sq_fit_options_default();
+    /* Stage 1 stops where the winner has converged on its 384-point
+       subsample: the last run refines a cost that is no distance, moves the
+       error by a few percent either way (the FFD stage outweighs it), was
+       discarded by the guard on 6 of 13 real shapes, and costs 2-21% of a
+       whole fit (bench/README.md, 0.11.0). */
+    o.sq.final_points = SQFFD__SQ_POLISH;
     o.lattice[0] = o.lattice[1] = o.lattice[2] = 5;
     o.box_margin = 0.1;
     o.grid[0] = 32;
@@ -7159,13 +7171,6 @@ static sqffd_result sqffd__fit_guard(const sqffd_points *points, double diagonal
     return res;
 }
 
-/* Stage 1 of sqffd_fit ends where the winner has converged on the polish
-   subsample: its run on up to SQFFD__SQ_FINAL points refines a cost that is
-   no distance, moves the error by a few percent either way (which the FFD
-   stage then outweighs), and was discarded by the guard on 6 of 13 real
-   shapes, at 2-21% of the whole fit (bench/README.md, after 0.10.0). */
-#define SQFFD__FIT_SQ_FINAL SQFFD__SQ_POLISH
-
 /* The whole fit into a laid-out system and frame: stage 1 (guarded), the
    model around it, the system prepared for it, stage 2. */
 static sqffd_result sqffd__fit_whole(const sqffd_points *points, double diagonal, const sqffd_fit_options *o,
@@ -7181,7 +7186,7 @@ static sqffd_result sqffd__fit_whole(const sqffd_points *points, double diagonal
         sq_options.progress = o->progress;
         sq_options.progress_user = o->progress_user;
     }
-    res = sqffd__sq_fit_run(stage1, &sq_options, SQFFD__FIT_SQ_FINAL, &sq, &rep->sq, f->sq_ws, f->sq_size);
+    res = sqffd_sq_fit_view(stage1, &sq_options, &sq, &rep->sq, f->sq_ws, f->sq_size);
     if (res == SQFFD_OK) res = sqffd__fit_guard(&stage1, diagonal, sq_options.robust, s, &f->w, &sq, &rep->sq);
     if (res == SQFFD_OK) res = sqffd_model_init(model, &sq, o);
     if (res == SQFFD_OK) res = sqffd__fit_prepare(model, o->alpha, o->tether, o->regularization, s);

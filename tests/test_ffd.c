@@ -954,6 +954,39 @@ static void test_fit_iterations_zero(void)
     free(pts);
 }
 
+/* Stage 1 of sqffd_fit is sqffd_sq_fit with options.sq, to the bit: with
+   sqffd_fit's own default (no last run after the 384-point subsample) and
+   with sqffd_sq_fit's (a last run on up to 1,536 points), which differ. */
+static void test_fit_stage1_is_sq_fit(void)
+{
+    enum { N = 2000 };
+    phantom_lv ph = phantom_lv_default();
+    sqffd_fit_options o = sqffd_fit_options_default();
+    sqffd_fit_report rep;
+    sqffd_model m;
+    sqffd_superquadric alone[2];
+    double *pts = (double *)malloc(3 * N * sizeof *pts);
+    size_t size;
+    void *ws;
+    int k;
+    phantom_lv_sample(&ph, 0.0, N, pts);
+    o.max_iterations = 0;
+    CHECK(o.sq.final_points == 384 && sqffd_sq_fit_options_default().final_points == 1536);
+    for (k = 0; k < 2; k++) {
+        if (k == 1) o.sq.final_points = sqffd_sq_fit_options_default().final_points;
+        CHECK_RESULT(run_fit(pts, N, &o, &m, &rep), SQFFD_OK);
+        CHECK(rep.sq.fallback == 0); /* (else the model's superquadric is the best start) */
+        CHECK_RESULT(sqffd_sq_fit_workspace_size(N, &o.sq, &size), SQFFD_OK);
+        ws = malloc(size);
+        CHECK_RESULT(sqffd_sq_fit(pts, N, &o.sq, &alone[k], NULL, ws, size), SQFFD_OK);
+        free(ws);
+        CHECK_MSG(memcmp(&m.sq, &alone[k], sizeof m.sq) == 0, "final_points %zu: stage 1 is not sqffd_sq_fit's",
+                  o.sq.final_points);
+    }
+    CHECK(memcmp(&alone[0], &alone[1], sizeof alone[0]) != 0);
+    free(pts);
+}
+
 /* Robust mode in the FFD stage: a superquadric deformed by a known lattice,
    with 20% uniform outliers in a box 1.5 times the data's: the fitted
    surface's distance to the true one (true surface points to the model) is
@@ -1378,6 +1411,7 @@ void suite_ffd(void)
     RUN_TEST(test_fit_error_exact);
     RUN_TEST(test_fit_energy_monotone);
     RUN_TEST(test_fit_iterations_zero);
+    RUN_TEST(test_fit_stage1_is_sq_fit);
     RUN_TEST(test_fit_robust_ffd);
     RUN_TEST(test_fit_superquadric_guard);
     RUN_TEST(test_fit_deterministic_and_restartable);

@@ -143,7 +143,7 @@ _SCALAR_DOUBLE, _SCALAR_FLOAT = 0, 1  # sqffd_scalar
 class _SqFitOptions(ctypes.Structure):
     _fields_ = [("cost", _int), ("optimizer", _int), ("taper", _int), ("shape_min", _double),
                 ("shape_max", _double), ("taper_max", _double), ("max_iterations", _int), ("tolerance", _double),
-                ("robust", _int), ("robust_rounds", _int), ("progress", _PROGRESS), ("progress_user", _pointer)]
+                ("final_points", _size), ("robust", _int), ("robust_rounds", _int), ("progress", _PROGRESS), ("progress_user", _pointer)]
 
 
 class _Superquadric(ctypes.Structure):

@@ -31,6 +31,7 @@ int main(void)
     FIELD(sqffd_sq_fit_options, taper_max);
     FIELD(sqffd_sq_fit_options, max_iterations);
     FIELD(sqffd_sq_fit_options, tolerance);
+    FIELD(sqffd_sq_fit_options, final_points);
     FIELD(sqffd_sq_fit_options, robust);
     FIELD(sqffd_sq_fit_options, robust_rounds);
     FIELD(sqffd_sq_fit_options, progress);
