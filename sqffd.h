@@ -672,9 +672,9 @@ typedef struct sqffd_sq_fit_options {
     double taper_max;          /* |K| bound (default 0.95, < 1) */
     int max_iterations;        /* per optimiser run (default 100; the CG gets 4 times as many) */
     double tolerance;          /* relative cost decrease that counts as converged (default 1e-5) */
-    size_t final_points;       /* the winner's last run, after it has converged on a 384-point subsample: on an
-                                  even subsample of at most this many points (default 1,536; 0 = all; 384 or
-                                  fewer: no last run, as sqffd_fit_options_default() sets it) */
+    size_t final_points;       /* plain mode: the winner's last run, after it has converged on a 384-point
+                                  subsample, on an even subsample of at most this many points (default 1,536;
+                                  0 = all; 384 or fewer: no last run, as sqffd_fit_options_default() sets it) */
     int robust;                /* non-zero: outlier-robust mode (Gaussian + uniform mixture weights) */
     int robust_rounds;         /* EM rounds in robust mode (default 4) */
     sqffd_progress_fn progress;   /* called once per optimiser iteration (may be NULL) */
@@ -706,10 +706,10 @@ SQFFD_DEF sqffd_result sqffd_sq_fit_workspace_size(size_t n, const sqffd_sq_fit_
    are close), are screened on a small subsample, the best ranked by a few
    iterations on a larger one, where the winner runs to convergence, then
    on all points (at most options->final_points of them, evenly spread:
-   more move the fit little). Robust mode starts from the points that are not isolated (a
-   nearest-neighbour density test), ranks the best starts on them, and
-   alternates EM re-weighting with weighted fits of the radial distance (on
-   the larger subsample, then on all points). A fit whose RMS radial
+   more move the fit little). Robust mode starts from the points that are
+   not isolated (a nearest-neighbour density test), ranks the best starts
+   on them, and alternates EM re-weighting with weighted fits of the radial
+   distance (on the larger subsample, then on all points). A fit whose RMS radial
    distance exceeds 5% of its mean size (data that are no superquadric) is
    kept within the data's box enlarged by 25%; a close fit may reach past it
    (a partial view). Each size is at least half the data's standard
@@ -928,10 +928,10 @@ SQFFD_DEF sqffd_result sqffd_fit_workspace_size(size_t n, const sqffd_fit_option
    one beyond +-1e100), TOO_FEW_POINTS, DEGENERATE,
    WORKSPACE_TOO_SMALL, CANCELLED, and whatever sqffd_sq_fit rejects.
    Stage 1 is sqffd_sq_fit with options->sq (whose defaults here have no
-   last run: final_points 384). It is guarded: where the superquadric's error is above
-   its best start's (report->sq.best_start) on up to 512 of the stage's
-   points (the RMS; robust mode: the third quartile), the start is kept and
-   report->sq.fallback set. */
+   last run: final_points 384). It is guarded: where the superquadric's
+   error is above its best start's (report->sq.best_start) on up to 512 of
+   the stage's points (the RMS; robust mode: the third quartile), the start
+   is kept and report->sq.fallback set. */
 SQFFD_DEF sqffd_result sqffd_fit(const double *points, size_t n, const sqffd_fit_options *options,
                                  sqffd_model *model, sqffd_fit_report *report,
                                  void *workspace, size_t workspace_size);
@@ -4079,23 +4079,23 @@ typedef struct sqffd__sq_work {
     sqffd__sq_shortlist *list; /* the starts kept (not on the stack) */
 } sqffd__sq_work;
 
-/* Whether a plain fit of n points has a last run (on more points than the polish subsample). */
-static int sqffd__sq_final_run(size_t n, const sqffd_sq_fit_options *o)
+/* The points of the winner's last run (plain mode), 0 for none: at most
+   final_points (0: all), and more than the polish subsample. */
+static size_t sqffd__sq_final_count(size_t n, const sqffd_sq_fit_options *o)
 {
     size_t m = o->final_points && o->final_points < n ? o->final_points : n;
-    return m > SQFFD__SQ_POLISH;
+    return !o->robust && m > SQFFD__SQ_POLISH ? m : 0;
 }
 
 static void sqffd__sq_fit_layout(sqffd__arena *a, size_t n, const sqffd_sq_fit_options *o, sqffd__sq_work *w)
 {
+    size_t m_final = sqffd__sq_final_count(n, o);
     w->points = (double *)sqffd__arena_take(a, n, 3 * sizeof(double));
     /* robust weights; also the 2 * min(n, SQFFD__SQ_POLISH) scratch of the density filter */
     w->weights = o->robust ? (double *)sqffd__arena_take(a, n > 2 * SQFFD__SQ_POLISH ? n : 2 * SQFFD__SQ_POLISH, sizeof(double)) : NULL;
     w->screen = (double *)sqffd__arena_take(a, n < SQFFD__SQ_SCREEN ? n : SQFFD__SQ_SCREEN, 3 * sizeof(double));
     w->polish = (double *)sqffd__arena_take(a, n < SQFFD__SQ_POLISH ? n : SQFFD__SQ_POLISH, 3 * sizeof(double));
-    w->final = sqffd__sq_final_run(n, o) && o->final_points && o->final_points < n
-                   ? (double *)sqffd__arena_take(a, o->final_points, 3 * sizeof(double))
-                   : NULL;
+    w->final = m_final && m_final < n ? (double *)sqffd__arena_take(a, m_final, 3 * sizeof(double)) : NULL;
     w->dense = o->robust ? (double *)sqffd__arena_take(a, n < SQFFD__SQ_POLISH ? n : SQFFD__SQ_POLISH, 3 * sizeof(double)) : NULL;
     w->tree_size = 0;
     if (o->robust && sqffd_kdtree_workspace_size(n < SQFFD__SQ_POLISH ? n : SQFFD__SQ_POLISH, &w->tree_size) != SQFFD_OK)
@@ -4513,8 +4513,7 @@ SQFFD_DEF sqffd_result sqffd_sq_fit_view(sqffd_points points, const sqffd_sq_fit
     size_t n = points.count;
     sqffd_sq_fit_options defaults = sqffd_sq_fit_options_default();
     const sqffd_sq_fit_options *o = options ? options : &defaults;
-    size_t m_polish = n < SQFFD__SQ_POLISH ? n : SQFFD__SQ_POLISH;
-    size_t m_final = o->final_points && o->final_points < n ? o->final_points : n;
+    size_t m_polish = n < SQFFD__SQ_POLISH ? n : SQFFD__SQ_POLISH, m_final = sqffd__sq_final_count(n, o);
     size_t m_start, m_screen, i;
     sqffd__sq_shortlist *list;
     sqffd__sq_sets sets;
@@ -4576,7 +4575,7 @@ SQFFD_DEF sqffd_result sqffd_sq_fit_view(sqffd_points points, const sqffd_sq_fit
     all = sqffd_points_packed(w.points, n);
     sqffd__subsample(&all, m_polish, w.polish);
     final_pts = w.points;
-    if (sqffd__sq_final_run(n, o) && m_final < n) {
+    if (m_final && m_final < n) {
         sqffd__subsample(&all, m_final, w.final);
         final_pts = w.final;
     }
@@ -4630,7 +4629,7 @@ SQFFD_DEF sqffd_result sqffd_sq_fit_view(sqffd_points points, const sqffd_sq_fit
     } else if (fit.status == SQFFD_OK) {
         /* the winner to convergence on the polish points, then on the final set */
         converged = sqffd__sq_optimize(&fit, &best, w.polish, NULL, m_polish, o->max_iterations, &best_cost);
-        if (m_final > m_polish && fit.status == SQFFD_OK)
+        if (m_final && fit.status == SQFFD_OK)
             converged = sqffd__sq_optimize(&fit, &best, final_pts, NULL, m_final, o->max_iterations, &best_cost);
     }
     if (fit.status != SQFFD_OK) return fit.status;
