@@ -4575,7 +4575,7 @@ SQFFD_DEF sqffd_result sqffd_sq_fit_view(sqffd_points points, const sqffd_sq_fit
     all = sqffd_points_packed(w.points, n);
     sqffd__subsample(&all, m_polish, w.polish);
     final_pts = w.points;
-    if (m_final && m_final < n) {
+    if (w.final) { /* (laid out where the last run takes a subsample) */
         sqffd__subsample(&all, m_final, w.final);
         final_pts = w.final;
     }
