@@ -6335,7 +6335,9 @@ static void sqffd__fit_work_layout(sqffd__arena *a, size_t n, const int dims[3],
 
 /* The search's order over points (sqffd__fit_order), where the work has
    room for them: the warm start's arrays are its scratch, so it is made
-   before an iteration sets them or after it is done with them. */
+   before an iteration sets them or after it is done with them. It is made
+   again by each run over the same points: sqffd_fit's coarse stage works in
+   memory over the grid stage's, order included. */
 static void sqffd__fit_ordered(const sqffd_points *points, sqffd__fit_work *w, sqffd__fit_search *search)
 {
     size_t n = points->count;
@@ -6565,6 +6567,24 @@ static void sqffd__fit_springs_times(const sqffd__fit_system *s, const double *v
                 }
 }
 
+/* The step's vectors are planar (all x, then all y, then all z: the
+   solver's right-hand sides); control points are interleaved (x y z a point). */
+static void sqffd__fit_interleave(const double *planar, size_t l, double *xyz)
+{
+    size_t p;
+    int i;
+    for (p = 0; p < l; ++p)
+        for (i = 0; i < 3; ++i) xyz[3 * p + (size_t)i] = planar[(size_t)i * l + p];
+}
+
+static void sqffd__fit_planar(const double *xyz, size_t l, double *planar)
+{
+    size_t p;
+    int i;
+    for (p = 0; p < l; ++p)
+        for (i = 0; i < 3; ++i) planar[(size_t)i * l + p] = xyz[3 * p + (size_t)i];
+}
+
 /* Step 2 with its move: the plain step G(P) into w->plain, G(P) - P into
    w->rhs (both in sqffd_ffd's layout) and B (G(P) - P) into bmove, from the
    current control points P, model points x = B P, W_v y_v in t and W_v in
@@ -6595,8 +6615,7 @@ static sqffd_result sqffd__fit_step(const sqffd__fit_system *s, sqffd__fit_work 
         sqffd__fit_project(s, t, NULL, s->rhs0, (double (*)[3])w->block, w->rhs);
         res = sqffd__fit_solve(s, w);
         if (res != SQFFD_OK) return res;
-        for (p = 0; p < l; ++p)
-            for (i = 0; i < 3; ++i) w->plain[3 * p + i] = w->rhs[i * l + p];
+        sqffd__fit_interleave(w->rhs, l, w->plain);
     } else {
         /* the residual b - A P = B^T (W y - (W + tether) B P) + rhs0 - springs P */
         for (v = 0; v < m; ++v) {
@@ -6604,8 +6623,7 @@ static sqffd_result sqffd__fit_step(const sqffd__fit_system *s, sqffd__fit_work 
             for (i = 0; i < 3; ++i) t[3 * v + i] -= w->weights[v] * x[3 * v + i];
         }
         sqffd__fit_project(s, t, NULL, s->rhs0, (double (*)[3])w->block, r);
-        for (p = 0; p < l; ++p)
-            for (i = 0; i < 3; ++i) d[i * l + p] = control[3 * p + i];
+        sqffd__fit_planar(control, l, d);
         sqffd__fit_springs_times(s, d, ad);
         for (p = 0; p < size; ++p) {
             r[p] -= ad[p];
@@ -6623,8 +6641,7 @@ static sqffd_result sqffd__fit_step(const sqffd__fit_system *s, sqffd__fit_work 
                 for (p = 0; p < l; ++p) di[p] = k == 0 ? zi[p] : zi[p] + (previous > 0.0 ? rz[i] / previous : 0.0) * di[p];
             }
             /* ad = A d: B d into t (free now), then B^T (W + tether) (B d) + springs d */
-            for (p = 0; p < l; ++p)
-                for (i = 0; i < 3; ++i) w->plain[3 * p + i] = d[i * l + p];
+            sqffd__fit_interleave(d, l, w->plain);
             sqffd__fit_evaluate(s, (const double (*)[3])w->plain, (double (*)[4])w->block, t);
             sqffd__fit_project(s, t, w->weights, NULL, (double (*)[3])w->block, ad);
             sqffd__fit_springs_times(s, d, z);
@@ -6644,8 +6661,8 @@ static sqffd_result sqffd__fit_step(const sqffd__fit_system *s, sqffd__fit_work 
                 for (i = 0; i < 3; ++i) bmove[3 * v + i] += alpha[i] * t[3 * v + i];
         }
         w->factored = sqffd__la_dot(r, r, size) <= SQFFD__FIT_CG_KEEP * SQFFD__FIT_CG_KEEP * r0;
-        for (p = 0; p < l; ++p)
-            for (i = 0; i < 3; ++i) w->plain[3 * p + i] = control[3 * p + i] + move[i * l + p];
+        sqffd__fit_interleave(move, l, w->plain);
+        for (p = 0; p < size; ++p) w->plain[p] += control[p];
     }
     for (p = 0; p < size; ++p) {
         if (!isfinite(w->plain[p])) return SQFFD_ERROR_NON_FINITE;
