@@ -1338,7 +1338,8 @@ SQFFD_DEF const char *sqffd_result_string(sqffd_result result)
    and the straight-line code left has a branch per lane. On the exact
    passes' box gaps that made a whole fit 1.19x as long at -O3 as at -O2;
    kept as a loop, -O3 vectorises it as -O2 does. */
-#if defined(__GNUC__) && __GNUC__ >= 8 && !defined(__clang__) && !defined(__INTEL_COMPILER)
+#if defined(__GNUC__) && __GNUC__ >= 8 && !defined(__clang__) && !defined(__INTEL_COMPILER) && !defined(__NVCOMPILER) && \
+    !defined(__PGI) /* (gcc itself: others that say __GNUC__ may not know the pragma) */
 #define SQFFD__KEEP_LOOP _Pragma("GCC unroll 1")
 #else
 #define SQFFD__KEEP_LOOP
