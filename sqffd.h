@@ -4957,6 +4957,31 @@ SQFFD_DEF sqffd_result sqffd_ffd_weights(const int dims[3], const double stu[3],
    Layer 5: model fit (superquadric + FFD, the paper's two-step algorithm)
    ====================================================================== */
 
+/* The map, in call order (sqffd_fit_view; sqffd_fit_ffd_view starts at
+   sqffd__fit_prepare, sqffd_fit_prepared and sqffd_track at sqffd__fit_run
+   with a system prepared once, in layer 6):
+     sqffd__fit_check_whole_options, sqffd__fit_check_data   the arguments
+     sqffd__fit_system_layout, sqffd__fit_frame_layout       the workspace
+     sqffd__fit_whole                                        the stages:
+       sqffd_sq_fit_view (layer 3), sqffd__fit_guard         stage 1, guarded by the error
+       sqffd_model_init                                      the box and the regular lattice P0
+       sqffd__fit_prepare         B's rows at the model points, the springs' and tether's fixed matrix
+       sqffd__fit_coarse_first    (when there is a coarse grid) a run on it, then on the grid
+     sqffd__fit_run               the subsample, the model -> data tree, the errors over all points
+     sqffd__fit_iterate           stage 2's loop, in phases:
+       sqffd__fit_begin, sqffd__fit_scale                    the start; robust mode's scale
+       sqffd__fit_measure         the pass (sqffd__fit_pass -> sqffd__fit_closest per data point:
+                                  sqffd__fit_nearest_vertex, the fan and the walk, sqffd__fit_certify
+                                  in an exact pass), sqffd__fit_nearest_data, the energy
+       sqffd__fit_accept          the energy check: accept, or roll back and measure again
+       sqffd__fit_record          the report, the progress callback
+       sqffd__fit_advance         sqffd__fit_targets (step 1), sqffd__fit_step (step 2: sqffd__fit_solve
+                                  or conjugate-gradient steps), the over-relaxed next control points
+   The sections below, in order: the grid and its mesh, the closest-point
+   search, statistics, the passes' order and the pass, model geometry, save
+   and load, distances (the same pass), options and the box, the
+   least-squares problem of step 2, the iteration, the entry points. */
+
 #define SQFFD__FIT_PI 3.14159265358979323846
 #define SQFFD__FIT_MAX_GRID 65536     /* per grid axis */
 #define SQFFD__FIT_MIN_POINTS 4       /* sqffd_fit_ffd; sqffd_fit defers to the superquadric fit */
@@ -6766,143 +6791,295 @@ static size_t sqffd__fit_nearest_data(const sqffd_kdtree *tree, sqffd__fit_work 
 
 /* The two-step loop from the model's current control points, with the
    system already prepared for its superquadric, box and grid (tracking
-   reuses it frame after frame). Each round: one pass over the data (the
-   energy of the current model, and step 1's sums), then unless the energy
-   rose, step 2's solve and the next control points (the plain step,
-   over-relaxed). An extrapolation that raised the energy is replaced
-   by the plain step from the last accepted control points, whose energy
-   cannot be higher; should rounding make even that rise, the loop ends on
-   the accepted ones. The first pass is exact with SQFFD__FIT_EXACT_START in
-   mode, the last with SQFFD__FIT_EXACT_END (else they are local answers);
-   rep->sq_error receives the error of the starting model. */
+   reuses it frame after frame), in phases:
+     begin    the starting model points, the searches without a warm start;
+     scale    robust mode: the Welsch scale from the starting model;
+   then per round
+     measure  one pass over the data: the error, the energy of the current
+              control points, step 1's sums;
+     accept   or roll back a step that raised the energy: an extrapolation
+              gives way to the plain step from the last accepted control
+              points, whose energy cannot be higher; a plain step (only
+              rounding makes it rise) to the accepted control points, and
+              the loop ends on them;
+     record   the accepted model's figures in the report;
+     advance  step 1's targets, step 2's plain step, the next control
+              points (the plain step over-relaxed, or itself once
+              converged).
+   The first pass is exact with SQFFD__FIT_EXACT_START in mode, the last
+   with SQFFD__FIT_EXACT_END (else they are local answers); rep->sq_error
+   receives the error of the starting model. */
 #define SQFFD__FIT_EXACT_START 1
 #define SQFFD__FIT_EXACT_END 2
 #define SQFFD__FIT_EXACT (SQFFD__FIT_EXACT_START | SQFFD__FIT_EXACT_END)
 #define SQFFD__FIT_COARSE 4 /* the coarse stage: progress as SQFFD_STAGE_COARSE, no measures over all points */
 #define SQFFD__FIT_MEASURED 8 /* the caller measures the start's error over all points (sqffd__fit_run) */
+
+/* How the current control points came about: it decides whether a rise of
+   the energy rolls them back, to what, and how far the next step goes. */
+typedef enum sqffd__fit_origin {
+    SQFFD__FIT_FROM_START,    /* the model as given: never rolled back */
+    SQFFD__FIT_FROM_EXTRAPOLATION, /* an over-relaxed step: rolled back to the plain step */
+    SQFFD__FIT_FROM_PLAIN,    /* the plain step: rolled back to the accepted control points */
+    SQFFD__FIT_FROM_ACCEPTED  /* the accepted ones, restored: measured once more, the last pass */
+} sqffd__fit_origin;
+
+/* The iteration's state between its phases. */
+typedef struct sqffd__fit_iteration {
+    const sqffd_points *points;    /* the data (the FFD subsample) */
+    const sqffd_fit_options *o;
+    const sqffd__fit_system *s;
+    const sqffd_kdtree *data_tree; /* the model -> data term's (NULL: no such term) */
+    sqffd__fit_work *w;
+    sqffd_model *model;            /* its control points are the current ones */
+    sqffd_fit_report *rep;
+    int mode;
+    double diagonal;
+    size_t holding;                /* H: the model points the model -> data term holds */
+    double *x, *next;              /* M x 3: B P of the current control points, and the spare (meanwhile the
+                                      nearest data points of the holding model points, from measure to advance) */
+    sqffd__fit_search search;      /* over x */
+    sqffd__fit_step1 step1;        /* the pass's sums, into w->target and w->weights */
+    sqffd__fit_origin origin;
+    double accepted;               /* the energy of w->accepted */
+    double omega;                  /* the over-relaxation of the last extrapolation */
+} sqffd__fit_iteration;
+
+/* The control points changed: their model points into it->x, and the
+   search told its mesh moved. */
+static void sqffd__fit_control_changed(sqffd__fit_iteration *it)
+{
+    double *swap = it->x;
+    sqffd__fit_evaluate(it->s, (const double (*)[3])it->model->ffd.control, (double (*)[4])it->w->block, it->next);
+    sqffd__fit_moved(&it->search);
+    it->x = it->next;
+    it->next = swap;
+}
+
+/* Begin: the model points of the starting control points, the search over
+   them in the points' order, no warm start and no kept model -> data
+   queries, no factor to reuse; the report's counts zeroed. */
+static void sqffd__fit_begin(sqffd__fit_iteration *it)
+{
+    sqffd__fit_work *w = it->w;
+    size_t i, v, n = it->points->count;
+    SQFFD_ASSERT(w->target && w->x && w->next); /* (the arena's: never NULL here) */
+    it->x = w->x;
+    it->next = w->next;
+    sqffd__fit_evaluate(it->s, (const double (*)[3])it->model->ffd.control, (double (*)[4])w->block, it->x);
+    sqffd__fit_search_init(&it->search, it->x, it->s->grid, it->s->rings, w->tree_ws, w->tree_size, &w->bvh);
+    it->search.triangle = w->triangle;
+    it->search.matched = w->matched;
+    sqffd__fit_ordered(it->points, w, &it->search); /* (before the warm start is cleared: its arrays are the scratch) */
+    for (i = 0; i < n; ++i) {
+        w->matched[i][0] = UINT32_MAX;
+        w->triangle[i][0] = UINT32_MAX;
+    }
+    if (it->data_tree)
+        for (v = 0; v < it->s->count; ++v) w->data_near[SQFFD__FIT_DATA_KNN * v] = UINT32_MAX;
+    w->factored = 0;
+    it->step1.weights = w->weights;
+    it->step1.nu2 = w->nu2;
+    it->origin = SQFFD__FIT_FROM_START;
+    it->accepted = HUGE_VAL;
+    it->omega = SQFFD__FIT_RELAX;
+    it->rep->iterations = 0;
+    it->rep->converged = 0;
+    it->rep->history_count = 0;
+}
+
+/* Scale (robust mode, the scale not yet known): the Welsch scale from a
+   pass over the starting model, its distances only. That pass is the
+   start's exact one where there is one; the first measure then starts from
+   its answers (nothing moved), so mode loses SQFFD__FIT_EXACT_START. */
+static sqffd_result sqffd__fit_scale(sqffd__fit_iteration *it)
+{
+    sqffd__fit_work *w = it->w;
+    sqffd_distance_stats unused;
+    sqffd_result res;
+    it->search.final = it->o->max_iterations == 0 && (it->mode & SQFFD__FIT_EXACT_END);
+    it->search.exact = (it->mode & SQFFD__FIT_EXACT_START) || it->search.final;
+    res = sqffd__fit_pass(it->points, &it->search, it->diagonal, w->distance, NULL, &unused);
+    if (res != SQFFD_OK) return res;
+    /* (0 for a start that fits exactly: plain squares) */
+    it->step1.nu2 = w->nu2 = sqffd__fit_welsch_nu2(w->distance, it->points->count);
+    it->mode &= ~SQFFD__FIT_EXACT_START;
+    return SQFFD_OK;
+}
+
+/* Measure: one pass over the data against the current model points (the
+   error into *stats; with sums, step 1's sums into w->target and
+   w->weights), each holding model point's nearest data point (into
+   it->next) for the model -> data term, and the current control points'
+   energy (THE ENERGY). */
+static sqffd_result sqffd__fit_measure(sqffd__fit_iteration *it, int last, double *energy, sqffd_distance_stats *stats)
+{
+    const sqffd__fit_system *s = it->s;
+    sqffd__fit_work *w = it->w;
+    size_t m = s->count, v;
+    double reverse = 0.0;
+    sqffd_result res;
+    it->step1.sums = last ? NULL : w->target; /* (the last pass only measures) */
+    if (it->step1.sums) {
+        memset(w->target, 0, 3 * m * sizeof(double));
+        memset(w->weights, 0, m * sizeof(double));
+    }
+    it->search.x = it->x;
+    it->search.final = last && (it->mode & SQFFD__FIT_EXACT_END);
+    it->search.exact = (it->origin == SQFFD__FIT_FROM_START && (it->mode & SQFFD__FIT_EXACT_START)) || it->search.final;
+    res = sqffd__fit_pass(it->points, &it->search, it->diagonal, NULL, &it->step1, stats);
+    if (res != SQFFD_OK) return res;
+    if (it->data_tree)
+        for (v = 0; v < m; ++v)
+            if (sqffd__fit_holds(s, v)) {
+                double q[3];
+                sqffd__points_get(&it->data_tree->points, sqffd__fit_nearest_data(it->data_tree, w, it->x + 3 * v, v), q);
+                reverse += sqffd__dist2_3(q, it->x + 3 * v);
+                memcpy(it->next + 3 * v, q, 3 * sizeof(double));
+            }
+    *energy = it->step1.energy / (double)it->points->count +
+              sqffd__fit_prior(s, &it->model->ffd.control[0][0], it->x) / (double)m +
+              it->o->model_to_data * reverse / (double)it->holding;
+    return SQFFD_OK;
+}
+
+/* Accept or roll back the control points just measured at this energy.
+   Accepted (1): they, their energy and the pass's matches become the
+   accepted ones. Rolled back (0, a step that raised the energy): the
+   control points are replaced (see sqffd__fit_origin) with the accepted
+   matches, which bound their energy, and must be measured again. */
+static int sqffd__fit_accept(sqffd__fit_iteration *it, double energy)
+{
+    sqffd__fit_work *w = it->w;
+    size_t size = 3 * it->s->lattice, n = it->points->count;
+    double *control = &it->model->ffd.control[0][0];
+    int extrapolated = it->origin == SQFFD__FIT_FROM_EXTRAPOLATION;
+    if ((extrapolated || it->origin == SQFFD__FIT_FROM_PLAIN) && energy > it->accepted) {
+        memcpy(control, extrapolated ? w->plain : w->accepted, size * sizeof(double));
+        memcpy(w->matched, w->matched_accepted, n * sizeof *w->matched);
+        it->origin = extrapolated ? SQFFD__FIT_FROM_PLAIN : SQFFD__FIT_FROM_ACCEPTED;
+        sqffd__fit_control_changed(it);
+        return 0;
+    }
+    it->accepted = energy;
+    memcpy(w->accepted, control, size * sizeof(double));
+    memcpy(w->matched_accepted, w->matched, n * sizeof *w->matched);
+    return 1;
+}
+
+/* Record the accepted model in the report: its error and energy; the
+   start's error, or an iteration's history entry and progress call (not
+   for the accepted control points measured again). CANCELLED when the
+   progress callback asks. */
+static sqffd_result sqffd__fit_record(sqffd__fit_iteration *it, double energy, const sqffd_distance_stats *stats)
+{
+    sqffd_fit_report *rep = it->rep;
+    const sqffd_fit_options *o = it->o;
+    rep->error = *stats;
+    rep->energy = energy;
+    if (it->origin == SQFFD__FIT_FROM_START) rep->sq_error = *stats;
+    else if (it->origin != SQFFD__FIT_FROM_ACCEPTED) {
+        if (rep->iterations <= SQFFD_FIT_HISTORY) {
+            rep->history[rep->history_count] = stats->rms_relative;
+            rep->energy_history[rep->history_count++] = energy;
+        }
+        if (o->progress && o->progress(o->progress_user, it->mode & SQFFD__FIT_COARSE ? SQFFD_STAGE_COARSE : SQFFD_STAGE_FFD,
+                                       rep->iterations, stats->rms_relative))
+            return SQFFD_ERROR_CANCELLED;
+    }
+    return SQFFD_OK;
+}
+
+/* Step 1 from the pass's sums: per model point, W_v into w->weights and
+   W_v y_v into w->target (each data point pulls the three corners of its
+   closest triangle by its barycentric weights), in units where the W_v
+   average 1; plus, at a holding model point, its nearest data point (in
+   it->next) with weight model_to_data M / H. */
+static void sqffd__fit_targets(sqffd__fit_iteration *it)
+{
+    const sqffd__fit_system *s = it->s;
+    sqffd__fit_work *w = it->w;
+    size_t m = s->count, v, p;
+    double scale = (double)m / (double)it->points->count, hold = it->o->model_to_data * (double)m / (double)it->holding;
+    double *t = w->target, *x = it->x;
+    for (v = 0; v < m; ++v) {
+        double wv = scale * w->weights[v];
+        for (p = 0; p < 3; ++p) t[3 * v + p] = scale * t[3 * v + p] + wv * x[3 * v + p];
+        if (it->data_tree && sqffd__fit_holds(s, v)) {
+            wv += hold;
+            for (p = 0; p < 3; ++p) t[3 * v + p] += hold * it->next[3 * v + p];
+        }
+        w->weights[v] = wv;
+    }
+}
+
+/* Advance from the accepted control points: step 1's targets, step 2's
+   plain step G(P) (w->plain, and G(P) - P in w->rhs), whose move B (G(P) -
+   P) decides convergence (only a direct step's: a lagged one may stop
+   short, so the next step is direct), then the next control points P +
+   omega (G(P) - P) and their model points. omega (SQFFD__FIT_RELAX) grows
+   after an accepted extrapolation; once converged the plain step itself is
+   taken (an extrapolation would only overshoot). */
+static sqffd_result sqffd__fit_advance(sqffd__fit_iteration *it)
+{
+    const sqffd__fit_system *s = it->s;
+    sqffd__fit_work *w = it->w;
+    sqffd_fit_report *rep = it->rep;
+    size_t m = s->count, size = 3 * s->lattice, i;
+    double *control = &it->model->ffd.control[0][0];
+    int direct, extrapolate;
+    sqffd_result res;
+    sqffd__fit_targets(it);
+    res = sqffd__fit_step(s, w, control, it->x, w->target, it->next, &direct);
+    if (res != SQFFD_OK) return res;
+    rep->step = sqrt(sqffd__la_dot(it->next, it->next, 3 * m) / (double)m) / it->diagonal;
+    ++rep->iterations;
+    rep->converged = rep->step <= it->o->tolerance && direct;
+    if (rep->step <= it->o->tolerance && !direct) w->factored = 0;
+    it->omega = it->origin == SQFFD__FIT_FROM_EXTRAPOLATION
+                    ? (it->omega * SQFFD__FIT_RELAX_GROW < SQFFD__FIT_RELAX_MAX ? it->omega * SQFFD__FIT_RELAX_GROW
+                                                                               : SQFFD__FIT_RELAX_MAX)
+                    : SQFFD__FIT_RELAX;
+    extrapolate = !rep->converged;
+    for (i = 0; i < size; ++i) control[i] += (extrapolate ? it->omega : 1.0) * w->rhs[i];
+    it->origin = extrapolate ? SQFFD__FIT_FROM_EXTRAPOLATION : SQFFD__FIT_FROM_PLAIN;
+    sqffd__fit_control_changed(it);
+    return SQFFD_OK;
+}
+
 static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagonal, const sqffd_fit_options *o,
                                        const sqffd__fit_system *s, const sqffd_kdtree *data_tree, sqffd__fit_work *w,
                                        int mode, sqffd_model *model, sqffd_fit_report *rep)
 {
-    size_t m = s->count, l = s->lattice, size = 3 * l, v, p, i, n = points->count;
-    double *x = w->x, *next = w->next, *t = w->target, *control = &model->ffd.control[0][0], *swap;
-    size_t holding = sqffd__fit_holding(s);
-    double scale = (double)m / (double)n, accepted = HUGE_VAL, omega = SQFFD__FIT_RELAX;
-    double hold = o->model_to_data * (double)m / (double)holding;
-    sqffd__fit_search search;
-    sqffd__fit_step1 step1;
-    int it = 0, extrapolated = 0, stop = 0, scaled = !w->distance || w->nu2 > 0.0, scaled_now = 0, direct;
-    SQFFD_ASSERT(t && x && next); /* (the arena's: never NULL here) */
-    sqffd__fit_evaluate(s, (const double (*)[3])model->ffd.control, (double (*)[4])w->block, x);
-    sqffd__fit_search_init(&search, x, s->grid, s->rings, w->tree_ws, w->tree_size, &w->bvh);
-    search.triangle = w->triangle;
-    search.matched = w->matched;
-    sqffd__fit_ordered(points, w, &search);
-    for (i = 0; i < n; ++i) { /* no warm start yet */
-        w->matched[i][0] = UINT32_MAX;
-        w->triangle[i][0] = UINT32_MAX;
+    sqffd__fit_iteration it;
+    sqffd_result res;
+    it.points = points;
+    it.o = o;
+    it.s = s;
+    it.data_tree = data_tree;
+    it.w = w;
+    it.model = model;
+    it.rep = rep;
+    it.mode = mode;
+    it.diagonal = diagonal;
+    it.holding = sqffd__fit_holding(s);
+    sqffd__fit_begin(&it);
+    if (w->distance && !(w->nu2 > 0.0)) {
+        res = sqffd__fit_scale(&it);
+        if (res != SQFFD_OK) return res;
     }
-    if (data_tree)
-        for (v = 0; v < m; ++v) w->data_near[SQFFD__FIT_DATA_KNN * v] = UINT32_MAX;
-    w->factored = 0;
-    step1.weights = w->weights;
-    step1.nu2 = w->nu2;
-    rep->iterations = 0;
-    rep->converged = 0;
-    rep->history_count = 0;
     for (;;) {
-        double energy, reverse = 0.0;
+        double energy;
         sqffd_distance_stats stats;
-        sqffd_result res;
-        int last = it == o->max_iterations || rep->converged || stop;
-        step1.sums = last || !scaled ? NULL : t; /* (the last pass only measures) */
-        if (step1.sums) {
-            memset(t, 0, 3 * m * sizeof(double));
-            memset(w->weights, 0, m * sizeof(double));
-        }
-        search.x = x;
-        search.final = last && (mode & SQFFD__FIT_EXACT_END);
-        search.exact = (it == 0 && !scaled_now && (mode & SQFFD__FIT_EXACT_START)) || search.final; /* (the redo
-                                                                                  after scaling: nothing moved) */
-        res = sqffd__fit_pass(points, &search, diagonal, scaled ? NULL : w->distance, &step1, &stats);
+        int last = rep->iterations == o->max_iterations || rep->converged || it.origin == SQFFD__FIT_FROM_ACCEPTED;
+        res = sqffd__fit_measure(&it, last, &energy, &stats);
         if (res != SQFFD_OK) return res;
-        if (!scaled) { /* robust mode: the Welsch scale from the starting model, then that pass again */
-            step1.nu2 = w->nu2 = sqffd__fit_welsch_nu2(w->distance, n); /* (0 for an exact start: plain squares) */
-            scaled = scaled_now = 1;
-            sqffd__fit_moved(&search);
-            continue;
-        }
-        if (data_tree) /* model -> data: each holding model point's nearest data point (into next, free until step 2) */
-            for (v = 0; v < m; ++v)
-                if (sqffd__fit_holds(s, v)) {
-                    double q[3];
-                    sqffd__points_get(&data_tree->points, sqffd__fit_nearest_data(data_tree, w, x + 3 * v, v), q);
-                    reverse += sqffd__dist2_3(q, x + 3 * v);
-                    memcpy(next + 3 * v, q, 3 * sizeof(double));
-                }
-        energy = step1.energy / (double)n + sqffd__fit_prior(s, control, x) / (double)m +
-                 o->model_to_data * reverse / (double)holding;
-        if (it > 0 && energy > accepted && !stop) {
-            /* an extrapolation that raised the energy gives way to the plain step;
-               a plain step that did (rounding) to the accepted point, measured once more */
-            memcpy(control, extrapolated ? w->plain : w->accepted, size * sizeof(double));
-            memcpy(w->matched, w->matched_accepted, n * sizeof *w->matched); /* (the plain step's bound is theirs) */
-            stop = !extrapolated;
-            extrapolated = 0;
-            sqffd__fit_evaluate(s, (const double (*)[3])model->ffd.control, (double (*)[4])w->block, next);
-            sqffd__fit_moved(&search);
-            swap = x; x = next; next = swap;
-            continue;
-        }
-        accepted = energy;
-        memcpy(w->accepted, control, size * sizeof(double));
-        memcpy(w->matched_accepted, w->matched, n * sizeof *w->matched);
-        rep->error = stats;
-        rep->energy = energy;
-        if (it == 0) rep->sq_error = stats;
-        else if (!stop) {
-            if (it <= SQFFD_FIT_HISTORY) {
-                rep->history[rep->history_count] = stats.rms_relative;
-                rep->energy_history[rep->history_count++] = energy;
-            }
-            if (o->progress && o->progress(o->progress_user, mode & SQFFD__FIT_COARSE ? SQFFD_STAGE_COARSE : SQFFD_STAGE_FFD,
-                                           it, stats.rms_relative))
-                return SQFFD_ERROR_CANCELLED;
-        }
-        if (last) break;
-        /* step 1: per model point, W_v and W_v y_v (each data point pulls the three
-           corners of its closest triangle by its barycentric weights), in units
-           where the W_v average 1; plus, at a holding model point, its nearest data
-           point with weight model_to_data M / (the holding points) */
-        for (v = 0; v < m; ++v) {
-            double wv = scale * w->weights[v];
-            for (p = 0; p < 3; ++p) t[3 * v + p] = scale * t[3 * v + p] + wv * x[3 * v + p];
-            if (data_tree && sqffd__fit_holds(s, v)) {
-                wv += hold;
-                for (p = 0; p < 3; ++p) t[3 * v + p] += hold * next[3 * v + p];
-            }
-            w->weights[v] = wv;
-        }
-        /* step 2: the weighted problem's minimiser, the plain step G(P); its move
-           B (G(P) - P) decides convergence; once it is within the tolerance the
-           plain step itself is taken (an extrapolation would only overshoot) */
-        res = sqffd__fit_step(s, w, control, x, t, next, &direct);
+        if (!sqffd__fit_accept(&it, energy)) continue; /* rolled back: measure the replacement */
+        res = sqffd__fit_record(&it, energy, &stats);
+        if (res != SQFFD_OK || last) return res;
+        res = sqffd__fit_advance(&it);
         if (res != SQFFD_OK) return res;
-        rep->step = sqrt(sqffd__la_dot(next, next, 3 * m) / (double)m) / diagonal;
-        rep->iterations = ++it;
-        rep->converged = rep->step <= o->tolerance && direct;
-        if (rep->step <= o->tolerance && !direct) w->factored = 0; /* (a lagged step may stop short: a direct one decides) */
-        /* else over-relaxed (see SQFFD__FIT_RELAX): after an accepted extrapolation omega grows */
-        omega = extrapolated ? (omega * SQFFD__FIT_RELAX_GROW < SQFFD__FIT_RELAX_MAX ? omega * SQFFD__FIT_RELAX_GROW
-                                                                                     : SQFFD__FIT_RELAX_MAX)
-                             : SQFFD__FIT_RELAX;
-        extrapolated = !rep->converged;
-        for (i = 0; i < size; ++i) control[i] += (extrapolated ? omega : 1.0) * w->rhs[i];
-        sqffd__fit_evaluate(s, (const double (*)[3])model->ffd.control, (double (*)[4])w->block, next);
-        sqffd__fit_moved(&search);
-        swap = x; x = next; next = swap;
     }
-    return SQFFD_OK;
 }
 
 /* ---- public entry points ------------------------------------------------- */
