@@ -6856,49 +6856,69 @@ static void sqffd__fit_control_changed(sqffd__fit_iteration *it)
     it->next = swap;
 }
 
-/* Begin: the model points of the starting control points, the search over
-   them in the points' order, no warm start and no kept model -> data
-   queries, no factor to reuse; the report's counts zeroed. */
-static void sqffd__fit_begin(sqffd__fit_iteration *it)
+/* The kind of the coming pass: exact as the first with
+   SQFFD__FIT_EXACT_START in mode, final (exact, from the matched
+   triangles) as the last with SQFFD__FIT_EXACT_END, else local answers. */
+static void sqffd__fit_pass_kind(sqffd__fit_iteration *it, int last)
 {
-    sqffd__fit_work *w = it->w;
-    size_t i, v, n = it->points->count;
+    it->search.final = last && (it->mode & SQFFD__FIT_EXACT_END);
+    it->search.exact = (it->origin == SQFFD__FIT_FROM_START && (it->mode & SQFFD__FIT_EXACT_START)) || it->search.final;
+}
+
+/* Begin: the iteration's state for these arguments (sqffd__fit_iterate's),
+   the model points of the starting control points, the search over them in
+   the points' order, no warm start and no kept model -> data queries, no
+   factor to reuse; the report's counts zeroed. */
+static void sqffd__fit_begin(sqffd__fit_iteration *it, const sqffd_points *points, double diagonal,
+                             const sqffd_fit_options *o, const sqffd__fit_system *s, const sqffd_kdtree *data_tree,
+                             sqffd__fit_work *w, int mode, sqffd_model *model, sqffd_fit_report *rep)
+{
+    size_t i, v, n = points->count;
     SQFFD_ASSERT(w->target && w->x && w->next); /* (the arena's: never NULL here) */
+    it->points = points;
+    it->o = o;
+    it->s = s;
+    it->data_tree = data_tree;
+    it->w = w;
+    it->model = model;
+    it->rep = rep;
+    it->mode = mode;
+    it->diagonal = diagonal;
+    it->holding = sqffd__fit_holding(s);
     it->x = w->x;
     it->next = w->next;
-    sqffd__fit_evaluate(it->s, (const double (*)[3])it->model->ffd.control, (double (*)[4])w->block, it->x);
-    sqffd__fit_search_init(&it->search, it->x, it->s->grid, it->s->rings, w->tree_ws, w->tree_size, &w->bvh);
+    sqffd__fit_evaluate(s, (const double (*)[3])model->ffd.control, (double (*)[4])w->block, it->x);
+    sqffd__fit_search_init(&it->search, it->x, s->grid, s->rings, w->tree_ws, w->tree_size, &w->bvh);
     it->search.triangle = w->triangle;
     it->search.matched = w->matched;
-    sqffd__fit_ordered(it->points, w, &it->search); /* (before the warm start is cleared: its arrays are the scratch) */
+    sqffd__fit_ordered(points, w, &it->search); /* (before the warm start is cleared: its arrays are the scratch) */
     for (i = 0; i < n; ++i) {
         w->matched[i][0] = UINT32_MAX;
         w->triangle[i][0] = UINT32_MAX;
     }
-    if (it->data_tree)
-        for (v = 0; v < it->s->count; ++v) w->data_near[SQFFD__FIT_DATA_KNN * v] = UINT32_MAX;
+    if (data_tree)
+        for (v = 0; v < s->count; ++v) w->data_near[SQFFD__FIT_DATA_KNN * v] = UINT32_MAX;
     w->factored = 0;
     it->step1.weights = w->weights;
     it->step1.nu2 = w->nu2;
     it->origin = SQFFD__FIT_FROM_START;
     it->accepted = HUGE_VAL;
     it->omega = SQFFD__FIT_RELAX;
-    it->rep->iterations = 0;
-    it->rep->converged = 0;
-    it->rep->history_count = 0;
+    rep->iterations = 0;
+    rep->converged = 0;
+    rep->history_count = 0;
 }
 
 /* Scale (robust mode, the scale not yet known): the Welsch scale from a
-   pass over the starting model, its distances only. That pass is the
-   start's exact one where there is one; the first measure then starts from
-   its answers (nothing moved), so mode loses SQFFD__FIT_EXACT_START. */
+   pass over the starting model, its distances only, of the first measure's
+   kind. Where that is exact, the first measure then starts from its
+   answers (nothing moved): mode loses SQFFD__FIT_EXACT_START. */
 static sqffd_result sqffd__fit_scale(sqffd__fit_iteration *it)
 {
     sqffd__fit_work *w = it->w;
     sqffd_distance_stats unused;
     sqffd_result res;
-    it->search.final = it->o->max_iterations == 0 && (it->mode & SQFFD__FIT_EXACT_END);
-    it->search.exact = (it->mode & SQFFD__FIT_EXACT_START) || it->search.final;
+    sqffd__fit_pass_kind(it, it->o->max_iterations == 0);
     res = sqffd__fit_pass(it->points, &it->search, it->diagonal, w->distance, NULL, &unused);
     if (res != SQFFD_OK) return res;
     /* (0 for a start that fits exactly: plain squares) */
@@ -6925,8 +6945,7 @@ static sqffd_result sqffd__fit_measure(sqffd__fit_iteration *it, int last, doubl
         memset(w->weights, 0, m * sizeof(double));
     }
     it->search.x = it->x;
-    it->search.final = last && (it->mode & SQFFD__FIT_EXACT_END);
-    it->search.exact = (it->origin == SQFFD__FIT_FROM_START && (it->mode & SQFFD__FIT_EXACT_START)) || it->search.final;
+    sqffd__fit_pass_kind(it, last);
     res = sqffd__fit_pass(it->points, &it->search, it->diagonal, NULL, &it->step1, stats);
     if (res != SQFFD_OK) return res;
     if (it->data_tree)
@@ -6948,7 +6967,7 @@ static sqffd_result sqffd__fit_measure(sqffd__fit_iteration *it, int last, doubl
    accepted ones. Rolled back (0, a step that raised the energy): the
    control points are replaced (see sqffd__fit_origin) with the accepted
    matches, which bound their energy, and must be measured again. */
-static int sqffd__fit_accept(sqffd__fit_iteration *it, double energy)
+static int sqffd__fit_accept_or_roll_back(sqffd__fit_iteration *it, double energy)
 {
     sqffd__fit_work *w = it->w;
     size_t size = 3 * it->s->lattice, n = it->points->count;
@@ -7027,10 +7046,12 @@ static sqffd_result sqffd__fit_advance(sqffd__fit_iteration *it)
     sqffd_fit_report *rep = it->rep;
     size_t m = s->count, size = 3 * s->lattice, i;
     double *control = &it->model->ffd.control[0][0];
-    int direct, extrapolate;
+    double length; /* of the step along G(P) - P */
+    int direct;
     sqffd_result res;
     sqffd__fit_targets(it);
-    res = sqffd__fit_step(s, w, control, it->x, w->target, it->next, &direct);
+    res = sqffd__fit_step(s, w, control, it->x, w->target, it->next, &direct); /* (B (G(P) - P) into it->next,
+                                                                                 read by the targets before) */
     if (res != SQFFD_OK) return res;
     rep->step = sqrt(sqffd__la_dot(it->next, it->next, 3 * m) / (double)m) / it->diagonal;
     ++rep->iterations;
@@ -7040,9 +7061,9 @@ static sqffd_result sqffd__fit_advance(sqffd__fit_iteration *it)
                     ? (it->omega * SQFFD__FIT_RELAX_GROW < SQFFD__FIT_RELAX_MAX ? it->omega * SQFFD__FIT_RELAX_GROW
                                                                                : SQFFD__FIT_RELAX_MAX)
                     : SQFFD__FIT_RELAX;
-    extrapolate = !rep->converged;
-    for (i = 0; i < size; ++i) control[i] += (extrapolate ? it->omega : 1.0) * w->rhs[i];
-    it->origin = extrapolate ? SQFFD__FIT_FROM_EXTRAPOLATION : SQFFD__FIT_FROM_PLAIN;
+    length = rep->converged ? 1.0 : it->omega;
+    for (i = 0; i < size; ++i) control[i] += length * w->rhs[i];
+    it->origin = rep->converged ? SQFFD__FIT_FROM_PLAIN : SQFFD__FIT_FROM_EXTRAPOLATION;
     sqffd__fit_control_changed(it);
     return SQFFD_OK;
 }
@@ -7053,17 +7074,7 @@ static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagon
 {
     sqffd__fit_iteration it;
     sqffd_result res;
-    it.points = points;
-    it.o = o;
-    it.s = s;
-    it.data_tree = data_tree;
-    it.w = w;
-    it.model = model;
-    it.rep = rep;
-    it.mode = mode;
-    it.diagonal = diagonal;
-    it.holding = sqffd__fit_holding(s);
-    sqffd__fit_begin(&it);
+    sqffd__fit_begin(&it, points, diagonal, o, s, data_tree, w, mode, model, rep);
     if (w->distance && !(w->nu2 > 0.0)) {
         res = sqffd__fit_scale(&it);
         if (res != SQFFD_OK) return res;
@@ -7074,7 +7085,7 @@ static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagon
         int last = rep->iterations == o->max_iterations || rep->converged || it.origin == SQFFD__FIT_FROM_ACCEPTED;
         res = sqffd__fit_measure(&it, last, &energy, &stats);
         if (res != SQFFD_OK) return res;
-        if (!sqffd__fit_accept(&it, energy)) continue; /* rolled back: measure the replacement */
+        if (!sqffd__fit_accept_or_roll_back(&it, energy)) continue; /* rolled back: measure the replacement */
         res = sqffd__fit_record(&it, energy, &stats);
         if (res != SQFFD_OK || last) return res;
         res = sqffd__fit_advance(&it);
