@@ -4973,7 +4973,7 @@ SQFFD_DEF sqffd_result sqffd_ffd_weights(const int dims[3], const double stu[3],
        sqffd__fit_measure         the pass (sqffd__fit_pass -> sqffd__fit_closest per data point:
                                   sqffd__fit_nearest_vertex, the fan and the walk, sqffd__fit_certify
                                   in an exact pass), sqffd__fit_nearest_data, the energy
-       sqffd__fit_accept          the energy check: accept, or roll back and measure again
+       sqffd__fit_accept_or_roll_back   the energy check; a rolled-back step is measured again
        sqffd__fit_record          the report, the progress callback
        sqffd__fit_advance         sqffd__fit_targets (step 1), sqffd__fit_step (step 2: sqffd__fit_solve
                                   or conjugate-gradient steps), the over-relaxed next control points
@@ -6797,7 +6797,7 @@ static size_t sqffd__fit_nearest_data(const sqffd_kdtree *tree, sqffd__fit_work 
    then per round
      measure  one pass over the data: the error, the energy of the current
               control points, step 1's sums;
-     accept   or roll back a step that raised the energy: an extrapolation
+     accept or roll back  a step that raised the energy: an extrapolation
               gives way to the plain step from the last accepted control
               points, whose energy cannot be higher; a plain step (only
               rounding makes it rise) to the accepted control points, and
