@@ -744,40 +744,59 @@ SQFFD_DEF sqffd_result sqffd_sq_fit_view(sqffd_points points, const sqffd_sq_fit
 #define SQFFD_MAX_LATTICE 8 /* control points per axis at most; bounds sqffd_ffd's size */
 #endif
 
-/* sqffd_ffd's and sqffd_model's layouts depend on SQFFD_MAX_LATTICE. A build
-   with another value (a plain integer) renames every function that takes
-   them, so translation units that disagree fail to link ("undefined
-   reference to sqffd_fit_lattice6") instead of reading each other's structs
-   wrongly. */
+/* THE LATTICE GUARD. sqffd_ffd's and sqffd_model's layouts, and the range
+   of every lattice size (sqffd_fit_options.lattice, a system's dims), depend
+   on SQFFD_MAX_LATTICE. A build with another value (a plain integer) renames
+   every public function whose arguments or results depend on it (all that
+   take or return a lattice, a model, a system, fit or track options, or
+   lattice dims), so translation units that disagree fail to link ("undefined
+   reference to sqffd_fit_view_lattice6") instead of reading each other's
+   structs wrongly. This is the one list: tests/check_lattice_guard.sh checks
+   it against every SQFFD_DEF declaration below and links each name across
+   a mismatch. */
 #if SQFFD_MAX_LATTICE != 8
 #define SQFFD__LATTICE_NAME2(name, n) name##_lattice##n
 #define SQFFD__LATTICE_NAME(name, n) SQFFD__LATTICE_NAME2(name, n)
-#define sqffd_ffd_init SQFFD__LATTICE_NAME(sqffd_ffd_init, SQFFD_MAX_LATTICE)
-#define sqffd_ffd_validate SQFFD__LATTICE_NAME(sqffd_ffd_validate, SQFFD_MAX_LATTICE)
-#define sqffd_ffd_local SQFFD__LATTICE_NAME(sqffd_ffd_local, SQFFD_MAX_LATTICE)
-#define sqffd_ffd_eval SQFFD__LATTICE_NAME(sqffd_ffd_eval, SQFFD_MAX_LATTICE)
-#define sqffd_ffd_deform SQFFD__LATTICE_NAME(sqffd_ffd_deform, SQFFD_MAX_LATTICE)
-#define sqffd_model_init SQFFD__LATTICE_NAME(sqffd_model_init, SQFFD_MAX_LATTICE)
-#define sqffd_model_validate SQFFD__LATTICE_NAME(sqffd_model_validate, SQFFD_MAX_LATTICE)
-#define sqffd_model_point SQFFD__LATTICE_NAME(sqffd_model_point, SQFFD_MAX_LATTICE)
-#define sqffd_model_mesh SQFFD__LATTICE_NAME(sqffd_model_mesh, SQFFD_MAX_LATTICE)
-#define sqffd_model_save_size SQFFD__LATTICE_NAME(sqffd_model_save_size, SQFFD_MAX_LATTICE)
-#define sqffd_model_save SQFFD__LATTICE_NAME(sqffd_model_save, SQFFD_MAX_LATTICE)
-#define sqffd_model_load SQFFD__LATTICE_NAME(sqffd_model_load, SQFFD_MAX_LATTICE)
-#define sqffd_model_distances_workspace_size SQFFD__LATTICE_NAME(sqffd_model_distances_workspace_size, SQFFD_MAX_LATTICE)
-#define sqffd_model_distances SQFFD__LATTICE_NAME(sqffd_model_distances, SQFFD_MAX_LATTICE)
-#define sqffd_model_reverse_distances_workspace_size \
-    SQFFD__LATTICE_NAME(sqffd_model_reverse_distances_workspace_size, SQFFD_MAX_LATTICE)
-#define sqffd_model_reverse_distances SQFFD__LATTICE_NAME(sqffd_model_reverse_distances, SQFFD_MAX_LATTICE)
-#define sqffd_fit SQFFD__LATTICE_NAME(sqffd_fit, SQFFD_MAX_LATTICE)
-#define sqffd_fit_ffd_workspace_size SQFFD__LATTICE_NAME(sqffd_fit_ffd_workspace_size, SQFFD_MAX_LATTICE)
-#define sqffd_fit_ffd SQFFD__LATTICE_NAME(sqffd_fit_ffd, SQFFD_MAX_LATTICE)
-#define sqffd_ffd_system_size SQFFD__LATTICE_NAME(sqffd_ffd_system_size, SQFFD_MAX_LATTICE)
-#define sqffd_ffd_system_init SQFFD__LATTICE_NAME(sqffd_ffd_system_init, SQFFD_MAX_LATTICE)
-#define sqffd_fit_prepared SQFFD__LATTICE_NAME(sqffd_fit_prepared, SQFFD_MAX_LATTICE)
-#define sqffd_track SQFFD__LATTICE_NAME(sqffd_track, SQFFD_MAX_LATTICE)
-#define sqffd_motion_workspace_size SQFFD__LATTICE_NAME(sqffd_motion_workspace_size, SQFFD_MAX_LATTICE)
-#define sqffd_motion SQFFD__LATTICE_NAME(sqffd_motion, SQFFD_MAX_LATTICE)
+#define SQFFD__LATTICE(name) SQFFD__LATTICE_NAME(name, SQFFD_MAX_LATTICE)
+#define sqffd_ffd_init SQFFD__LATTICE(sqffd_ffd_init)
+#define sqffd_ffd_validate SQFFD__LATTICE(sqffd_ffd_validate)
+#define sqffd_ffd_local SQFFD__LATTICE(sqffd_ffd_local)
+#define sqffd_ffd_eval SQFFD__LATTICE(sqffd_ffd_eval)
+#define sqffd_ffd_deform SQFFD__LATTICE(sqffd_ffd_deform)
+#define sqffd_ffd_weights SQFFD__LATTICE(sqffd_ffd_weights)
+#define sqffd_fit_options_default SQFFD__LATTICE(sqffd_fit_options_default)
+#define sqffd_fit_workspace_size SQFFD__LATTICE(sqffd_fit_workspace_size)
+#define sqffd_fit SQFFD__LATTICE(sqffd_fit)
+#define sqffd_fit_view SQFFD__LATTICE(sqffd_fit_view)
+#define sqffd_model_init SQFFD__LATTICE(sqffd_model_init)
+#define sqffd_fit_ffd_workspace_size SQFFD__LATTICE(sqffd_fit_ffd_workspace_size)
+#define sqffd_fit_ffd SQFFD__LATTICE(sqffd_fit_ffd)
+#define sqffd_fit_ffd_view SQFFD__LATTICE(sqffd_fit_ffd_view)
+#define sqffd_model_point SQFFD__LATTICE(sqffd_model_point)
+#define sqffd_model_validate SQFFD__LATTICE(sqffd_model_validate)
+#define sqffd_model_save_size SQFFD__LATTICE(sqffd_model_save_size)
+#define sqffd_model_save SQFFD__LATTICE(sqffd_model_save)
+#define sqffd_model_load SQFFD__LATTICE(sqffd_model_load)
+#define sqffd_model_mesh SQFFD__LATTICE(sqffd_model_mesh)
+#define sqffd_model_distances_workspace_size SQFFD__LATTICE(sqffd_model_distances_workspace_size)
+#define sqffd_model_distances SQFFD__LATTICE(sqffd_model_distances)
+#define sqffd_model_distances_view SQFFD__LATTICE(sqffd_model_distances_view)
+#define sqffd_model_reverse_distances_workspace_size SQFFD__LATTICE(sqffd_model_reverse_distances_workspace_size)
+#define sqffd_model_reverse_distances SQFFD__LATTICE(sqffd_model_reverse_distances)
+#define sqffd_model_reverse_distances_view SQFFD__LATTICE(sqffd_model_reverse_distances_view)
+#define sqffd_ffd_system_size SQFFD__LATTICE(sqffd_ffd_system_size)
+#define sqffd_ffd_system_init SQFFD__LATTICE(sqffd_ffd_system_init)
+#define sqffd_fit_prepared_workspace_size SQFFD__LATTICE(sqffd_fit_prepared_workspace_size)
+#define sqffd_fit_prepared SQFFD__LATTICE(sqffd_fit_prepared)
+#define sqffd_fit_prepared_view SQFFD__LATTICE(sqffd_fit_prepared_view)
+#define sqffd_track_options_default SQFFD__LATTICE(sqffd_track_options_default)
+#define sqffd_track_workspace_size SQFFD__LATTICE(sqffd_track_workspace_size)
+#define sqffd_track SQFFD__LATTICE(sqffd_track)
+#define sqffd_track_view SQFFD__LATTICE(sqffd_track_view)
+#define sqffd_track_frame_workspace_size SQFFD__LATTICE(sqffd_track_frame_workspace_size)
+#define sqffd_track_frame SQFFD__LATTICE(sqffd_track_frame)
+#define sqffd_motion_workspace_size SQFFD__LATTICE(sqffd_motion_workspace_size)
+#define sqffd_motion SQFFD__LATTICE(sqffd_motion)
 #endif
 
 /* A box (origin + three edge vectors, not necessarily orthogonal) holding an
@@ -818,7 +837,7 @@ SQFFD_DEF sqffd_result sqffd_ffd_eval(const sqffd_ffd *ffd, const double stu[3],
 SQFFD_DEF sqffd_result sqffd_ffd_deform(const sqffd_ffd *ffd, const double point[3], double out[3]);
 /* One row of the matrix B: the l*m*n Bernstein products at (s, t, u), in
    control-point order (weights has room for l*m*n). INVALID_ARGUMENT for
-   dims out of range. */
+   dims out of 2..SQFFD_MAX_LATTICE. */
 SQFFD_DEF sqffd_result sqffd_ffd_weights(const int dims[3], const double stu[3], double *weights);
 /* ======================================================================
    Layer 5: model fit (superquadric + FFD, the paper's two-step algorithm)
@@ -1038,7 +1057,7 @@ SQFFD_DEF sqffd_result sqffd_model_reverse_distances_view(const sqffd_model *mod
    its own workspace and model. */
 typedef struct sqffd_ffd_system {
     sqffd_superquadric sq;   /* the model's superquadric ... */
-    int dims[3];             /* ... its lattice ... */
+    int dims[3];             /* ... its lattice (2..SQFFD_MAX_LATTICE per axis) ... */
     double origin[3], edges[9]; /* ... its box ... */
     int grid[2];             /* ... and its grid */
     double alpha, tether;    /* the options it fixed */
