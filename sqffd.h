@@ -56,7 +56,9 @@
        caller's elements (points, frames, vertices, triangles, voxels per
        axis, capacities, indices into them) and byte sizes are size_t; the
        small parameters the library bounds itself (lattice dims, grid, mesh
-       and IoU resolutions, iteration counts) and flags are int. Every
+       and IoU resolutions, iteration counts, and the progress callback's
+       iteration, whose frame index is capped at INT32_MAX) and flags are
+       int. Every
        operation on points comes in two forms: sqffd_X on packed doubles
        and a count, sqffd_X_view on sqffd_points views (see POINTS); one
        size call serves both where it takes a count, and
@@ -1144,9 +1146,10 @@ SQFFD_DEF sqffd_result sqffd_track(const double *const *frames, const size_t *co
                                    const sqffd_track_options *options, sqffd_model *models,
                                    sqffd_fit_report *reports, size_t *frames_done,
                                    void *workspace, size_t workspace_size);
-/* The same over views, one per frame: sqffd_track_view_workspace_size
-   takes the views' counts (INVALID_ARGUMENT for NULL frames, a frame's bad
-   view as in sqffd_points). */
+/* The same over views, one per frame (INVALID_ARGUMENT for NULL frames, a
+   frame's bad view as in sqffd_points); sqffd_track_view_workspace_size
+   sizes it from the views' counts, as sqffd_track_workspace_size from
+   counts (INVALID_ARGUMENT for NULL frames or an empty one). */
 SQFFD_DEF sqffd_result sqffd_track_view_workspace_size(const sqffd_points *frames, size_t frame_count,
                                                        const sqffd_track_options *options, size_t *size);
 SQFFD_DEF sqffd_result sqffd_track_view(const sqffd_points *frames, size_t frame_count,
