@@ -2,12 +2,14 @@
 # The SQFFD_MAX_LATTICE guard, derived from the header itself:
 #   1. the lattice-dependent public functions are every SQFFD_DEF declaration
 #      whose prototype names a lattice-dependent type (a struct whose body
-#      mentions SQFFD_MAX_LATTICE or embeds such a struct) or whose own
-#      comment mentions SQFFD_MAX_LATTICE; the rename list of THE LATTICE
-#      GUARD in sqffd.h must be exactly those functions;
+#      mentions SQFFD_MAX_LATTICE, in code or in a field's comment such as
+#      "2..SQFFD_MAX_LATTICE", or embeds such a struct) or whose own comment
+#      mentions SQFFD_MAX_LATTICE; the rename list of THE LATTICE GUARD in
+#      sqffd.h must be exactly those functions;
 #   2. for each of them, tests/check_use.c built with SQFFD_MAX_LATTICE 6 and
-#      referencing only that function (CHECK_USE_FUNCTIONS) fails to link against an
-#      implementation built with the default, naming <function>_lattice6;
+#      referencing only that function (CHECK_USE_FUNCTIONS) fails to link
+#      against an implementation built with the default, naming
+#      <function>_lattice6;
 #   3. controls: the same units at the default bound link (one unit with all
 #      of them), and a unit at bound 6 referencing every other public
 #      function links (those do not depend on the bound).
