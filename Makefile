@@ -44,6 +44,7 @@ check-header: | $(BUILD)
 	@$(CC) -std=c99 -DSQFFD_MAX_LATTICE=6 -c tests/check_header.c -o $(BUILD)/check_lattice6.o
 	@if $(CC) $(BUILD)/check_lattice6.o $(BUILD)/check_use_c99.o -o $(BUILD)/check_lattice_mix -lm 2>/dev/null; then \
 	  echo "check-header: units built with SQFFD_MAX_LATTICE 6 and 8 linked together"; exit 1; fi
+	@sh tests/check_lattice_guard.sh $(CC) $(BUILD)/check_c99.o $(BUILD)/lattice_guard
 	@g++ -x c++ -std=c++11 $(STRICT) -c tests/check_header.c -o $(BUILD)/check_cxx.o
 	@g++ -x c++ -std=c++11 $(STRICT) -c tests/check_use.c -o $(BUILD)/check_use_cxx.o && g++ $(BUILD)/check_cxx.o $(BUILD)/check_use_cxx.o -o $(BUILD)/check_link_cxx -lm
 	@if command -v clang >/dev/null 2>&1; then \

@@ -52,7 +52,18 @@
        BAD_FORMAT, OUTPUT_TOO_SMALL. Values come back through pointers, never
        as sentinels. Options structs come from sqffd_X_options_default();
        change the fields you care about; a NULL options pointer means the
-       defaults, everywhere. Counts and sizes are size_t. Long operations
+       defaults, everywhere. Integer types follow one rule: counts of the
+       caller's elements (points, frames, vertices, triangles, voxels per
+       axis, capacities, indices into them) and byte sizes are size_t; the
+       small parameters the library bounds itself (lattice dims, grid, mesh
+       and IoU resolutions, iteration counts, and the progress callback's
+       iteration, whose frame index is capped at INT32_MAX) and flags are
+       int. Every
+       operation on points comes in two forms: sqffd_X on packed doubles
+       and a count, sqffd_X_view on sqffd_points views (see POINTS); one
+       size call serves both where it takes a count, and
+       sqffd_track_view_workspace_size takes the views where
+       sqffd_track_workspace_size takes counts. Long operations
        take a progress callback that may cancel. Stored data is data: a
        superquadric, lattice or model handed in is checked at run time
        (INVALID_MODEL), never by assert.
@@ -140,10 +151,10 @@
    6. Tracking and motion
        sqffd_ffd_system_size/_init, sqffd_fit_prepared(_view, _workspace_size)
                                        the FFD stage against a system prepared once
-       sqffd_track(_view, _workspace_size), sqffd_track_options_default
-       sqffd_track_frame(_workspace_size)
-                                       a stream: one later frame at a time, as sqffd_track
+       sqffd_track(_view, _workspace_size, _view_workspace_size), sqffd_track_options_default
                                        a sequence: frame 0 whole, then frame to frame
+       sqffd_track_frame(_view, _workspace_size)
+                                       a stream: one later frame at a time, as sqffd_track
        sqffd_motion(_workspace_size), sqffd_motion_options_default
                                        volumes, EF, motion, low-motion zones, 17 segments
    7. Volumes to points
@@ -384,8 +395,10 @@ SQFFD_DEF void sqffd_sym3_eigen(const double a[9], double values[3], double vect
    overwritten). */
 SQFFD_DEF sqffd_result sqffd_cholesky_factor(double *a, size_t n);
 
-/* Solves L L^T x = b in place (b becomes x), L from sqffd_cholesky_factor. */
-SQFFD_DEF void sqffd_cholesky_solve(const double *l, size_t n, double *b);
+/* Solves L L^T x = b in place (b becomes x), L from a successful
+   sqffd_cholesky_factor. SQFFD_ERROR_INVALID_ARGUMENT (l or b NULL, n < 1;
+   b untouched). */
+SQFFD_DEF sqffd_result sqffd_cholesky_solve(const double *l, size_t n, double *b);
 
 /* Singular value decomposition A = U diag(s) V^T of a row-major m x n matrix,
    m >= n >= 1, by Householder QR with column pivoting followed by one-sided
@@ -744,40 +757,61 @@ SQFFD_DEF sqffd_result sqffd_sq_fit_view(sqffd_points points, const sqffd_sq_fit
 #define SQFFD_MAX_LATTICE 8 /* control points per axis at most; bounds sqffd_ffd's size */
 #endif
 
-/* sqffd_ffd's and sqffd_model's layouts depend on SQFFD_MAX_LATTICE. A build
-   with another value (a plain integer) renames every function that takes
-   them, so translation units that disagree fail to link ("undefined
-   reference to sqffd_fit_lattice6") instead of reading each other's structs
-   wrongly. */
+/* THE LATTICE GUARD. sqffd_ffd's and sqffd_model's layouts, and the range
+   of every lattice size (sqffd_fit_options.lattice, a system's dims), depend
+   on SQFFD_MAX_LATTICE. A build with another value (a plain integer) renames
+   every public function whose arguments or results depend on it (all that
+   take or return a lattice, a model, a system, fit or track options, or
+   lattice dims), so translation units that disagree fail to link ("undefined
+   reference to sqffd_fit_view_lattice6") instead of reading each other's
+   structs wrongly. This is the one list: tests/check_lattice_guard.sh checks
+   it against every SQFFD_DEF declaration below and links each name across
+   a mismatch. */
 #if SQFFD_MAX_LATTICE != 8
 #define SQFFD__LATTICE_NAME2(name, n) name##_lattice##n
 #define SQFFD__LATTICE_NAME(name, n) SQFFD__LATTICE_NAME2(name, n)
-#define sqffd_ffd_init SQFFD__LATTICE_NAME(sqffd_ffd_init, SQFFD_MAX_LATTICE)
-#define sqffd_ffd_validate SQFFD__LATTICE_NAME(sqffd_ffd_validate, SQFFD_MAX_LATTICE)
-#define sqffd_ffd_local SQFFD__LATTICE_NAME(sqffd_ffd_local, SQFFD_MAX_LATTICE)
-#define sqffd_ffd_eval SQFFD__LATTICE_NAME(sqffd_ffd_eval, SQFFD_MAX_LATTICE)
-#define sqffd_ffd_deform SQFFD__LATTICE_NAME(sqffd_ffd_deform, SQFFD_MAX_LATTICE)
-#define sqffd_model_init SQFFD__LATTICE_NAME(sqffd_model_init, SQFFD_MAX_LATTICE)
-#define sqffd_model_validate SQFFD__LATTICE_NAME(sqffd_model_validate, SQFFD_MAX_LATTICE)
-#define sqffd_model_point SQFFD__LATTICE_NAME(sqffd_model_point, SQFFD_MAX_LATTICE)
-#define sqffd_model_mesh SQFFD__LATTICE_NAME(sqffd_model_mesh, SQFFD_MAX_LATTICE)
-#define sqffd_model_save_size SQFFD__LATTICE_NAME(sqffd_model_save_size, SQFFD_MAX_LATTICE)
-#define sqffd_model_save SQFFD__LATTICE_NAME(sqffd_model_save, SQFFD_MAX_LATTICE)
-#define sqffd_model_load SQFFD__LATTICE_NAME(sqffd_model_load, SQFFD_MAX_LATTICE)
-#define sqffd_model_distances_workspace_size SQFFD__LATTICE_NAME(sqffd_model_distances_workspace_size, SQFFD_MAX_LATTICE)
-#define sqffd_model_distances SQFFD__LATTICE_NAME(sqffd_model_distances, SQFFD_MAX_LATTICE)
-#define sqffd_model_reverse_distances_workspace_size \
-    SQFFD__LATTICE_NAME(sqffd_model_reverse_distances_workspace_size, SQFFD_MAX_LATTICE)
-#define sqffd_model_reverse_distances SQFFD__LATTICE_NAME(sqffd_model_reverse_distances, SQFFD_MAX_LATTICE)
-#define sqffd_fit SQFFD__LATTICE_NAME(sqffd_fit, SQFFD_MAX_LATTICE)
-#define sqffd_fit_ffd_workspace_size SQFFD__LATTICE_NAME(sqffd_fit_ffd_workspace_size, SQFFD_MAX_LATTICE)
-#define sqffd_fit_ffd SQFFD__LATTICE_NAME(sqffd_fit_ffd, SQFFD_MAX_LATTICE)
-#define sqffd_ffd_system_size SQFFD__LATTICE_NAME(sqffd_ffd_system_size, SQFFD_MAX_LATTICE)
-#define sqffd_ffd_system_init SQFFD__LATTICE_NAME(sqffd_ffd_system_init, SQFFD_MAX_LATTICE)
-#define sqffd_fit_prepared SQFFD__LATTICE_NAME(sqffd_fit_prepared, SQFFD_MAX_LATTICE)
-#define sqffd_track SQFFD__LATTICE_NAME(sqffd_track, SQFFD_MAX_LATTICE)
-#define sqffd_motion_workspace_size SQFFD__LATTICE_NAME(sqffd_motion_workspace_size, SQFFD_MAX_LATTICE)
-#define sqffd_motion SQFFD__LATTICE_NAME(sqffd_motion, SQFFD_MAX_LATTICE)
+#define SQFFD__LATTICE(name) SQFFD__LATTICE_NAME(name, SQFFD_MAX_LATTICE)
+#define sqffd_ffd_init SQFFD__LATTICE(sqffd_ffd_init)
+#define sqffd_ffd_validate SQFFD__LATTICE(sqffd_ffd_validate)
+#define sqffd_ffd_local SQFFD__LATTICE(sqffd_ffd_local)
+#define sqffd_ffd_eval SQFFD__LATTICE(sqffd_ffd_eval)
+#define sqffd_ffd_deform SQFFD__LATTICE(sqffd_ffd_deform)
+#define sqffd_ffd_weights SQFFD__LATTICE(sqffd_ffd_weights)
+#define sqffd_fit_options_default SQFFD__LATTICE(sqffd_fit_options_default)
+#define sqffd_fit_workspace_size SQFFD__LATTICE(sqffd_fit_workspace_size)
+#define sqffd_fit SQFFD__LATTICE(sqffd_fit)
+#define sqffd_fit_view SQFFD__LATTICE(sqffd_fit_view)
+#define sqffd_model_init SQFFD__LATTICE(sqffd_model_init)
+#define sqffd_fit_ffd_workspace_size SQFFD__LATTICE(sqffd_fit_ffd_workspace_size)
+#define sqffd_fit_ffd SQFFD__LATTICE(sqffd_fit_ffd)
+#define sqffd_fit_ffd_view SQFFD__LATTICE(sqffd_fit_ffd_view)
+#define sqffd_model_point SQFFD__LATTICE(sqffd_model_point)
+#define sqffd_model_validate SQFFD__LATTICE(sqffd_model_validate)
+#define sqffd_model_save_size SQFFD__LATTICE(sqffd_model_save_size)
+#define sqffd_model_save SQFFD__LATTICE(sqffd_model_save)
+#define sqffd_model_load SQFFD__LATTICE(sqffd_model_load)
+#define sqffd_model_mesh SQFFD__LATTICE(sqffd_model_mesh)
+#define sqffd_model_distances_workspace_size SQFFD__LATTICE(sqffd_model_distances_workspace_size)
+#define sqffd_model_distances SQFFD__LATTICE(sqffd_model_distances)
+#define sqffd_model_distances_view SQFFD__LATTICE(sqffd_model_distances_view)
+#define sqffd_model_reverse_distances_workspace_size SQFFD__LATTICE(sqffd_model_reverse_distances_workspace_size)
+#define sqffd_model_reverse_distances SQFFD__LATTICE(sqffd_model_reverse_distances)
+#define sqffd_model_reverse_distances_view SQFFD__LATTICE(sqffd_model_reverse_distances_view)
+#define sqffd_ffd_system_size SQFFD__LATTICE(sqffd_ffd_system_size)
+#define sqffd_ffd_system_init SQFFD__LATTICE(sqffd_ffd_system_init)
+#define sqffd_fit_prepared_workspace_size SQFFD__LATTICE(sqffd_fit_prepared_workspace_size)
+#define sqffd_fit_prepared SQFFD__LATTICE(sqffd_fit_prepared)
+#define sqffd_fit_prepared_view SQFFD__LATTICE(sqffd_fit_prepared_view)
+#define sqffd_track_options_default SQFFD__LATTICE(sqffd_track_options_default)
+#define sqffd_track_workspace_size SQFFD__LATTICE(sqffd_track_workspace_size)
+#define sqffd_track SQFFD__LATTICE(sqffd_track)
+#define sqffd_track_view_workspace_size SQFFD__LATTICE(sqffd_track_view_workspace_size)
+#define sqffd_track_view SQFFD__LATTICE(sqffd_track_view)
+#define sqffd_track_frame_workspace_size SQFFD__LATTICE(sqffd_track_frame_workspace_size)
+#define sqffd_track_frame SQFFD__LATTICE(sqffd_track_frame)
+#define sqffd_track_frame_view SQFFD__LATTICE(sqffd_track_frame_view)
+#define sqffd_motion_workspace_size SQFFD__LATTICE(sqffd_motion_workspace_size)
+#define sqffd_motion SQFFD__LATTICE(sqffd_motion)
 #endif
 
 /* A box (origin + three edge vectors, not necessarily orthogonal) holding an
@@ -818,7 +852,7 @@ SQFFD_DEF sqffd_result sqffd_ffd_eval(const sqffd_ffd *ffd, const double stu[3],
 SQFFD_DEF sqffd_result sqffd_ffd_deform(const sqffd_ffd *ffd, const double point[3], double out[3]);
 /* One row of the matrix B: the l*m*n Bernstein products at (s, t, u), in
    control-point order (weights has room for l*m*n). INVALID_ARGUMENT for
-   dims out of range. */
+   dims out of 2..SQFFD_MAX_LATTICE. */
 SQFFD_DEF sqffd_result sqffd_ffd_weights(const int dims[3], const double stu[3], double *weights);
 /* ======================================================================
    Layer 5: model fit (superquadric + FFD, the paper's two-step algorithm)
@@ -983,14 +1017,15 @@ SQFFD_DEF sqffd_result sqffd_model_validate(const sqffd_model *model);
      284 3lmn f64 the control points used, in sqffd_ffd's order
      end u32      CRC-32 (IEEE, as zlib's) of every byte before it
    3,288 bytes for a 5 x 5 x 5 lattice. The lattice's inverse is recomputed
-   on load. sqffd_model_save_size: the byte count for a valid model (0 for
-   NULL or an invalid one). sqffd_model_save: INVALID_MODEL, and
-   OUTPUT_TOO_SMALL when capacity is below that count (nothing written).
+   on load. sqffd_model_save_size: the byte count for a valid model;
+   INVALID_ARGUMENT (NULL model or size) or INVALID_MODEL otherwise, *size 0
+   then. sqffd_model_save: the same results, and OUTPUT_TOO_SMALL when
+   capacity is below that count (nothing written).
    sqffd_model_load: BAD_FORMAT for anything but exactly one saved model
    (magic, version, length, checksum), TOO_LARGE for a lattice beyond this
    build's SQFFD_MAX_LATTICE, INVALID_MODEL for a well-formed record whose
    model fails sqffd_model_validate; *model is written only on success. */
-SQFFD_DEF size_t sqffd_model_save_size(const sqffd_model *model);
+SQFFD_DEF sqffd_result sqffd_model_save_size(const sqffd_model *model, size_t *size);
 SQFFD_DEF sqffd_result sqffd_model_save(const sqffd_model *model, void *bytes, size_t capacity);
 SQFFD_DEF sqffd_result sqffd_model_load(sqffd_model *model, const void *bytes, size_t size);
 /* Triangle mesh of the model surface on an n_eta x n_omega grid laid out as
@@ -1038,7 +1073,7 @@ SQFFD_DEF sqffd_result sqffd_model_reverse_distances_view(const sqffd_model *mod
    its own workspace and model. */
 typedef struct sqffd_ffd_system {
     sqffd_superquadric sq;   /* the model's superquadric ... */
-    int dims[3];             /* ... its lattice ... */
+    int dims[3];             /* ... its lattice (2..SQFFD_MAX_LATTICE per axis) ... */
     double origin[3], edges[9]; /* ... its box ... */
     int grid[2];             /* ... and its grid */
     double alpha, tether;    /* the options it fixed */
@@ -1111,16 +1146,20 @@ SQFFD_DEF sqffd_result sqffd_track(const double *const *frames, const size_t *co
                                    const sqffd_track_options *options, sqffd_model *models,
                                    sqffd_fit_report *reports, size_t *frames_done,
                                    void *workspace, size_t workspace_size);
-/* The same over views, one per frame (the workspace's counts are their
-   counts; INVALID_ARGUMENT for NULL frames, a frame's bad view as in
-   sqffd_points). */
+/* The same over views, one per frame (INVALID_ARGUMENT for NULL frames, a
+   frame's bad view as in sqffd_points); sqffd_track_view_workspace_size
+   sizes it from the views' counts, as sqffd_track_workspace_size from
+   counts (INVALID_ARGUMENT for NULL frames or an empty one). */
+SQFFD_DEF sqffd_result sqffd_track_view_workspace_size(const sqffd_points *frames, size_t frame_count,
+                                                       const sqffd_track_options *options, size_t *size);
 SQFFD_DEF sqffd_result sqffd_track_view(const sqffd_points *frames, size_t frame_count,
                                         const sqffd_track_options *options, sqffd_model *models,
                                         sqffd_fit_report *reports, size_t *frames_done, void *workspace,
                                         size_t workspace_size);
 /* A stream, one frame at a time as it arrives: frame 0 by sqffd_fit_view
    with options->fit, then sqffd_ffd_system_init on its model, then every
-   later frame by sqffd_track_frame against that system, with *model the
+   later frame by sqffd_track_frame (n points x y z; sqffd_track_frame_view:
+   a view) against that system, with *model the
    previous frame's model on entry (its control points are the start) and
    this frame's on success. Each later frame is what sqffd_track makes of
    it, to the bit: at most options->frame_iterations iterations, no exact
@@ -1130,9 +1169,12 @@ SQFFD_DEF sqffd_result sqffd_track_view(const sqffd_points *frames, size_t frame
    options->fit's lattice, grid and limits, not on a system, so a stream
    can size its memory once at start-up. */
 SQFFD_DEF sqffd_result sqffd_track_frame_workspace_size(size_t n, const sqffd_track_options *options, size_t *size);
-SQFFD_DEF sqffd_result sqffd_track_frame(const sqffd_ffd_system *system, sqffd_points points,
+SQFFD_DEF sqffd_result sqffd_track_frame(const sqffd_ffd_system *system, const double *points, size_t n,
                                          const sqffd_track_options *options, sqffd_model *model,
                                          sqffd_fit_report *report, void *workspace, size_t workspace_size);
+SQFFD_DEF sqffd_result sqffd_track_frame_view(const sqffd_ffd_system *system, sqffd_points points,
+                                              const sqffd_track_options *options, sqffd_model *model,
+                                              sqffd_fit_report *report, void *workspace, size_t workspace_size);
 
 /* Motion and function of a tracked left ventricle, from the frames' models
    (sqffd_track's; all with the same superquadric, lattice and grid). Per
@@ -1720,10 +1762,10 @@ SQFFD_DEF sqffd_result sqffd_cholesky_factor(double *a, size_t n)
     return SQFFD_OK;
 }
 
-SQFFD_DEF void sqffd_cholesky_solve(const double *l, size_t n, double *b)
+SQFFD_DEF sqffd_result sqffd_cholesky_solve(const double *l, size_t n, double *b)
 {
     size_t nn = (size_t)n, i;
-    SQFFD_ASSERT(l && b && n >= 1);
+    if (!l || !b || n < 1) return SQFFD_ERROR_INVALID_ARGUMENT;
     for (i = 0; i < nn; ++i) /* L y = b */
         b[i] = (b[i] - sqffd__la_dot(l + i * nn, b, i)) / l[i * nn + i];
     for (i = nn; i-- > 0;) { /* L^T x = y, column-oriented so rows of L are read */
@@ -1732,6 +1774,7 @@ SQFFD_DEF void sqffd_cholesky_solve(const double *l, size_t n, double *b)
         b[i] = xi;
         sqffd__la_axpy(b, -xi, li, i);
     }
+    return SQFFD_OK;
 }
 
 /* ---- SVD: Householder QR with column pivoting, then one-sided Jacobi on R^T ----
@@ -5787,11 +5830,6 @@ SQFFD_DEF sqffd_result sqffd_model_validate(const sqffd_model *model)
     return r;
 }
 
-static int sqffd__fit_model_valid(const sqffd_model *model)
-{
-    return model && sqffd_model_validate(model) == SQFFD_OK;
-}
-
 /* ---- save and load: the byte form documented at sqffd_model_save ---------- */
 
 #define SQFFD__SAVE_VERSION 1u
@@ -5857,9 +5895,14 @@ static size_t sqffd__save_size(const int dims[3])
     return SQFFD__SAVE_HEADER + 24u * (size_t)dims[0] * (size_t)dims[1] * (size_t)dims[2] + 4u;
 }
 
-SQFFD_DEF size_t sqffd_model_save_size(const sqffd_model *model)
+SQFFD_DEF sqffd_result sqffd_model_save_size(const sqffd_model *model, size_t *size)
 {
-    return sqffd__fit_model_valid(model) ? sqffd__save_size(model->ffd.dims) : 0;
+    sqffd_result r;
+    if (!size) return SQFFD_ERROR_INVALID_ARGUMENT;
+    *size = 0;
+    r = sqffd_model_validate(model);
+    if (r == SQFFD_OK) *size = sqffd__save_size(model->ffd.dims);
+    return r;
 }
 
 SQFFD_DEF sqffd_result sqffd_model_save(const sqffd_model *model, void *bytes, size_t capacity)
@@ -7624,9 +7667,10 @@ SQFFD_DEF sqffd_track_options sqffd_track_options_default(void)
 }
 
 /* One arena for the sequence: the system first (it stays), then the
-   largest frame's scratch (frame 0's with stage 1's). */
-SQFFD_DEF sqffd_result sqffd_track_workspace_size(const size_t *counts, size_t frame_count,
-                                                  const sqffd_track_options *options, size_t *size)
+   largest frame's scratch (frame 0's with stage 1's). The frames' counts
+   come from counts or, when it is NULL, from views (both NULL: INVALID_ARGUMENT). */
+static sqffd_result sqffd__track_workspace_size(const size_t *counts, const sqffd_points *views, size_t frame_count,
+                                                const sqffd_track_options *options, size_t *size)
 {
     sqffd_track_options defaults = sqffd_track_options_default();
     const sqffd_track_options *opt = options ? options : &defaults;
@@ -7637,22 +7681,34 @@ SQFFD_DEF sqffd_result sqffd_track_workspace_size(const size_t *counts, size_t f
     sqffd_result r;
     if (!size) return SQFFD_ERROR_INVALID_ARGUMENT;
     *size = 0;
-    if (!counts || frame_count == 0 || opt->frame_iterations < 0) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if ((!counts && !views) || frame_count == 0 || opt->frame_iterations < 0) return SQFFD_ERROR_INVALID_ARGUMENT;
     r = sqffd__fit_check_whole_options(&opt->fit);
     if (r != SQFFD_OK) return r;
     sqffd__arena_measure(&a);
     sqffd__fit_state_layout(&a, opt->fit.lattice, opt->fit.grid, &state);
     for (t = 0; t < frame_count; ++t) {
-        size_t frame_size;
-        if (counts[t] == 0) return SQFFD_ERROR_INVALID_ARGUMENT;
+        size_t frame_size, n = counts ? counts[t] : views[t].count;
+        if (n == 0) return SQFFD_ERROR_INVALID_ARGUMENT;
         frame = a;
-        sqffd__fit_frame_layout(&frame, counts[t], opt->fit.lattice, opt->fit.grid, &opt->fit, t == 0, &f);
+        sqffd__fit_frame_layout(&frame, n, opt->fit.lattice, opt->fit.grid, &opt->fit, t == 0, &f);
         r = sqffd__arena_size(&frame, &frame_size);
         if (r != SQFFD_OK) return r;
         need = frame_size > need ? frame_size : need;
     }
     *size = need;
     return SQFFD_OK;
+}
+
+SQFFD_DEF sqffd_result sqffd_track_workspace_size(const size_t *counts, size_t frame_count,
+                                                  const sqffd_track_options *options, size_t *size)
+{
+    return sqffd__track_workspace_size(counts, NULL, frame_count, options, size);
+}
+
+SQFFD_DEF sqffd_result sqffd_track_view_workspace_size(const sqffd_points *frames, size_t frame_count,
+                                                       const sqffd_track_options *options, size_t *size)
+{
+    return sqffd__track_workspace_size(NULL, frames, frame_count, options, size);
 }
 
 /* The sequence from packed frames (frames, counts) or from views. */
@@ -7752,15 +7808,23 @@ SQFFD_DEF sqffd_result sqffd_track_frame_workspace_size(size_t n, const sqffd_tr
     return sqffd__arena_size(&a, size);
 }
 
-SQFFD_DEF sqffd_result sqffd_track_frame(const sqffd_ffd_system *system, sqffd_points points,
-                                         const sqffd_track_options *options, sqffd_model *model,
-                                         sqffd_fit_report *report, void *workspace, size_t workspace_size)
+SQFFD_DEF sqffd_result sqffd_track_frame_view(const sqffd_ffd_system *system, sqffd_points points,
+                                              const sqffd_track_options *options, sqffd_model *model,
+                                              sqffd_fit_report *report, void *workspace, size_t workspace_size)
 {
     sqffd_track_options defaults = sqffd_track_options_default();
     const sqffd_track_options *opt = options ? options : &defaults;
     sqffd_fit_options o = sqffd__track_frame_options(opt);
     if (opt->frame_iterations < 0) return SQFFD_ERROR_INVALID_ARGUMENT;
     return sqffd__fit_prepared(system, &points, &o, SQFFD__FIT_EXACT_END, model, report, workspace, workspace_size);
+}
+
+SQFFD_DEF sqffd_result sqffd_track_frame(const sqffd_ffd_system *system, const double *points, size_t n,
+                                         const sqffd_track_options *options, sqffd_model *model,
+                                         sqffd_fit_report *report, void *workspace, size_t workspace_size)
+{
+    return sqffd_track_frame_view(system, sqffd_points_packed(points, n), options, model, report, workspace,
+                                  workspace_size);
 }
 
 /* ---- motion -------------------------------------------------------------- */

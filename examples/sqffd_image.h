@@ -597,7 +597,6 @@ static inline int sqffd_image__nifti(const unsigned char *h, size_t size, const 
 {
     int be, ndim, a, sform_code, qform_code;
     double vox_offset, slope, inter, pixdim[8];
-    char q[32];
     if (size < 4) return sqffd_io__fail(err, err_size, name, "file of %llu bytes: too short for a NIfTI-1 header",
                                            (unsigned long long)size);
     if (sqffd_image__u32(h, 0) == 348) be = 0;
@@ -610,11 +609,8 @@ static inline int sqffd_image__nifti(const unsigned char *h, size_t size, const 
     if (size < 348)
         return sqffd_io__fail(err, err_size, name, "truncated header: %llu bytes, a NIfTI-1 header has 348",
                                  (unsigned long long)size);
-    if (memcmp(h + 344, "ni1", 4) == 0) layout->pair = 1;
-    else if (memcmp(h + 344, "n+1", 4) != 0)
-        return sqffd_io__fail(err, err_size, name,
-                                 "magic %s is neither \"n+1\" nor \"ni1\" (an Analyze 7.5 header?)",
-                                 sqffd_io__quote((const char *)h + 344, 4, q));
+    /* the magic is "ni1" or "n+1": sqffd_image__header has refused any other (Analyze 7.5) */
+    layout->pair = memcmp(h + 344, "ni1", 4) == 0;
     sqffd_image__set_text(image->format, sizeof image->format, "NIfTI-1");
     image->big_endian = be;
     layout->big_endian = be;
@@ -1278,11 +1274,15 @@ static inline int sqffd_image__detect(const unsigned char *data, size_t size, co
     return SQFFD_IMAGE__UNKNOWN;
 }
 
-/* Parses whichever header `data` holds into image and layout. */
+/* Parses whichever header `data` holds into image and layout; a file of a
+   format no reader here takes (DICOM, Analyze 7.5, ...: sqffd_io_foreign_format)
+   is refused by name. */
 static inline int sqffd_image__header(const unsigned char *data, size_t size, const char *name, sqffd_image *image,
                                       sqffd_image__layout *layout, char *err, size_t err_size)
 {
+    const char *foreign = sqffd_io_foreign_format(data, size);
     sqffd_image__layout_init(layout);
+    if (foreign) return sqffd_io__fail(err, err_size, name, "%s", foreign);
     switch (sqffd_image__detect(data, size, name)) {
     case SQFFD_IMAGE__NIFTI: return sqffd_image__nifti(data, size, name, image, layout, err, err_size);
     case SQFFD_IMAGE__METAIMAGE:

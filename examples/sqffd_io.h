@@ -17,6 +17,10 @@
    (sqffd_io_read_points_info, sqffd_io_read_file_info). gzip-compressed input (any of these formats) is decompressed
    first, with sqffd_inflate.h, up to SQFFD_IO_MAX_FILE_SIZE bytes (the
    format then comes from the content, or the name without its .gz).
+   A file of a format no reader here takes (DICOM, INRIMAGE, STL, Analyze
+   7.5, HDF5, zip) is refused with one sentence that names it and says what
+   to do (sqffd_io_foreign_format); binary bytes in what would be read as
+   XYZ make it "not a text point file".
    Element indices in messages count from 0 (like PLY face
    indices), line numbers from 1. Coordinates keep the precision of their
    source: a PLY float property gives a float's value, in ascii files too.
@@ -308,10 +312,24 @@ static inline int sqffd_io__read_point_lines(const void *data, size_t size, int 
 }
 
 /* XYZ: one point per line, x y z first (blanks or commas between), extra
-   columns ignored, blank lines and '#' comments skipped. */
+   columns ignored, blank lines and '#' comments skipped. A control byte
+   other than white space (NUL, ...) anywhere makes it "not a text point
+   file": the XYZ reader is where unrecognised files end up. */
 static inline int sqffd_io_read_xyz(const void *data, size_t size, const char *name, double **points,
                                     size_t *count, char *err, size_t err_size)
 {
+    const unsigned char *b = (const unsigned char *)data;
+    unsigned long long line = 1;
+    size_t i;
+    for (i = 0; i < size; i++) {
+        if (b[i] == '\n') line++;
+        else if ((b[i] < 32 && !sqffd_io__is_space((char)b[i])) || b[i] == 127) {
+            *points = NULL;
+            *count = 0;
+            return sqffd_io__fail(err, err_size, name, "not a text point file (binary byte 0x%02x at line %llu)",
+                                  b[i], line);
+        }
+    }
     return sqffd_io__read_point_lines(data, size, 0, name, points, count, err, err_size);
 }
 
@@ -1454,6 +1472,38 @@ static inline int sqffd_io_read_pcd(const void *data, size_t size, const char *n
 
 /* ---- format detection and files ------------------------------------------ */
 
+/* A file in a format these readers and sqffd_image.h do not take, told by
+   its content: one sentence naming it and what to do instead, or NULL.
+   DICOM ("DICM" at byte 128), INRIMAGE ("#INRIMAGE-4#{"), HDF5 (its
+   signature at byte 0: MINC 2, .h5), a zip archive ("PK\3\4"), Analyze 7.5
+   (a 348-byte header, either byte order, without NIfTI-1's magic at byte
+   344), STL (binary: an 80-byte header and a triangle count that gives the
+   size exactly; ASCII: "solid" as the first word). None of these can be a
+   supported file: the supported formats' content starts otherwise, and a
+   text file's bytes 80-83 give a count far beyond the size limit. */
+static inline const char *sqffd_io_foreign_format(const void *data, size_t size)
+{
+    const unsigned char *b = (const unsigned char *)data;
+    size_t i = 0;
+    if (size >= 132 && memcmp(b + 128, "DICM", 4) == 0)
+        return "DICOM is not read by sqffd; convert it to NIfTI (e.g. with dcm2niix)";
+    if (size >= 13 && memcmp(b, "#INRIMAGE-4#{", 13) == 0)
+        return "INRIMAGE is not read by sqffd; convert it to NIfTI, MetaImage or NRRD";
+    if (size >= 8 && memcmp(b, "\x89HDF\r\n\x1a\n", 8) == 0)
+        return "HDF5 (e.g. MINC 2) is not read by sqffd; export the volume as NIfTI (e.g. with mnc2nii) or the points "
+               "as PLY or XYZ";
+    if (size >= 4 && memcmp(b, "PK\x03\x04", 4) == 0) return "a zip archive is not read by sqffd; unpack it first";
+    if (size >= 348 && (sqffd_gz__load32_le(b) == 348 || sqffd_gz__load32_le(b) == 0x5C010000u) && /* either order */
+        memcmp(b + 344, "n+1", 4) != 0 && memcmp(b + 344, "ni1", 4) != 0)
+        return "Analyze 7.5 (a .hdr without the NIfTI-1 magic) is not read by sqffd; convert it to NIfTI (e.g. with "
+               "nibabel or fslchfiletype)";
+    while (i < size && sqffd_io__is_space((char)b[i])) i++;
+    if ((size >= 84 && (uint64_t)sqffd_gz__load32_le(b + 80) * 50 + 84 == size) ||
+        (size - i >= 5 && memcmp(b + i, "solid", 5) == 0 && (size - i == 5 || sqffd_io__is_space((char)b[i + 5]))))
+        return "STL is not read by sqffd; convert it to PLY, OFF or OBJ (e.g. with MeshLab or meshio)";
+    return NULL;
+}
+
 /* Whether the first n characters of name end in ext (lower case), any case. */
 static inline int sqffd_io__has_extension(const char *name, size_t n, const char *ext)
 {
@@ -1510,6 +1560,8 @@ static inline int sqffd_io__read_detected(const void *data, size_t size, const c
                                           size_t *count, sqffd_io_info *info, char *err, size_t err_size)
 {
     sqffd_io_format format = sqffd_io_detect(data, size, name);
+    const char *foreign = sqffd_io_foreign_format(data, size);
+    if (foreign) return sqffd_io__fail(err, err_size, name, "%s", foreign);
     info->format = format;
     switch (format) {
     case SQFFD_IO_PLY: return sqffd_io_read_ply(data, size, name, points, count, err, err_size);

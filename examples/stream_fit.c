@@ -269,8 +269,8 @@ int main(int argc, char **argv)
                 /* the FFD stage from the previous frame's control points; after a
                    failure `trial` may hold a half-way model, `model` is untouched */
                 trial = model;
-                r = sqffd_track_frame(&system_, sqffd_points_packed(mem.points, n), &track, &trial, &report,
-                                      mem.scratch, mem.scratch_size);
+                r = sqffd_track_frame(&system_, mem.points, n, &track, &trial, &report, mem.scratch,
+                                      mem.scratch_size);
             }
             ms = now_ms() - t0;
             if (r == SQFFD_OK) {

@@ -80,8 +80,9 @@ static void fuzz_view_fit(const double *points, size_t n, const sqffd_fit_option
         abort();
     if (expected == SQFFD_OK) {
         unsigned char a[4096], b[4096];
-        size_t bytes = sqffd_model_save_size(model);
-        if (sqffd_model_save(model, a, sizeof a) != SQFFD_OK || sqffd_model_save(&again, b, sizeof b) != SQFFD_OK ||
+        size_t bytes;
+        if (sqffd_model_save_size(model, &bytes) != SQFFD_OK || sqffd_model_save(model, a, sizeof a) != SQFFD_OK ||
+            sqffd_model_save(&again, b, sizeof b) != SQFFD_OK ||
             memcmp(a, b, bytes) != 0)
             abort();
     }
@@ -116,10 +117,13 @@ static void fuzz_model_fit(const double *points, size_t n, uint8_t flags, int la
         double p[3];
         unsigned char saved[4096];
         sqffd_model back;
+        size_t saved_size;
         if (sqffd_model_validate(&model) != SQFFD_OK) abort(); /* a fit gives a valid model ... */
         if (sqffd_model_point(&model, 0.3, -1.0, p) != SQFFD_OK) abort();
         if (sqffd_model_save(&model, saved, sizeof saved) != SQFFD_OK) abort(); /* ... that saves and loads */
-        if (sqffd_model_load(&back, saved, sqffd_model_save_size(&model)) != SQFFD_OK) abort();
+        if (sqffd_model_save_size(&model, &saved_size) != SQFFD_OK ||
+            sqffd_model_load(&back, saved, saved_size) != SQFFD_OK)
+            abort();
         if (!isfinite(report.error.rms) || report.iterations < 0 || report.coarse_iterations < 0 ||
             report.coarse_iterations + report.iterations > 3)
             abort();

@@ -1,7 +1,8 @@
 /* libFuzzer target: the bytes go to every reader of examples/sqffd_io.h.
    Checks the readers' contract beyond "no crash": success means at least one
    point and finite coordinates; failure means no points and a message
-   "NAME: ...". */
+   "NAME: ..."; a file of another format (sqffd_io_foreign_format) is refused
+   with its own sentence. */
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
@@ -48,6 +49,20 @@ static void check_mesh(const uint8_t *data, size_t size)
     }
 }
 
+/* A file of a format the readers do not take (DICOM, STL, ...) is refused
+   with that format's sentence, whatever else it holds. */
+static void check_foreign(const uint8_t *data, size_t size)
+{
+    const char *foreign = sqffd_io_foreign_format(data, size);
+    double *points = NULL;
+    size_t count = 0;
+    char err[512];
+    if (!foreign) return;
+    if (sqffd_io_read_points(data, size, "fuzz.dat", &points, &count, err, sizeof err) == 0 ||
+        strncmp(err, "fuzz.dat: ", 10) != 0 || strcmp(err + 10, foreign) != 0)
+        abort();
+}
+
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
@@ -57,5 +72,6 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     check_reader(sqffd_io_read_xyz, data, size, "fuzz.xyz");
     check_reader(sqffd_io_read_obj, data, size, "fuzz.obj");
     check_mesh(data, size);
+    check_foreign(data, size);
     return 0;
 }

@@ -23,7 +23,9 @@ static void use_model(const sqffd_model *m, int must_be_valid)
     uint32_t tri[3 * 2 * MESH_ETA * MESH_OMEGA];
     static unsigned char ws[1 << 16];
     sqffd_result valid = sqffd_model_validate(m), r;
+    size_t bytes = 1;
     if (must_be_valid && valid != SQFFD_OK) abort();
+    if (sqffd_model_save_size(m, &bytes) != valid || (valid != SQFFD_OK && bytes != 0)) abort();
     r = sqffd_model_mesh(m, MESH_ETA, MESH_OMEGA, v, tri);
     if ((r == SQFFD_OK) != (valid == SQFFD_OK)) abort();
     r = sqffd_model_point(m, 0.25, 1.0, p);
@@ -53,6 +55,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
     static uint8_t copy[1 << 16], again[1 << 16];
     sqffd_model m;
+    size_t saved;
     if (size < 1 || size - 1 > sizeof copy) return 0;
     memcpy(copy, data + 1, size - 1);
     size--;
@@ -70,7 +73,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     }
     if (sqffd_model_load(&m, copy, size) != SQFFD_OK) return 0;
     use_model(&m, 1);
-    if (sqffd_model_save_size(&m) != size || sqffd_model_save(&m, again, sizeof again) != SQFFD_OK ||
+    if (sqffd_model_save_size(&m, &saved) != SQFFD_OK || saved != size ||
+        sqffd_model_save(&m, again, sizeof again) != SQFFD_OK ||
         memcmp(again, copy, size) != 0)
         abort();
     return 0;

@@ -88,6 +88,38 @@ expect 1 "$TMP/short.xyz: line 2: expected 3 numbers" fit "$TMP/short.xyz" -o "$
 expect 1 "$TMP/empty.xyz: file is empty" fit "$TMP/empty.xyz" -o "$TMP/x.ply"
 printf '1 2 3\n4 5 6\n' >"$TMP/two.xyz"
 expect 1 "$TMP/two.xyz: fit failed: " fit "$TMP/two.xyz" -o "$TMP/x.ply"
+# files of formats sqffd does not read: one line that names the format (fit and info alike)
+zeros() { head -c "$1" /dev/zero; }
+foreign() { # FILE 'TEXT': both commands exit 1 with "FILE: TEXT" as their only line
+    expect 1 "$1: $2" fit "$1" -o "$TMP/x.ply"
+    [ "$(wc -l <"$TMP/err")" -eq 1 ] && ok || bad "sqffd fit $1: more than one line: $(head -c 300 "$TMP/err")"
+    expect 1 "$1: $2" info "$1"
+}
+{ zeros 128; printf 'DICM\002\000\000\000UL\004\000'; zeros 40; } >"$TMP/scan.dcm"
+foreign "$TMP/scan.dcm" "DICOM is not read by sqffd; convert it to NIfTI (e.g. with dcm2niix)"
+if command -v gzip >/dev/null 2>&1; then
+    gzip -c "$TMP/scan.dcm" >"$TMP/scan.dcm.gz"
+    foreign "$TMP/scan.dcm.gz" "DICOM is not read by sqffd"
+fi
+{ printf '#INRIMAGE-4#{\nXDIM=64\nYDIM=64\nZDIM=64\nVDIM=1\nTYPE=unsigned fixed\nPIXSIZE=8 bits\n##}\n'; zeros 64; } >"$TMP/skull.inr"
+foreign "$TMP/skull.inr" "INRIMAGE is not read by sqffd"
+printf 'solid part\n facet normal 0 0 1\n  outer loop\n   vertex 0 0 0\n   vertex 1 0 0\n   vertex 0 1 0\n  endloop\n endfacet\nendsolid part\n' >"$TMP/ascii.stl"
+foreign "$TMP/ascii.stl" "STL is not read by sqffd; convert it to PLY, OFF or OBJ"
+{ printf 'solid but binary'; zeros 64; printf '\002\000\000\000'; zeros 100; } >"$TMP/binary.stl"
+foreign "$TMP/binary.stl" "STL is not read by sqffd"
+{ printf '\134\001\000\000'; zeros 344; } >"$TMP/analyze.hdr"
+zeros 48 >"$TMP/analyze.img"
+foreign "$TMP/analyze.hdr" "Analyze 7.5 (a .hdr without the NIfTI-1 magic) is not read by sqffd; convert it to NIfTI"
+expect 1 "$TMP/analyze.hdr: Analyze 7.5" fit "$TMP/analyze.img" -o "$TMP/x.ply"
+{ printf '\000\000\001\134'; zeros 344; } >"$TMP/analyze_be.dat"
+foreign "$TMP/analyze_be.dat" "Analyze 7.5"
+{ printf '\211HDF\r\n\032\n'; zeros 92; } >"$TMP/volume.mnc"
+foreign "$TMP/volume.mnc" "HDF5 (e.g. MINC 2) is not read by sqffd"
+{ printf 'PK\003\004'; zeros 60; } >"$TMP/points.zip"
+foreign "$TMP/points.zip" "a zip archive is not read by sqffd; unpack it first"
+printf '1 2 3\n4 5 6\n\001\002\003\n' >"$TMP/binary.xyz"
+foreign "$TMP/binary.xyz" "not a text point file (binary byte 0x01 at line 3)"
+[ ! -e "$TMP/x.ply" ] && ok || bad "a refused input left an output file"
 expect 0 "(the superquadric alone)" fit "$DATA" -o "$TMP/sq.ply" --iterations 0 --mesh 8
 expect 0 "after FFD" fit "$DATA" -o "$TMP/m2d.ply" --model-to-data 0 --iterations 2 --mesh 8
 expect 0 "iterations       3 coarse + 2 (iteration cap)" fit "$DATA" -o "$TMP/c.ply" --iterations 5 --coarse-iterations 3 --mesh 8

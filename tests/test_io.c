@@ -456,6 +456,61 @@ static void test_io_detect(void)
     EXPECT_ERROR("1 2 3\n", "points.ply", "not a PLY file");
 }
 
+/* Files of formats the readers do not take: one sentence naming the
+   format, whatever the name says; one byte off and it is not that format. */
+static void test_io_foreign_formats(void)
+{
+    static const char dicom_message[] = "DICOM is not read by sqffd; convert it to NIfTI (e.g. with dcm2niix)";
+    static const char stl_message[] = "STL is not read by sqffd; convert it to PLY, OFF or OBJ (e.g. with MeshLab or meshio)";
+    static const char analyze_message[] = "Analyze 7.5 (a .hdr without the NIfTI-1 magic) is not read by sqffd; "
+                                          "convert it to NIfTI (e.g. with nibabel or fslchfiletype)";
+    static const double one[] = {1, 2, 3};
+    unsigned char b[400];
+    memset(b, 0, sizeof b);
+    memcpy(b + 128, "DICM", 4);
+    expect_error(b, 200, "scan.dcm", dicom_message, __FILE__, __LINE__);
+    expect_error(b, 200, "scan.ply", dicom_message, __FILE__, __LINE__);
+    CHECK(sqffd_io_foreign_format(b, 131) == NULL); /* "DICM" cut */
+    memmove(b + 127, b + 128, 4);
+    expect_error(b, 200, "scan.dcm", "not a text point file (binary byte 0x00 at line 1)", __FILE__, __LINE__);
+
+    EXPECT_ERROR("#INRIMAGE-4#{\nXDIM=64\nYDIM=64\nZDIM=64\n##}\n", "skull.inr",
+                 "INRIMAGE is not read by sqffd; convert it to NIfTI, MetaImage or NRRD");
+    EXPECT_ERROR("#INRIMAGE-4#\n", "skull.inr", "holds no points"); /* a comment line: not the header */
+
+    EXPECT_ERROR("solid cube\n facet normal 0 0 1\n", "cube.stl", stl_message);
+    EXPECT_ERROR("\r\n  solid\n", "cube.xyz", stl_message);
+    EXPECT_ERROR("solid", "cube.xyz", stl_message);
+    EXPECT_ERROR("solidity 1 2\n", "cube.xyz", "line 1: expected a number, found 'solidity'");
+    memset(b, 0, sizeof b);
+    memcpy(b, "solid but binary", 16);
+    b[80] = 2; /* two 50-byte triangles after the 84-byte header */
+    expect_error(b, 184, "cube.stl", stl_message, __FILE__, __LINE__);
+    memcpy(b, "binary", 6);
+    expect_error(b, 184, "cube.stl", stl_message, __FILE__, __LINE__);
+    expect_error(b, 183, "cube.stl", "not a text point file", __FILE__, __LINE__); /* the count does not fit */
+
+    memset(b, 0, sizeof b);
+    b[0] = 0x5C; b[1] = 1; /* sizeof_hdr 348, little-endian */
+    expect_error(b, 348, "brain.hdr", analyze_message, __FILE__, __LINE__);
+    CHECK(sqffd_io_foreign_format(b, 347) == NULL);
+    memcpy(b + 344, "n+1", 4); /* NIfTI-1: a volume, not foreign (and not points) */
+    CHECK(sqffd_io_foreign_format(b, 348) == NULL);
+    memset(b, 0, sizeof b);
+    b[2] = 1; b[3] = 0x5C; /* big-endian */
+    expect_error(b, 348, "brain.dat", analyze_message, __FILE__, __LINE__);
+
+    EXPECT_ERROR("\x89HDF\r\n\x1a\n", "volume.mnc", "HDF5 (e.g. MINC 2) is not read by sqffd");
+    EXPECT_ERROR("PK\x03\x04", "points.zip", "a zip archive is not read by sqffd; unpack it first");
+    CHECK(sqffd_io_foreign_format("PK\x03", 3) == NULL && sqffd_io_foreign_format("", 0) == NULL);
+
+    /* binary bytes in what is taken for XYZ: not a number parse error */
+    EXPECT_ERROR("1 2 3\n4 5 6\n\x01\x02\x03\n", "s.xyz", "not a text point file (binary byte 0x01 at line 3)");
+    expect_error("1 2 3\n\0", 7, "s.xyz", "not a text point file (binary byte 0x00 at line 2)", __FILE__, __LINE__);
+    EXPECT_ERROR("1 2 3 # \x7f\n", "s.xyz", "not a text point file (binary byte 0x7f at line 1)");
+    EXPECT_POINTS("# caf\xc3\xa9, \xb5m\f\v\n1 2 3\n", "s.xyz", one, 1); /* UTF-8, Latin-1 and white space: text */
+}
+
 static void test_io_missing_file(void)
 {
     double *points;
@@ -583,6 +638,7 @@ void suite_io(void)
     RUN_TEST(test_io_off_mesh);
     RUN_TEST(test_io_obj);
     RUN_TEST(test_io_detect);
+    RUN_TEST(test_io_foreign_formats);
     RUN_TEST(test_io_missing_file);
     RUN_TEST(test_io_writer_round_trip);
     RUN_TEST(test_io_writer_points_file);

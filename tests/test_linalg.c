@@ -187,7 +187,7 @@ static void test_cholesky_known(void)
     bb[1] = 12 * x_true[0] + 37 * x_true[1] - 43 * x_true[2];
     bb[2] = -16 * x_true[0] - 43 * x_true[1] + 98 * x_true[2];
     memcpy(b, bb, sizeof b);
-    sqffd_cholesky_solve(a, 3, b);
+    CHECK_RESULT(sqffd_cholesky_solve(a, 3, b), SQFFD_OK);
     for (i = 0; i < 3; ++i) CHECK_NEAR(b[i], x_true[i], 1e-13);
 }
 
@@ -212,7 +212,7 @@ static void test_cholesky_random(void)
         CHECK_RESULT(sqffd_cholesky_factor(l, n), SQFFD_OK);
         for (i = 0; i < n; ++i)
             for (j = i + 1; j < n; ++j) CHECK(l[i * n + j] == 0.0);
-        sqffd_cholesky_solve(l, n, b);
+        CHECK_RESULT(sqffd_cholesky_solve(l, n, b), SQFFD_OK);
         for (i = 0; i < n; ++i) CHECK_NEAR(b[i], x[i], 1e-12);
         free(a); free(l); free(x); free(b);
     }
@@ -234,6 +234,14 @@ static void test_cholesky_errors(void)
     CHECK_RESULT(sqffd_cholesky_factor(inf_m, 2), SQFFD_ERROR_NON_FINITE);
     CHECK_RESULT(sqffd_cholesky_factor(NULL, 2), SQFFD_ERROR_INVALID_ARGUMENT);
     CHECK_RESULT(sqffd_cholesky_factor(indef, 0), SQFFD_ERROR_INVALID_ARGUMENT);
+    /* the solve refuses the same arguments, b untouched */
+    {
+        double l[4] = {2, 0, 1, 3}, b[2] = {5, 7};
+        CHECK_RESULT(sqffd_cholesky_solve(NULL, 2, b), SQFFD_ERROR_INVALID_ARGUMENT);
+        CHECK_RESULT(sqffd_cholesky_solve(l, 2, NULL), SQFFD_ERROR_INVALID_ARGUMENT);
+        CHECK_RESULT(sqffd_cholesky_solve(l, 0, b), SQFFD_ERROR_INVALID_ARGUMENT);
+        CHECK(b[0] == 5 && b[1] == 7);
+    }
 }
 
 /* ---- SVD ---- */
@@ -488,7 +496,7 @@ static void test_svd_solve(void)
         }
     }
     CHECK_RESULT(sqffd_cholesky_factor(ata, n), SQFFD_OK);
-    sqffd_cholesky_solve(ata, n, atb);
+    CHECK_RESULT(sqffd_cholesky_solve(ata, n, atb), SQFFD_OK);
     for (i = 0; i < n; ++i) CHECK_NEAR(x[i], atb[i], 1e-12);
 
     /* rank deficient: columns 6, 7 copy column 0 -> rank 6; the minimum-norm
@@ -630,7 +638,7 @@ static void test_cg_vs_cholesky(void)
         memcpy(l, a, (size_t)(n * n) * sizeof(double));
         memcpy(ref, b, (size_t)n * sizeof(double));
         CHECK_RESULT(sqffd_cholesky_factor(l, n), SQFFD_OK);
-        sqffd_cholesky_solve(l, n, ref);
+        CHECK_RESULT(sqffd_cholesky_solve(l, n, ref), SQFFD_OK);
         m.a = a; m.n = n; m.poison = 0; m.calls = 0;
         opt.tolerance = 1e-12;
         opt.max_iterations = 20 * n;
@@ -824,7 +832,7 @@ static void test_ncg_unconstrained(void)
         double *l = la_alloc((size_t)(n * n));
         memcpy(l, a, (size_t)(n * n) * sizeof(double));
         CHECK_RESULT(sqffd_cholesky_factor(l, n), SQFFD_OK);
-        sqffd_cholesky_solve(l, n, ref);
+        CHECK_RESULT(sqffd_cholesky_solve(l, n, ref), SQFFD_OK);
         free(l);
     }
     q.a = a; q.b = b; q.n = n; q.evaluations = 0;

@@ -96,10 +96,12 @@ static void check_model_refused(const sqffd_model *bad, int per_point_sees_it, c
     CHECK_MSG(sqffd_ffd_system_init(&system, bad, NULL, ws, 1 << 20) == SQFFD_ERROR_INVALID_MODEL, "%s: system", what);
     CHECK_MSG(sqffd_motion(bad, 1, NULL, NULL, NULL, ws, 1 << 20) == SQFFD_ERROR_INVALID_MODEL, "%s: motion", what);
     CHECK_MSG(sqffd_model_save(bad, bytes, sizeof bytes) == SQFFD_ERROR_INVALID_MODEL, "%s: save", what);
-    CHECK_MSG(sqffd_model_save_size(bad) == 0, "%s: save size", what);
     {
         size_t size = 1;
-        sqffd_result r = sqffd_model_distances_workspace_size(8, bad, &size);
+        sqffd_result r = sqffd_model_save_size(bad, &size);
+        CHECK_MSG(r == SQFFD_ERROR_INVALID_MODEL && size == 0, "%s: save size %s", what, sqffd_result_string(r));
+        size = 1;
+        r = sqffd_model_distances_workspace_size(8, bad, &size);
         CHECK_MSG(r == SQFFD_ERROR_INVALID_MODEL && size == 0, "%s: distances workspace size %s", what,
                   sqffd_result_string(r));
         size = 1;
@@ -218,15 +220,27 @@ static void test_model_superquadric_and_lattice_checks(void)
     CHECK_RESULT(sqffd_ffd_validate(&m.ffd), SQFFD_ERROR_INVALID_MODEL);
 }
 
+/* The saved size of a model that must be valid. */
+static size_t saved_size(const sqffd_model *m)
+{
+    size_t size = 0;
+    CHECK_RESULT(sqffd_model_save_size(m, &size), SQFFD_OK);
+    return size;
+}
+
 /* The layout the header documents, byte by byte where it is fixed. */
 static void test_model_save_layout(void)
 {
     sqffd_model m = test_model();
     unsigned char bytes[4000];
-    size_t size = sqffd_model_save_size(&m);
+    size_t size = saved_size(&m);
     uint64_t bits;
     int i;
     CHECK(size == 3288);
+    CHECK_RESULT(sqffd_model_save_size(NULL, &size), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK(size == 0);
+    CHECK_RESULT(sqffd_model_save_size(&m, NULL), SQFFD_ERROR_INVALID_ARGUMENT);
+    size = saved_size(&m);
     memset(bytes, 0xA5, sizeof bytes);
     m.sq.size[0] = 1.0; /* 0x3FF0000000000000 */
     CHECK_RESULT(sqffd_model_save(&m, bytes, size - 1), SQFFD_ERROR_OUTPUT_TOO_SMALL);
@@ -251,7 +265,7 @@ static void test_model_save_load_round_trip(void)
 {
     sqffd_model m = test_model(), back;
     unsigned char bytes[4000], again[4000];
-    size_t size = sqffd_model_save_size(&m);
+    size_t size = saved_size(&m);
     double a[3], b[3];
     CHECK_RESULT(sqffd_model_save(&m, bytes, sizeof bytes), SQFFD_OK);
     memset(&back, 0xCC, sizeof back);
@@ -268,9 +282,9 @@ static void test_model_save_load_round_trip(void)
         sqffd_model small;
         o.lattice[0] = 2; o.lattice[1] = 3; o.lattice[2] = 4;
         CHECK_RESULT(sqffd_model_init(&small, &m.sq, &o), SQFFD_OK);
-        CHECK(sqffd_model_save_size(&small) == 284 + 24 * 24 + 4);
+        CHECK(saved_size(&small) == 284 + 24 * 24 + 4);
         CHECK_RESULT(sqffd_model_save(&small, bytes, sizeof bytes), SQFFD_OK);
-        CHECK_RESULT(sqffd_model_load(&back, bytes, sqffd_model_save_size(&small)), SQFFD_OK);
+        CHECK_RESULT(sqffd_model_load(&back, bytes, saved_size(&small)), SQFFD_OK);
         CHECK(same_model(&small, &back));
     }
 }
@@ -285,7 +299,7 @@ static void test_model_load_every_byte_flipped(void)
     sqffd_model m = test_model(), back;
     unsigned char bytes[4000], bad[4000];
     double v[3 * 20];
-    size_t size = sqffd_model_save_size(&m), i;
+    size_t size = saved_size(&m), i;
     int f, accepted = 0, refused = 0;
     CHECK_RESULT(sqffd_model_save(&m, bytes, sizeof bytes), SQFFD_OK);
     for (i = 0; i < size; i++)
@@ -318,7 +332,7 @@ static void test_model_load_truncated_and_crafted(void)
 {
     sqffd_model m = test_model(), back;
     unsigned char bytes[4000];
-    size_t size = sqffd_model_save_size(&m), n;
+    size_t size = saved_size(&m), n;
     CHECK_RESULT(sqffd_model_save(&m, bytes, sizeof bytes), SQFFD_OK);
     for (n = 0; n < size; n++) CHECK_RESULT(sqffd_model_load(&back, bytes, n), SQFFD_ERROR_BAD_FORMAT);
     bytes[size] = 0;
@@ -351,13 +365,13 @@ static void test_model_other_lattice_build(void)
     sqffd_model m = test_model();
     sqffd_fit_options o = sqffd_fit_options_default();
     unsigned char bytes[16000], back[16000];
-    size_t size = sqffd_model_save_size(&m);
+    size_t size = saved_size(&m);
     CHECK_RESULT(sqffd_model_save(&m, bytes, sizeof bytes), SQFFD_OK);
     CHECK(lattice6_round_trip(bytes, size, back, sizeof back) == SQFFD_OK);
     CHECK(memcmp(bytes, back, size) == 0);
     o.lattice[0] = 7; /* fits 8, not 6 */
     CHECK_RESULT(sqffd_model_init(&m, &m.sq, &o), SQFFD_OK);
-    size = sqffd_model_save_size(&m);
+    size = saved_size(&m);
     CHECK_RESULT(sqffd_model_save(&m, bytes, sizeof bytes), SQFFD_OK);
     CHECK(lattice6_round_trip(bytes, size, back, sizeof back) == SQFFD_ERROR_TOO_LARGE);
 }

@@ -65,8 +65,9 @@ static void free_views(views *v)
 static int same_model(const sqffd_model *a, const sqffd_model *b)
 {
     unsigned char sa[8192], sb[8192];
-    size_t na = sqffd_model_save_size(a), nb = sqffd_model_save_size(b);
-    return na && na == nb && na <= sizeof sa && sqffd_model_save(a, sa, sizeof sa) == SQFFD_OK &&
+    size_t na, nb;
+    return sqffd_model_save_size(a, &na) == SQFFD_OK && sqffd_model_save_size(b, &nb) == SQFFD_OK && na == nb &&
+           na <= sizeof sa && sqffd_model_save(a, sa, sizeof sa) == SQFFD_OK &&
            sqffd_model_save(b, sb, sizeof sb) == SQFFD_OK && memcmp(sa, sb, na) == 0;
 }
 
@@ -220,7 +221,7 @@ static void test_points_track(void)
     views v[VIEW_FRAMES];
     sqffd_points frames[VIEW_FRAMES];
     const double *packed[VIEW_FRAMES];
-    size_t counts[VIEW_FRAMES], t, size = 0, done_view = 9, done_packed = 9;
+    size_t counts[VIEW_FRAMES], t, size = 0, view_size = 1, done_view = 9, done_packed = 9;
     sqffd_model m_view[VIEW_FRAMES], m_packed[VIEW_FRAMES];
     sqffd_track_options opt = sqffd_track_options_default();
     void *ws;
@@ -233,7 +234,11 @@ static void test_points_track(void)
         counts[t] = v[t].n;
     }
     CHECK_RESULT(sqffd_track_workspace_size(counts, VIEW_FRAMES, &opt, &size), SQFFD_OK);
+    CHECK_RESULT(sqffd_track_view_workspace_size(frames, VIEW_FRAMES, &opt, &view_size), SQFFD_OK);
+    CHECK(view_size == size); /* the size depends on the counts alone */
     ws = test_malloc(size);
+    CHECK_RESULT(sqffd_track_view(frames, VIEW_FRAMES, &opt, m_view, NULL, &done_view, ws, size - 1),
+                 SQFFD_ERROR_WORKSPACE_TOO_SMALL);
     CHECK_RESULT(sqffd_track_view(frames, VIEW_FRAMES, &opt, m_view, NULL, &done_view, ws, size), SQFFD_OK);
     CHECK_RESULT(sqffd_track(packed, counts, VIEW_FRAMES, &opt, m_packed, NULL, &done_packed, ws, size), SQFFD_OK);
     CHECK(done_view == VIEW_FRAMES && done_packed == VIEW_FRAMES);
@@ -245,6 +250,15 @@ static void test_points_track(void)
     CHECK(done_view == 1 && same_model(&m_view[0], &m_packed[0]));
     CHECK_RESULT(sqffd_track_view(NULL, VIEW_FRAMES, &opt, m_view, NULL, &done_view, ws, size),
                  SQFFD_ERROR_INVALID_ARGUMENT);
+    /* the size call refuses what the count decides: no frames, an empty frame */
+    CHECK_RESULT(sqffd_track_view_workspace_size(NULL, VIEW_FRAMES, &opt, &view_size), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK(view_size == 0);
+    CHECK_RESULT(sqffd_track_view_workspace_size(frames, 0, &opt, &view_size), SQFFD_ERROR_INVALID_ARGUMENT);
+    frames[2].count = 0;
+    view_size = 1;
+    CHECK_RESULT(sqffd_track_view_workspace_size(frames, VIEW_FRAMES, &opt, &view_size), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK(view_size == 0);
+    CHECK_RESULT(sqffd_track_view_workspace_size(frames, VIEW_FRAMES, &opt, NULL), SQFFD_ERROR_INVALID_ARGUMENT);
     free(ws);
     for (t = 0; t < VIEW_FRAMES; t++) free_views(&v[t]);
 }

@@ -468,8 +468,9 @@ static void test_track_phantom(void)
 }
 
 /* A stream, one frame at a time (sqffd_fit, the system, then
-   sqffd_track_frame per later frame), makes sqffd_track's models and
-   reports to the bit; its workspace is sized without a system. */
+   sqffd_track_frame or sqffd_track_frame_view per later frame), makes
+   sqffd_track's models and reports to the bit; its workspace is sized
+   without a system. */
 static void test_track_frame_stream(void)
 {
     enum { FRAMES = 4, N = 1500 };
@@ -503,10 +504,16 @@ static void test_track_frame_stream(void)
     for (t = 1; t < FRAMES; t++) {
         sqffd_points frame = sqffd_points_packed(s.points[t], N);
         other = streamed;
-        CHECK_RESULT(sqffd_track_frame(&sys, frame, &opt, &other, &rep, frame_work, frame_size - 1),
+        CHECK_RESULT(sqffd_track_frame_view(&sys, frame, &opt, &other, &rep, frame_work, frame_size - 1),
+                     SQFFD_ERROR_WORKSPACE_TOO_SMALL);
+        CHECK_RESULT(sqffd_track_frame(&sys, s.points[t], N, &opt, &other, &rep, frame_work, frame_size - 1),
                      SQFFD_ERROR_WORKSPACE_TOO_SMALL);
         CHECK(memcmp(&other, &streamed, sizeof other) == 0);
-        CHECK_RESULT(sqffd_track_frame(&sys, frame, &opt, &streamed, &rep, frame_work, frame_size), SQFFD_OK);
+        if (t % 2) /* the packed form and the view alternate */
+            CHECK_RESULT(sqffd_track_frame(&sys, s.points[t], N, &opt, &streamed, &rep, frame_work, frame_size),
+                         SQFFD_OK);
+        else
+            CHECK_RESULT(sqffd_track_frame_view(&sys, frame, &opt, &streamed, &rep, frame_work, frame_size), SQFFD_OK);
         CHECK_MSG(memcmp(&streamed.ffd.control, &tracked[t].ffd.control, sizeof streamed.ffd.control) == 0,
                   "frame %zu: streamed control points differ from sqffd_track's", t);
         CHECK(rep.error.rms == reports[t].error.rms && rep.iterations == reports[t].iterations);
@@ -515,12 +522,14 @@ static void test_track_frame_stream(void)
     /* a model of another box is refused; a negative cap too */
     other = streamed;
     other.ffd.origin[1] += 1e-6;
-    CHECK_RESULT(sqffd_track_frame(&sys, sqffd_points_packed(s.points[1], N), &opt, &other, NULL, frame_work,
-                                   frame_size), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(sqffd_track_frame(&sys, s.points[1], N, &opt, &other, NULL, frame_work, frame_size),
+                 SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(sqffd_track_frame(&sys, NULL, N, &opt, &streamed, NULL, frame_work, frame_size),
+                 SQFFD_ERROR_INVALID_ARGUMENT);
     opt.frame_iterations = -1;
     CHECK_RESULT(sqffd_track_frame_workspace_size(N, &opt, &frame_size), SQFFD_ERROR_INVALID_ARGUMENT);
-    CHECK_RESULT(sqffd_track_frame(&sys, sqffd_points_packed(s.points[1], N), &opt, &streamed, NULL, frame_work,
-                                   frame_size), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(sqffd_track_frame_view(&sys, sqffd_points_packed(s.points[1], N), &opt, &streamed, NULL, frame_work,
+                                        frame_size), SQFFD_ERROR_INVALID_ARGUMENT);
     free(frame_work);
     free(memory);
     free_sequence(&s);

@@ -560,7 +560,15 @@ static void test_volume_io_nifti_broken(void)
         bytes_free(&b);                                                                           \
     } while (0)
 
-    NIFTI_CASE(memcpy(f.magic, "n+2", 4), "magic 'n+2?' is neither \"n+1\" nor \"ni1\"");
+    NIFTI_CASE(memcpy(f.magic, "n+2", 4), "Analyze 7.5 (a .hdr without the NIfTI-1 magic) is not read by sqffd");
+    NIFTI_CASE(memcpy(f.magic, "ni1", 4), "its voxels are in the .img"); /* the other magic, for contrast */
+    { /* a format no reader takes, whatever the name says */
+        unsigned char dicom[200];
+        memset(dicom, 0, sizeof dicom);
+        memcpy(dicom + 128, "DICM", 4);
+        CHECK_FAILS(sqffd_image_read_memory(dicom, sizeof dicom, "scan.nii", &im, err, sizeof err), &im, err,
+                    "scan.nii", "DICOM is not read by sqffd; convert it to NIfTI (e.g. with dcm2niix)");
+    }
     NIFTI_CASE(f.dim[0] = 8, "dim[0] = 8: the number of dimensions must be 1 to 7");
     NIFTI_CASE((f.dim[0] = 7, f.dim[5] = 2), "dim[5] = 2: images of more than 4 dimensions are not supported");
     NIFTI_CASE(f.dim[2] = -3, "dim[2] = -3: must be at least 1");

@@ -243,11 +243,11 @@ _declare("sqffd_model_distances_view", _int, _P(_Model), _Points, _pointer, _P(_
 _declare("sqffd_model_reverse_distances_workspace_size", _int, _size, _P(_Model), _P(_size))
 _declare("sqffd_model_reverse_distances_view", _int, _P(_Model), _Points, _pointer, _P(_DistanceStats),
          _pointer, _size)
-_declare("sqffd_model_save_size", _size, _P(_Model))
+_declare("sqffd_model_save_size", _int, _P(_Model), _P(_size))
 _declare("sqffd_model_save", _int, _P(_Model), _pointer, _size)
 _declare("sqffd_model_load", _int, _P(_Model), ctypes.c_char_p, _size)
 _declare("sqffd_track_options_default", _TrackOptions)
-_declare("sqffd_track_workspace_size", _int, _P(_size), _size, _P(_TrackOptions), _P(_size))
+_declare("sqffd_track_view_workspace_size", _int, _P(_Points), _size, _P(_TrackOptions), _P(_size))
 _declare("sqffd_track_view", _int, _P(_Points), _size, _P(_TrackOptions), _P(_Model), _P(_FitReport),
          _P(_size), _pointer, _size)
 _declare("sqffd_motion_options_default", _MotionOptions)
@@ -544,9 +544,10 @@ class Model:
     # -- the byte form
     def save(self):
         """The library's byte form of the model (sqffd_model_save: versioned, little-endian, CRC-32)."""
-        size = _lib.sqffd_model_save_size(self._struct)  # 0 for an invalid model: save says INVALID_MODEL
-        buffer = ctypes.create_string_buffer(size)
-        _check(_lib.sqffd_model_save(self._struct, buffer, size), "save")
+        size = _size()
+        _check(_lib.sqffd_model_save_size(self._struct, ctypes.byref(size)), "save")
+        buffer = ctypes.create_string_buffer(size.value)
+        _check(_lib.sqffd_model_save(self._struct, buffer, size.value), "save")
         return buffer.raw
 
     @staticmethod
@@ -644,11 +645,10 @@ def track(frames, **options):
     prepared = [_points(frame, f"frames[{t}]") for t, frame in enumerate(frames)]  # (array, view) each
     count = len(prepared)
     frame_views = (_Points * max(count, 1))(*(view for _, view in prepared))
-    counts = (_size * max(count, 1))(*(len(array) for array, _ in prepared))
     struct_options = _lib.sqffd_track_options_default()
     callbacks = []
     _set_options(struct_options, options, "", callbacks)
-    work, work_size = _workspace(_lib.sqffd_track_workspace_size, "track", counts, count, struct_options)
+    work, work_size = _workspace(_lib.sqffd_track_view_workspace_size, "track", frame_views, count, struct_options)
     models, reports, done = (_Model * max(count, 1))(), (_FitReport * max(count, 1))(), _size()
     result = _lib.sqffd_track_view(frame_views, count, struct_options, models, reports, ctypes.byref(done),
                                    work.ctypes.data, work_size)

@@ -158,8 +158,9 @@ static int write_motion_report(const char *path, const sqffd_motion_report *m)
 static int write_model(const char *path, const sqffd_model *model)
 {
     unsigned char bytes[32768];
-    size_t size = sqffd_model_save_size(model);
-    sqffd_result r = sqffd_model_save(model, bytes, sizeof bytes);
+    size_t size;
+    sqffd_result r = sqffd_model_save_size(model, &size);
+    if (r == SQFFD_OK) r = sqffd_model_save(model, bytes, sizeof bytes);
     if (r != SQFFD_OK) {
         fail(path, sqffd_result_string(r));
         return 0;

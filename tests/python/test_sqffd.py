@@ -313,6 +313,9 @@ class BadInput(unittest.TestCase):
         self.assert_code(sqffd.Result.BAD_FORMAT, sqffd.load, data)
         with self.assertRaises(TypeError):
             sqffd.load(42)
+        model = sqffd.fit(Data.bunny, max_iterations=0)
+        model._struct.grid[0] = 1  # a stored model that fails validation: no bytes, a code
+        self.assert_code(sqffd.Result.INVALID_MODEL, model.save)
 
     def test_track_frames(self):
         frames = [Data.frames[0], Data.frames[1], Data.frames[2][:3]]
