@@ -777,6 +777,8 @@ SQFFD_DEF sqffd_result sqffd_sq_fit_view(sqffd_points points, const sqffd_sq_fit
 #define sqffd_ffd_eval SQFFD__LATTICE(sqffd_ffd_eval)
 #define sqffd_ffd_deform SQFFD__LATTICE(sqffd_ffd_deform)
 #define sqffd_ffd_weights SQFFD__LATTICE(sqffd_ffd_weights)
+#define sqffd_ffd_jacobian_workspace_size SQFFD__LATTICE(sqffd_ffd_jacobian_workspace_size)
+#define sqffd_ffd_jacobian_bound SQFFD__LATTICE(sqffd_ffd_jacobian_bound)
 #define sqffd_fit_options_default SQFFD__LATTICE(sqffd_fit_options_default)
 #define sqffd_fit_workspace_size SQFFD__LATTICE(sqffd_fit_workspace_size)
 #define sqffd_fit SQFFD__LATTICE(sqffd_fit)
@@ -854,6 +856,17 @@ SQFFD_DEF sqffd_result sqffd_ffd_deform(const sqffd_ffd *ffd, const double point
    control-point order (weights has room for l*m*n). INVALID_ARGUMENT for
    dims out of 2..SQFFD_MAX_LATTICE. */
 SQFFD_DEF sqffd_result sqffd_ffd_weights(const int dims[3], const double stu[3], double *weights);
+/* The deformation's Jacobian determinant over the whole box, relative to
+   the regular lattice's (the volume ratio: 1 everywhere for P0, det A for an
+   affine map A): *min receives the smallest coefficient of its Bernstein
+   form, a lower bound of it at every point of the box. *min > 0 proves the
+   deformation locally injective on the box: it cannot fold a surface inside
+   it. The workspace depends on the dims only (about 20 KB for 5 x 5 x 5).
+   INVALID_MODEL for a lattice sqffd_ffd_validate rejects, NON_FINITE where
+   the bound overflows, WORKSPACE_TOO_SMALL. */
+SQFFD_DEF sqffd_result sqffd_ffd_jacobian_workspace_size(const int dims[3], size_t *size);
+SQFFD_DEF sqffd_result sqffd_ffd_jacobian_bound(const sqffd_ffd *ffd, double *min, void *workspace,
+                                               size_t workspace_size);
 /* ======================================================================
    Layer 5: model fit (superquadric + FFD, the paper's two-step algorithm)
    ====================================================================== */
@@ -906,6 +919,8 @@ typedef struct sqffd_fit_options {
                                     would have fewer than 4 model points a control point (e.g. an 8 x 8 x 8 lattice
                                     on the default grid) */
     double tolerance;            /* stop when the plain step moves the model points by at most this (RMS / diagonal; default 1e-4; 0 = always max_iterations) */
+    double min_jacobian;         /* fold-free steps: none leaves the lattice's Jacobian bound (sqffd_ffd_jacobian_bound)
+                                    below this (default 0.02; -HUGE_VAL: no bound) */
     double model_to_data;        /* weight >= 0 of the model -> data term of the energy (the squared distance of every other model point in each grid direction to its nearest data point, among at most 16,384 of them evenly spread; builds a tree over those): holds the parts of the model no data reach near the data (default 0.02; 0: none; 1: as much as the data -> model term) */
     size_t sq_max_points;        /* stage 1 runs on an even subsample of at most this many points (default 20,000; 0 = all) */
     size_t ffd_max_points;       /* the FFD iterations run on an even subsample of at most this many points (default 200,000; 0 = all); report.error is always over all points */
@@ -937,6 +952,7 @@ typedef struct sqffd_fit_report {
                                           never below the exact error, up to ~15% above it) */
     double energy;                 /* the energy of the final model (THE ENERGY, over the FFD subsample) */
     double energy_history[SQFFD_FIT_HISTORY]; /* after iteration 1, 2, ...: never rising */
+    double min_jacobian;           /* the final lattice's sqffd_ffd_jacobian_bound (> 0: it folds nothing) */
 } sqffd_fit_report;
 
 SQFFD_DEF sqffd_fit_options sqffd_fit_options_default(void);
@@ -1118,11 +1134,11 @@ typedef struct sqffd_track_options {
                                     fit.max_iterations is frame 0's (default 100, and no coarse_iterations,
                                     so that it converges and the later frames measure motion, not the rest of
                                     its convergence);
-                                    fit.alpha defaults to 1e-5, stiffer than a lone fit's 1e-6, so the
-                                    parts no data reach stay still from frame to frame */
-    int frame_iterations;        /* FFD iterations of frames 1, 2, ... at most (default 5: they start near
-                                    their answer, and on the phantom 10 lower a frame's error by ~1% at
-                                    1.3x the time; the tolerance may stop them sooner) */
+                                    fit.alpha defaults to 1e-3, stiffer than a lone fit's 1e-6, and
+                                    fit.model_to_data to 0: the parts a frame's data do not reach follow
+                                    the reached ones smoothly instead of being pulled onto the nearest data */
+    int frame_iterations;        /* FFD iterations of frames 1, 2, ... at most (default 100: a frame runs to the
+                                    tolerance; ED to ES in one frame takes 50-100 under the Jacobian floor) */
     sqffd_progress_fn progress;  /* frames (SQFFD_STAGE_FRAME) and, within each, the stages' iterations */
     void *progress_user;
 } sqffd_track_options;
@@ -4996,6 +5012,257 @@ SQFFD_DEF sqffd_result sqffd_ffd_weights(const int dims[3], const double stu[3],
     sqffd__ffd_expand(dims, w, weights);
     return SQFFD_OK;
 }
+
+/* ---- the Jacobian's Bernstein form ----------------------------------------
+   In the box's own coordinates (stu = inverse (x - origin)) the regular
+   lattice is the identity map, so J(s, t, u) = det(d stu' / d stu) is the
+   deformation's volume ratio (1 for P0). The partial derivative along an
+   axis is a Bernstein polynomial one degree lower along it, whose
+   coefficients are degree x the control points' differences along it; and
+   J = Ds . (Dt x Du) is one of degree 3d - 1 per axis (d = dims - 1) whose
+   coefficients come exactly from theirs: with each factor's coefficients
+   scaled by their binomials C(d, i), the product's are plain convolutions,
+   unscaled by C(3d - 1, I). J lies between its smallest and largest
+   coefficient over the whole box (the basis is nonnegative and sums to 1),
+   so a smallest coefficient > 0 proves the map locally injective there.
+   Each coefficient is a convex combination of triple products det(a, b, c)
+   of the derivatives' coefficients (Vandermonde), so while every such vector
+   is within eps of its rest value (1, 0, 0), (0, 1, 0) or (0, 0, 1) they are
+   all at least 2 - (1 + eps)^3: a bound at O(l m n) that spares the
+   convolutions while the lattice is near regular. A coefficient is cubic in
+   the control points; its gradient takes the other two products, Du x Ds
+   and Ds x Dt (the triple product is cyclic). */
+typedef struct sqffd__jacobian_work {
+    double *d[3];     /* the derivatives' coefficients, binomial-scaled, 3 doubles each */
+    double *scale[3]; /* their binomial scales */
+    double *cross[3]; /* [a]: the product of the other two derivatives, scaled (Dt x Du, Du x Ds, Ds x Dt) */
+    double *coef;     /* J's coefficients, unscaled */
+} sqffd__jacobian_work;
+
+/* Coefficient counts per axis: derivative a's (a < 3), J's (a = 3). */
+static void sqffd__jacobian_extent(const int dims[3], int a, int ext[3])
+{
+    int b;
+    for (b = 0; b < 3; ++b) ext[b] = a == 3 ? 3 * dims[b] - 3 : dims[b] - (a == b);
+}
+
+/* The product of the two derivatives other than a. */
+static void sqffd__jacobian_cross_extent(const int dims[3], int a, int ext[3])
+{
+    int b;
+    for (b = 0; b < 3; ++b) ext[b] = 2 * dims[b] - 1 - (a != b);
+}
+
+static size_t sqffd__jacobian_count(const int ext[3])
+{
+    return (size_t)ext[0] * (size_t)ext[1] * (size_t)ext[2];
+}
+
+/* products: the cross products kept (1: J alone; 3: its gradients too). */
+static void sqffd__ffd_jacobian_layout(sqffd__arena *ar, const int dims[3], int products, sqffd__jacobian_work *w)
+{
+    int a, ext[3];
+    memset(w, 0, sizeof *w);
+    for (a = 0; a < 3; ++a) {
+        sqffd__jacobian_extent(dims, a, ext);
+        w->d[a] = (double *)sqffd__arena_take(ar, 3 * sqffd__jacobian_count(ext), sizeof(double));
+        w->scale[a] = (double *)sqffd__arena_take(ar, sqffd__jacobian_count(ext), sizeof(double));
+        if (a < products) {
+            sqffd__jacobian_cross_extent(dims, a, ext);
+            w->cross[a] = (double *)sqffd__arena_take(ar, 3 * sqffd__jacobian_count(ext), sizeof(double));
+        }
+    }
+    sqffd__jacobian_extent(dims, 3, ext);
+    w->coef = (double *)sqffd__arena_take(ar, sqffd__jacobian_count(ext), sizeof(double));
+}
+
+/* Binomials C(d, 0..d) (d < 3 SQFFD_MAX_LATTICE: exact in doubles). */
+static void sqffd__binomials(int d, double *c)
+{
+    int i, k;
+    c[0] = 1.0;
+    for (i = 1; i <= d; ++i) {
+        c[i] = 1.0;
+        for (k = i - 1; k > 0; --k) c[k] += c[k - 1];
+    }
+}
+
+/* The derivatives' scaled coefficients in box coordinates; returns how far
+   the farthest is from its rest value. */
+static double sqffd__ffd_jacobian_derivatives(const int dims[3], const double *control, const double inverse[9],
+                                              const sqffd__jacobian_work *w)
+{
+    double eps2 = 0.0, bin[3][SQFFD_MAX_LATTICE];
+    int a, b, i, j, k, c, ext[3];
+    for (a = 0; a < 3; ++a) {
+        size_t step = a == 0 ? (size_t)(dims[1] * dims[2]) : a == 1 ? (size_t)dims[2] : 1, e = 0;
+        sqffd__jacobian_extent(dims, a, ext);
+        for (b = 0; b < 3; ++b) sqffd__binomials(ext[b] - 1, bin[b]);
+        for (i = 0; i < ext[0]; ++i)
+            for (j = 0; j < ext[1]; ++j)
+                for (k = 0; k < ext[2]; ++k, ++e) {
+                    const double *p = control + 3 * (size_t)((i * dims[1] + j) * dims[2] + k), *q = p + 3 * step;
+                    double diff[3], v[3], off = 0.0;
+                    w->scale[a][e] = bin[0][i] * bin[1][j] * bin[2][k];
+                    for (c = 0; c < 3; ++c) diff[c] = (double)(dims[a] - 1) * (q[c] - p[c]);
+                    sqffd__mat3_vec(inverse, diff, v);
+                    for (c = 0; c < 3; ++c) {
+                        double o = v[c] - (c == a ? 1.0 : 0.0);
+                        off += o * o;
+                        w->d[a][3 * e + (size_t)c] = v[c] * w->scale[a][e];
+                    }
+                    if (off > eps2) eps2 = off;
+                }
+    }
+    return sqrt(eps2);
+}
+
+/* out = the convolution of x and y (extents ex and ey) under the cross product. */
+static void sqffd__jacobian_convolve(const double *x, const int ex[3], const double *y, const int ey[3], double *out)
+{
+    int eo[3], i, j, k, i2, j2, k2, b;
+    for (b = 0; b < 3; ++b) eo[b] = ex[b] + ey[b] - 1;
+    memset(out, 0, 3 * sqffd__jacobian_count(eo) * sizeof(double));
+    for (i = 0; i < ex[0]; ++i)
+        for (j = 0; j < ex[1]; ++j)
+            for (k = 0; k < ex[2]; ++k) {
+                const double *t = x + 3 * ((i * ex[1] + j) * ex[2] + k);
+                for (i2 = 0; i2 < ey[0]; ++i2)
+                    for (j2 = 0; j2 < ey[1]; ++j2) {
+                        const double *u = y + 3 * ((i2 * ey[1] + j2) * ey[2]);
+                        double *o = out + 3 * (((i + i2) * eo[1] + j + j2) * eo[2] + k);
+                        for (k2 = 0; k2 < ey[2]; ++k2, u += 3, o += 3) {
+                            o[0] += t[1] * u[2] - t[2] * u[1];
+                            o[1] += t[2] * u[0] - t[0] * u[2];
+                            o[2] += t[0] * u[1] - t[1] * u[0];
+                        }
+                    }
+            }
+}
+
+/* The first `products` of Dt x Du, Du x Ds, Ds x Dt. */
+static void sqffd__ffd_jacobian_products(const int dims[3], int products, const sqffd__jacobian_work *w)
+{
+    int a, ext[3][3];
+    for (a = 0; a < 3; ++a) sqffd__jacobian_extent(dims, a, ext[a]);
+    for (a = 0; a < products; ++a)
+        sqffd__jacobian_convolve(w->d[(a + 1) % 3], ext[(a + 1) % 3], w->d[(a + 2) % 3], ext[(a + 2) % 3], w->cross[a]);
+}
+
+/* J's coefficients into w->coef, from Ds and Dt x Du; returns the smallest. */
+static double sqffd__ffd_jacobian_coefficients(const int dims[3], const sqffd__jacobian_work *w)
+{
+    int es[3], ec[3], ej[3], i, j, k, I, J, K;
+    double best = HUGE_VAL, *coef = w->coef, bin[3][3 * SQFFD_MAX_LATTICE];
+    sqffd__jacobian_extent(dims, 0, es);
+    sqffd__jacobian_cross_extent(dims, 0, ec);
+    sqffd__jacobian_extent(dims, 3, ej);
+    for (i = 0; i < 3; ++i) sqffd__binomials(ej[i] - 1, bin[i]);
+    for (I = 0; I < ej[0]; ++I)
+        for (J = 0; J < ej[1]; ++J)
+            for (K = 0; K < ej[2]; ++K) {
+                double sum = 0.0;
+                int i0 = I - ec[0] + 1 > 0 ? I - ec[0] + 1 : 0, j0 = J - ec[1] + 1 > 0 ? J - ec[1] + 1 : 0;
+                int k0 = K - ec[2] + 1 > 0 ? K - ec[2] + 1 : 0;
+                for (i = i0; i < es[0] && i <= I; ++i)
+                    for (j = j0; j < es[1] && j <= J; ++j)
+                        for (k = k0; k < es[2] && k <= K; ++k) {
+                            const double *s = w->d[0] + 3 * ((i * es[1] + j) * es[2] + k);
+                            const double *x = w->cross[0] + 3 * (((I - i) * ec[1] + J - j) * ec[2] + K - k);
+                            sum += s[0] * x[0] + s[1] * x[1] + s[2] * x[2];
+                        }
+                sum /= bin[0][I] * bin[1][J] * bin[2][K];
+                if (sum < best) best = sum;
+                *coef++ = sum;
+            }
+    return best;
+}
+
+/* The smallest of J's coefficients for control points in sqffd_ffd's
+   layout, or the near-regular bound when that is at least `enough`
+   (HUGE_VAL: always the coefficients, then in w->coef). */
+static double sqffd__ffd_jacobian_min(const int dims[3], const double *control, const double inverse[9],
+                                      const sqffd__jacobian_work *w, double enough)
+{
+    double eps = sqffd__ffd_jacobian_derivatives(dims, control, inverse, w);
+    double near = 2.0 - (1.0 + eps) * (1.0 + eps) * (1.0 + eps);
+    if (near >= enough) return near;
+    sqffd__ffd_jacobian_products(dims, 1, w);
+    return sqffd__ffd_jacobian_coefficients(dims, w);
+}
+
+/* The gradient of J's coefficient `index` (w->coef's order) with respect to
+   the control points, planar (all x, then y, then z; L each), from the
+   derivatives and all three products. */
+static void sqffd__ffd_jacobian_gradient(const int dims[3], const double inverse[9], const sqffd__jacobian_work *w,
+                                         size_t index, double *grad)
+{
+    size_t l = (size_t)dims[0] * (size_t)dims[1] * (size_t)dims[2];
+    int ej[3], c[3], a, b, i, j, k;
+    double bin[3][3 * SQFFD_MAX_LATTICE], unscale;
+    sqffd__jacobian_extent(dims, 3, ej);
+    c[2] = (int)(index % (size_t)ej[2]);
+    c[1] = (int)(index / (size_t)ej[2] % (size_t)ej[1]);
+    c[0] = (int)(index / ((size_t)ej[2] * (size_t)ej[1]));
+    for (b = 0; b < 3; ++b) sqffd__binomials(ej[b] - 1, bin[b]);
+    unscale = 1.0 / (bin[0][c[0]] * bin[1][c[1]] * bin[2][c[2]]);
+    memset(grad, 0, 3 * l * sizeof(double));
+    for (a = 0; a < 3; ++a) {
+        int ed[3], ec[3], lo[3], hi[3];
+        size_t step = a == 0 ? (size_t)(dims[1] * dims[2]) : a == 1 ? (size_t)dims[2] : 1;
+        sqffd__jacobian_extent(dims, a, ed);
+        sqffd__jacobian_cross_extent(dims, a, ec);
+        for (b = 0; b < 3; ++b) { /* alpha with alpha <= c < alpha + ec */
+            lo[b] = c[b] - ec[b] + 1 > 0 ? c[b] - ec[b] + 1 : 0;
+            hi[b] = c[b] + 1 < ed[b] ? c[b] + 1 : ed[b];
+        }
+        for (i = lo[0]; i < hi[0]; ++i)
+            for (j = lo[1]; j < hi[1]; ++j)
+                for (k = lo[2]; k < hi[2]; ++k) {
+                    size_t e = (size_t)((i * ed[1] + j) * ed[2] + k);
+                    size_t p = (size_t)((i * dims[1] + j) * dims[2] + k), q = p + step;
+                    const double *x = w->cross[a] + 3 * (((c[0] - i) * ec[1] + c[1] - j) * ec[2] + c[2] - k);
+                    double f = (double)(dims[a] - 1) * w->scale[a][e] * unscale, g[3];
+                    int r;
+                    for (r = 0; r < 3; ++r) /* inverse^T x: box coordinates back to the world's */
+                        g[r] = f * (inverse[r] * x[0] + inverse[3 + r] * x[1] + inverse[6 + r] * x[2]);
+                    for (r = 0; r < 3; ++r) {
+                        grad[(size_t)r * l + q] += g[r];
+                        grad[(size_t)r * l + p] -= g[r];
+                    }
+                }
+    }
+}
+
+SQFFD_DEF sqffd_result sqffd_ffd_jacobian_workspace_size(const int dims[3], size_t *size)
+{
+    sqffd__arena a;
+    sqffd__jacobian_work w;
+    if (!size) return SQFFD_ERROR_INVALID_ARGUMENT;
+    *size = 0;
+    if (!dims || !sqffd__ffd_dims_valid(dims)) return SQFFD_ERROR_INVALID_ARGUMENT;
+    sqffd__arena_measure(&a);
+    sqffd__ffd_jacobian_layout(&a, dims, 1, &w);
+    return sqffd__arena_size(&a, size);
+}
+
+SQFFD_DEF sqffd_result sqffd_ffd_jacobian_bound(const sqffd_ffd *ffd, double *min, void *workspace,
+                                               size_t workspace_size)
+{
+    sqffd__arena a;
+    sqffd__jacobian_work w;
+    sqffd_result r;
+    double bound;
+    if (!ffd || !min) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if ((r = sqffd_ffd_validate(ffd)) != SQFFD_OK) return r;
+    sqffd__arena_init(&a, workspace, workspace_size);
+    sqffd__ffd_jacobian_layout(&a, ffd->dims, 1, &w);
+    if (a.overflow) return sqffd__arena_error(&a);
+    bound = sqffd__ffd_jacobian_min(ffd->dims, &ffd->control[0][0], ffd->inverse, &w, HUGE_VAL);
+    if (!isfinite(bound)) return SQFFD_ERROR_NON_FINITE;
+    *min = bound;
+    return SQFFD_OK;
+}
 /* ======================================================================
    Layer 5: model fit (superquadric + FFD, the paper's two-step algorithm)
    ====================================================================== */
@@ -6166,6 +6433,7 @@ SQFFD_DEF sqffd_fit_options sqffd_fit_options_default(void)
     o.coarse_iterations = 25;
     o.tolerance = 1e-4;
     o.model_to_data = 0.02;
+    o.min_jacobian = 0.02;
     o.sq_max_points = 20000;
     o.ffd_max_points = 200000;
     o.progress = NULL;
@@ -6182,6 +6450,7 @@ static sqffd_result sqffd__fit_check_options(const sqffd_fit_options *o)
     if (!(o->tether >= 0.0) || !isfinite(o->tether)) return SQFFD_ERROR_INVALID_ARGUMENT;
     if (!(o->model_to_data >= 0.0) || !isfinite(o->model_to_data)) return SQFFD_ERROR_INVALID_ARGUMENT;
     if (!(o->tolerance >= 0.0) || !isfinite(o->tolerance)) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if (!(o->min_jacobian <= 1.0)) return SQFFD_ERROR_INVALID_ARGUMENT; /* (NaN too) */
     if (o->max_iterations < 0 || o->coarse_iterations < 0) return SQFFD_ERROR_INVALID_ARGUMENT;
     if (o->regularization != SQFFD_REG_DISPLACEMENT && o->regularization != SQFFD_REG_POSITION)
         return SQFFD_ERROR_INVALID_ARGUMENT;
@@ -6301,6 +6570,176 @@ typedef struct sqffd__fit_system {
 #define SQFFD__FIT_DATA_MAX 16384 /* the model -> data term measures to at most this many data points (an even
                                      subsample: the queries of far model points get dear in a big tree) */
 
+/* ---- fold-free steps -------------------------------------------------------
+   A step must leave the lattice's Jacobian bound (sqffd__ffd_jacobian_min)
+   at or above the run's floor: min_jacobian, or the start's bound where that
+   is lower (a start that folds may not fold more). The free step G(P) - P
+   minimises the quadratic bound of the energy, Q(Delta) = 1/2 Delta^T A
+   Delta - r^T Delta (A the step's normal matrix, one per coordinate). Where
+   it breaks the floor the step minimises instead
+     Q(Delta) + mu/2 Delta^T K Delta   under   c(P) + g_c . Delta >= keep_c,
+   K the lattice's graph Laplacian (springs on the step itself), c the
+   Jacobian coefficients the step breaks, linearised at P with gradients
+   g_c, each keeping SQFFD__FIT_FOLD_KEEP of its slack at P (the cubic's
+   curvature then rarely carries it past the floor; what is left is
+   shortened by halves). The constraints come in rounds, each adding what
+   the last solution breaks, at most SQFFD__FIT_FOLD_ACTIVE in all; the
+   multipliers lambda >= 0 minimise 1/2 lambda^T H lambda + need^T lambda,
+   H_ij = g_i^T (A + mu K)^-1 g_j (the problem's dual), by Lawson and
+   Hanson's active-set method; a coefficient the linearised step still
+   leaves below the floor gets its constraint raised by that shortfall (a
+   second-order correction) in the next round. mu starts at 0 and grows by
+   tens of the springs' weight while the unconstrained step breaks more
+   coefficients than that (alpha 0: from a millionth of A's mean
+   diagonal): stiffer steps are smoother (neighbouring control
+   points move alike) and break fewer. The added term is nonnegative and
+   zero at Delta = 0, and Delta = 0 meets every constraint, so the step's
+   bound is not above the energy at P and the energy never rises
+   (majorisation-minimisation). A direct step without a factor of A (the
+   SVD's, A singular) starts at the first mu > 0. A lagged
+   (conjugate-gradient) step only approximates G(P): it is shortened by
+   halves and the next step is direct. */
+#define SQFFD__FIT_FOLD_ACTIVE 48
+#define SQFFD__FIT_FOLD_ROUNDS 4
+#define SQFFD__FIT_FOLD_TRIES 12
+#define SQFFD__FIT_FOLD_KEEP 0.25
+#define SQFFD__FIT_FOLD_HALVINGS 12
+
+typedef struct sqffd__fit_fold {
+    sqffd__jacobian_work at;   /* at the candidate steps */
+    sqffd__jacobian_work from; /* at P, with the gradients' products */
+    double floor;              /* the run's */
+    double *normal;            /* L x L: A, lower triangle */
+    double *r;                 /* 3L, planar: A (G(P) - P) */
+    double *grad, *solved;     /* SQFFD__FIT_FOLD_ACTIVE x 3L, planar: g_c and (A + mu K)^-1 g_c */
+    double *gram;              /* SQFFD__FIT_FOLD_ACTIVE^2 */
+    double *factor, *z, *slope; /* the multipliers' solve: SQFFD__FIT_FOLD_ACTIVE^2, and two of SQFFD__FIT_FOLD_ACTIVE */
+    unsigned char *free_set;   /* SQFFD__FIT_FOLD_ACTIVE: multiplier i is free (> 0) */
+    double *lambda, *need;     /* SQFFD__FIT_FOLD_ACTIVE: multipliers; g_c . free step - (keep_c - c(P)) */
+    uint32_t *active;          /* SQFFD__FIT_FOLD_ACTIVE: the coefficients (w->coef's order) */
+    double *move, *free;       /* 3L, planar: the step, and the unconstrained one at this mu */
+} sqffd__fit_fold;
+
+static void sqffd__fit_fold_layout(sqffd__arena *a, const int dims[3], sqffd__fit_fold *f)
+{
+    size_t l = (size_t)dims[0] * (size_t)dims[1] * (size_t)dims[2], k = SQFFD__FIT_FOLD_ACTIVE;
+    sqffd__ffd_jacobian_layout(a, dims, 1, &f->at);
+    sqffd__ffd_jacobian_layout(a, dims, 3, &f->from);
+    f->normal = (double *)sqffd__arena_take(a, l * l, sizeof(double));
+    f->r = (double *)sqffd__arena_take(a, 3 * l, sizeof(double));
+    f->grad = (double *)sqffd__arena_take(a, k * 3 * l, sizeof(double));
+    f->solved = (double *)sqffd__arena_take(a, k * 3 * l, sizeof(double));
+    f->gram = (double *)sqffd__arena_take(a, k * k, sizeof(double));
+    f->factor = (double *)sqffd__arena_take(a, k * k, sizeof(double));
+    f->z = (double *)sqffd__arena_take(a, k, sizeof(double));
+    f->slope = (double *)sqffd__arena_take(a, k, sizeof(double));
+    f->free_set = (unsigned char *)sqffd__arena_take(a, k, 1);
+    f->lambda = (double *)sqffd__arena_take(a, k, sizeof(double));
+    f->need = (double *)sqffd__arena_take(a, k, sizeof(double));
+    f->active = (uint32_t *)sqffd__arena_take(a, k, sizeof(uint32_t));
+    f->move = (double *)sqffd__arena_take(a, 3 * l, sizeof(double));
+    f->free = (double *)sqffd__arena_take(a, 3 * l, sizeof(double));
+}
+
+/* How many of J's coefficients control + tau move (planar) leaves below the
+   floor (in f->at.coef); scratch: out (3L). */
+static size_t sqffd__fit_fold_broken(const sqffd__fit_system *s, sqffd__fit_fold *f, const double *control,
+                                     const double *move, double tau, const double inverse[9], double *out)
+{
+    size_t l = s->lattice, p, count = 0, n;
+    int c, ej[3];
+    for (p = 0; p < l; ++p)
+        for (c = 0; c < 3; ++c) out[3 * p + (size_t)c] = control[3 * p + (size_t)c] + tau * move[(size_t)c * l + p];
+    if (sqffd__ffd_jacobian_min(s->dims, out, inverse, &f->at, f->floor) >= f->floor) return 0;
+    sqffd__jacobian_extent(s->dims, 3, ej);
+    n = sqffd__jacobian_count(ej);
+    for (p = 0; p < n; ++p) count += f->at.coef[p] < f->floor;
+    return count;
+}
+
+/* Adds the coefficients f->at.coef breaks, most broken first, to the
+   active set of `count`; returns its new size. */
+static size_t sqffd__fit_fold_activate(const sqffd__fit_system *s, sqffd__fit_fold *f, size_t count)
+{
+    int ej[3];
+    size_t n, i, k;
+    sqffd__jacobian_extent(s->dims, 3, ej);
+    n = sqffd__jacobian_count(ej);
+    while (count < SQFFD__FIT_FOLD_ACTIVE) {
+        size_t worst = n;
+        for (i = 0; i < n; ++i) {
+            if (f->at.coef[i] >= f->floor || (worst < n && f->at.coef[i] >= f->at.coef[worst])) continue;
+            for (k = 0; k < count && f->active[k] != i; ++k) {}
+            if (k == count) worst = i;
+        }
+        if (worst == n) break;
+        f->active[count++] = (uint32_t)worst;
+    }
+    return count;
+}
+
+/* y = A x for a symmetric n x n A given by its lower triangle (row-major). */
+static void sqffd__fit_symmetric_times(const double *a, size_t n, const double *x, double *y)
+{
+    size_t i, j;
+    for (i = 0; i < n; ++i) {
+        y[i] = sqffd__la_dot(a + i * n, x, i + 1);
+        for (j = 0; j < i; ++j) y[j] += a[i * n + j] * x[i];
+    }
+}
+
+/* lambda >= 0 minimising 1/2 lambda^T H lambda + need^T lambda (H = f->gram,
+   k x k, positive semi-definite; a ridge of 1e-12 its largest diagonal
+   keeps it definite), Lawson-Hanson: grow the free set by the most
+   negative slope, solve on it, step back to the first multiplier that
+   would turn negative. At most 3k solves. */
+static void sqffd__fit_fold_multipliers(sqffd__fit_fold *f, size_t k)
+{
+    const size_t stride = SQFFD__FIT_FOLD_ACTIVE;
+    double ridge = 0.0;
+    size_t i, j, r, n, solves = 0, map[SQFFD__FIT_FOLD_ACTIVE];
+    for (i = 0; i < k; ++i) {
+        f->lambda[i] = 0.0;
+        f->free_set[i] = 0;
+        if (f->gram[i * stride + i] > ridge) ridge = f->gram[i * stride + i];
+    }
+    ridge *= 1e-12;
+    for (;;) {
+        size_t enter = k;
+        double most = 0.0;
+        for (i = 0; i < k; ++i) { /* the slope need + H lambda; the most negative one not free enters */
+            f->slope[i] = f->need[i] + sqffd__la_dot(f->gram + i * stride, f->lambda, k);
+            if (!f->free_set[i] && f->slope[i] < most) { most = f->slope[i]; enter = i; }
+        }
+        if (enter == k) return;
+        f->free_set[enter] = 1;
+        for (;;) {
+            double step = 1.0;
+            if (++solves > 3 * k) return;
+            for (n = 0, i = 0; i < k; ++i) if (f->free_set[i]) map[n++] = i;
+            for (r = 0; r < n; ++r) { /* z = -H_FF^-1 need_F on the free set */
+                for (j = 0; j <= r; ++j) f->factor[r * n + j] = f->gram[map[r] * stride + map[j]] + (r == j ? ridge : 0.0);
+                f->slope[r] = -f->need[map[r]];
+            }
+            if (sqffd_cholesky_factor(f->factor, n) != SQFFD_OK) { f->free_set[enter] = 0; return; }
+            sqffd_cholesky_solve(f->factor, n, f->slope);
+            for (i = 0; i < k; ++i) f->z[i] = 0.0;
+            for (r = 0; r < n; ++r) f->z[map[r]] = f->slope[r];
+            for (r = 0; r < n; ++r) { /* the way from lambda to z, up to the first multiplier that reaches 0 */
+                i = map[r];
+                if (f->z[i] <= 0.0) {
+                    double t = f->lambda[i] / (f->lambda[i] - f->z[i]);
+                    if (t < step) step = t;
+                }
+            }
+            for (i = 0; i < k; ++i) f->lambda[i] += step * (f->z[i] - f->lambda[i]);
+            if (step == 1.0) break;
+            for (i = 0; i < k; ++i)
+                if (f->free_set[i] && f->lambda[i] <= 0.0) { f->free_set[i] = 0; f->lambda[i] = 0.0; }
+        }
+    }
+}
+
 /* The iteration's scratch: model-sized, plus the optional subsample and data tree. */
 typedef struct sqffd__fit_work {
     double *x, *next;    /* M x 3: current and next model points */
@@ -6339,6 +6778,7 @@ typedef struct sqffd__fit_work {
     double *v;           /* L x L: SVD solves: V (NULL: Cholesky only) */
     void *svd_ws;
     size_t svd_size;
+    sqffd__fit_fold fold; /* the fold-free steps' and the report's Jacobian bound */
 } sqffd__fit_work;
 
 /* At most cap of n points (cap 0: all of them). */
@@ -6421,6 +6861,7 @@ static void sqffd__fit_work_layout(sqffd__arena *a, size_t n, const int dims[3],
     w->matched_accepted = (uint32_t (*)[3])sqffd__arena_take(a, w->sample_count, 3 * sizeof(uint32_t));
     if (w->sample_count <= SQFFD__FIT_ORDER_MAX) w->order = (uint32_t *)sqffd__arena_take(a, w->sample_count, sizeof(uint32_t));
     sqffd__fit_bvh_layout(a, grid, &w->bvh);
+    sqffd__fit_fold_layout(a, dims, &w->fold);
     if (o->model_to_data > 0.0) {
         w->data_count = sqffd__fit_cap(w->sample_count, SQFFD__FIT_DATA_MAX);
         if (w->data_count < w->sample_count) w->data = (double *)sqffd__arena_take(a, w->data_count, 3 * sizeof(double));
@@ -6772,6 +7213,99 @@ static sqffd_result sqffd__fit_step(const sqffd__fit_system *s, sqffd__fit_work 
 }
 
 /* ---- the iteration --------------------------------------------------------- */
+/* The constrained step at the stiffening whose factor w->matrix holds
+   (f->free its unconstrained step), into f->move. */
+static void sqffd__fit_fold_constrained(const sqffd__fit_system *s, sqffd__fit_work *w, const double *control,
+                                        const double inverse[9])
+{
+    sqffd__fit_fold *f = &w->fold;
+    size_t l = s->lattice, size = 3 * l, count = 0, done = 0, i, j, p;
+    int round, k;
+    memcpy(f->move, f->free, size * sizeof(double));
+    for (round = 0; round < SQFFD__FIT_FOLD_ROUNDS; ++round) {
+        if (!sqffd__fit_fold_broken(s, f, control, f->move, 1.0, inverse, w->cg)) break;
+        for (i = 0; i < count; ++i) /* the linearised step's shortfalls: raised by them */
+            if (f->at.coef[f->active[i]] < f->floor) f->need[i] -= f->floor - f->at.coef[f->active[i]];
+        count = sqffd__fit_fold_activate(s, f, count);
+        for (i = done; i < count; ++i) { /* the new constraints: g_c, (A + mu K)^-1 g_c, their Gram row */
+            double *g = f->grad + i * size, *u = f->solved + i * size, now = f->from.coef[f->active[i]];
+            double keep = now > f->floor ? f->floor + SQFFD__FIT_FOLD_KEEP * (now - f->floor) : now;
+            sqffd__ffd_jacobian_gradient(s->dims, inverse, &f->from, f->active[i], g);
+            memcpy(u, g, size * sizeof(double));
+            for (k = 0; k < 3; ++k) sqffd_cholesky_solve(w->matrix, l, u + (size_t)k * l);
+            f->need[i] = sqffd__la_dot(g, f->free, size) - (keep - now); /* >= 0: the free step keeps c */
+            for (j = 0; j <= i; ++j)
+                f->gram[i * SQFFD__FIT_FOLD_ACTIVE + j] = f->gram[j * SQFFD__FIT_FOLD_ACTIVE + i] =
+                    sqffd__la_dot(g, f->solved + j * size, size);
+        }
+        done = count;
+        sqffd__fit_fold_multipliers(f, count);
+        memcpy(f->move, f->free, size * sizeof(double));
+        for (i = 0; i < count; ++i)
+            for (p = 0; p < size; ++p) f->move[p] += f->lambda[i] * f->solved[i * size + p];
+    }
+}
+
+/* The step w->rhs = G(P) - P (and w->plain, and bmove = B (G(P) - P)) made
+   fold-free, as above. direct: w->matrix holds the factor of its A. */
+static void sqffd__fit_fold_free(const sqffd__fit_system *s, sqffd__fit_work *w, const double *control,
+                                 const double inverse[9], int direct, double *bmove)
+{
+    sqffd__fit_fold *f = &w->fold;
+    size_t l = s->lattice, size = 3 * l, p, q;
+    double *scratch = w->cg, tau = 1.0, unit = 0.0;
+    int k, axis, tries;
+    sqffd__fit_planar(w->rhs, l, f->free);
+    if (!sqffd__fit_fold_broken(s, f, control, f->free, 1.0, inverse, scratch)) return;
+    memcpy(f->move, f->free, size * sizeof(double));
+    if (direct) {
+        memcpy(f->normal, s->fixed, l * l * sizeof(double)); /* A; r = A (G(P) - P) */
+        sqffd__fit_gram(s, w->weights, 1.0, w->pairs, w->block, f->normal);
+        for (k = 0; k < 3; ++k) sqffd__fit_symmetric_times(f->normal, l, f->free + (size_t)k * l, f->r + (size_t)k * l);
+        sqffd__ffd_jacobian_derivatives(s->dims, control, inverse, &f->from);
+        sqffd__ffd_jacobian_products(s->dims, 3, &f->from);
+        sqffd__ffd_jacobian_coefficients(s->dims, &f->from);
+        for (p = 0; p < l; ++p) unit += f->normal[p * l + p];
+        unit = s->spring > 0.0 ? s->spring : 1e-6 * unit / (double)l; /* (alpha 0: a millionth of A's diagonal) */
+        for (tries = w->factored ? 0 : 1; tries < SQFFD__FIT_FOLD_TRIES; ++tries) {
+            if (tries > 0) { /* the step's problem with mu = 10^tries springs' weights */
+                double mu = unit * pow(10.0, (double)tries);
+                memcpy(w->matrix, f->normal, l * l * sizeof(double));
+                for (p = 0; p < l; ++p)
+                    for (axis = 0; axis < 3; ++axis)
+                        if (sqffd__fit_spring(s->dims, p, axis, &q)) {
+                            w->matrix[p * l + p] += mu;
+                            w->matrix[q * l + q] += mu;
+                            w->matrix[q * l + p] -= mu;
+                        }
+                if (sqffd_cholesky_factor(w->matrix, l) != SQFFD_OK) continue;
+                memcpy(f->free, f->r, size * sizeof(double));
+                for (k = 0; k < 3; ++k) sqffd_cholesky_solve(w->matrix, l, f->free + (size_t)k * l);
+            }
+            if (sqffd__fit_fold_broken(s, f, control, f->free, 1.0, inverse, scratch) <= SQFFD__FIT_FOLD_ACTIVE) {
+                sqffd__fit_fold_constrained(s, w, control, inverse);
+                break;
+            }
+        }
+    }
+    w->factored = 0;
+    for (k = 0; tau > 0.0 && sqffd__fit_fold_broken(s, f, control, f->move, tau, inverse, scratch); ++k)
+        tau = k < SQFFD__FIT_FOLD_HALVINGS ? 0.5 * tau : 0.0;
+    for (p = 0; p < size; ++p) f->move[p] *= tau;
+    sqffd__fit_interleave(f->move, l, w->rhs);
+    for (p = 0; p < size; ++p) w->plain[p] = control[p] + w->rhs[p];
+    sqffd__fit_evaluate(s, (const double (*)[3])w->rhs, (double (*)[4])w->block, bmove);
+}
+
+/* Whether the over-relaxed control + omega w->rhs keeps the floor. */
+static int sqffd__fit_fold_relaxed(const sqffd__fit_system *s, sqffd__fit_work *w, const double *control,
+                                   double omega, const double inverse[9])
+{
+    if (w->fold.floor == -HUGE_VAL) return 1;
+    sqffd__fit_planar(w->rhs, s->lattice, w->fold.move);
+    return !sqffd__fit_fold_broken(s, &w->fold, control, w->fold.move, omega, inverse, w->cg);
+}
+
 
 /* The Welsch scale nu of robust mode: this many robust standard deviations
    (1.4826 x the median) of the starting model's errors. */
@@ -6942,6 +7476,12 @@ static void sqffd__fit_begin(sqffd__fit_iteration *it, const sqffd_points *point
     if (data_tree)
         for (v = 0; v < s->count; ++v) w->data_near[SQFFD__FIT_DATA_KNN * v] = UINT32_MAX;
     w->factored = 0;
+    w->fold.floor = o->min_jacobian; /* (a start below it may not fold more) */
+    if (o->min_jacobian > -HUGE_VAL) {
+        double start = sqffd__ffd_jacobian_min(s->dims, &model->ffd.control[0][0], model->ffd.inverse, &w->fold.at,
+                                               o->min_jacobian);
+        if (start < w->fold.floor) w->fold.floor = start;
+    }
     it->step1.weights = w->weights;
     it->step1.nu2 = w->nu2;
     it->origin = SQFFD__FIT_FROM_START;
@@ -7090,12 +7630,13 @@ static sqffd_result sqffd__fit_advance(sqffd__fit_iteration *it)
     size_t m = s->count, size = 3 * s->lattice, i;
     double *control = &it->model->ffd.control[0][0];
     double length; /* of the step along G(P) - P */
-    int direct;
+    int direct, extrapolate;
     sqffd_result res;
     sqffd__fit_targets(it);
     res = sqffd__fit_step(s, w, control, it->x, w->target, it->next, &direct); /* (B (G(P) - P) into it->next,
                                                                                  read by the targets before) */
     if (res != SQFFD_OK) return res;
+    if (w->fold.floor > -HUGE_VAL) sqffd__fit_fold_free(s, w, control, it->model->ffd.inverse, direct, it->next);
     rep->step = sqrt(sqffd__la_dot(it->next, it->next, 3 * m) / (double)m) / it->diagonal;
     ++rep->iterations;
     rep->converged = rep->step <= it->o->tolerance && direct;
@@ -7104,9 +7645,10 @@ static sqffd_result sqffd__fit_advance(sqffd__fit_iteration *it)
                     ? (it->omega * SQFFD__FIT_RELAX_GROW < SQFFD__FIT_RELAX_MAX ? it->omega * SQFFD__FIT_RELAX_GROW
                                                                                : SQFFD__FIT_RELAX_MAX)
                     : SQFFD__FIT_RELAX;
-    length = rep->converged ? 1.0 : it->omega;
+    extrapolate = !rep->converged && sqffd__fit_fold_relaxed(s, w, control, it->omega, it->model->ffd.inverse);
+    length = extrapolate ? it->omega : 1.0;
     for (i = 0; i < size; ++i) control[i] += length * w->rhs[i];
-    it->origin = rep->converged ? SQFFD__FIT_FROM_PLAIN : SQFFD__FIT_FROM_EXTRAPOLATION;
+    it->origin = extrapolate ? SQFFD__FIT_FROM_EXTRAPOLATION : SQFFD__FIT_FROM_PLAIN;
     sqffd__fit_control_changed(it);
     return SQFFD_OK;
 }
@@ -7130,6 +7672,8 @@ static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagon
         if (res != SQFFD_OK) return res;
         if (!sqffd__fit_accept_or_roll_back(&it, energy)) continue; /* rolled back: measure the replacement */
         res = sqffd__fit_record(&it, energy, &stats);
+        if (last) rep->min_jacobian = sqffd__ffd_jacobian_min(s->dims, &model->ffd.control[0][0], model->ffd.inverse,
+                                                             &w->fold.at, HUGE_VAL);
         if (res != SQFFD_OK || last) return res;
         res = sqffd__fit_advance(&it);
         if (res != SQFFD_OK) return res;
@@ -7660,9 +8204,10 @@ SQFFD_DEF sqffd_track_options sqffd_track_options_default(void)
     o.fit.max_iterations = 100;
     o.fit.coarse_iterations = 0; /* (frame 0 converges on the grid: the later frames measure motion, not the rest
                                     of its convergence) */
-    o.fit.alpha = 1e-5; /* stiffer springs than a lone fit's: a regular lattice keeps unreached parts still between
-                           frames (identical frames move no grid point by 1e-3 of the diagonal; at 1e-6, 7e-3) */
-    o.frame_iterations = 5;
+    o.fit.alpha = 1e-3; /* stiffer springs than a lone fit's: the parts a frame's data do not reach follow the
+                           reached ones, and the lattice keeps room above the Jacobian floor for the motion */
+    o.fit.model_to_data = 0.0; /* (nothing pulls an unreached part onto the nearest data) */
+    o.frame_iterations = 100;
     return o;
 }
 

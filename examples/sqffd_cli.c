@@ -50,6 +50,7 @@ static int cmd_help(int argc, char **argv);
 static const cli_command commands[] = {
     {"fit", "fit a superquadric + free-form deformation model to a point file",
      "sqffd fit INPUT -o OUT.ply [--iso V|auto] [--sample N] [--lattice N|LxMxN] [--alpha A] [--model-to-data W] "
+     "[--min-jacobian J|none] "
      "[--iterations K] [--coarse-iterations K] [--robust] [--no-taper] [--vtk] [--json FILE] [--svg FILE] [--quiet]",
      fit_details,
      cmd_fit},
@@ -138,6 +139,22 @@ static int parse_nonnegative(const char *s, double *out)
     if (errno || *end || !(v >= 0.0) || v > 1e300) return 1;
     *out = v;
     return 0;
+}
+
+/* "X,Y,Z" (count numbers, any sign) into v; 0 on success. */
+static int parse_numbers(const char *s, int count, double *v)
+{
+    char *end;
+    int k;
+    for (k = 0; k < count; k++) {
+        if (!*s || *s == ' ' || *s == '\t') return 1;
+        errno = 0;
+        v[k] = strtod(s, &end);
+        if (errno || end == s || !isfinite(v[k])) return 1;
+        if (k + 1 < count && *end != ',') return 1;
+        s = end + (k + 1 < count);
+    }
+    return *end != '\0';
 }
 
 /* "N" (all axes) or "AxBxC" with `parts` numbers, each in [lo, hi]; 0 on success. */
@@ -234,7 +251,8 @@ static int scan_model_option(arg_scan *s, const cli_command *c, sqffd_fit_option
         if (IS("--robust")) o->sq.robust = 1; else o->sq.taper = 0;
         return 1;
     }
-    if (!(IS("--lattice") || IS("--alpha") || IS("--model-to-data") || IS("--iterations") || IS("--coarse-iterations")))
+    if (!(IS("--lattice") || IS("--alpha") || IS("--model-to-data") || IS("--min-jacobian") || IS("--iterations") ||
+          IS("--coarse-iterations")))
         return 0;
     v = scan_value(s, c);
     if (!v) *status = EXIT_USAGE;
@@ -247,6 +265,10 @@ static int scan_model_option(arg_scan *s, const cli_command *c, sqffd_fit_option
     } else if (IS("--model-to-data")) {
         if (parse_nonnegative(v, &o->model_to_data))
             *status = usage_error(c, "%s: --model-to-data takes a finite number >= 0, not '%s'", c->name, v);
+    } else if (IS("--min-jacobian")) {
+        if (strcmp(v, "none") == 0) o->min_jacobian = -HUGE_VAL;
+        else if (parse_numbers(v, 1, &o->min_jacobian) || o->min_jacobian > 1.0)
+            *status = usage_error(c, "%s: --min-jacobian takes a number <= 1 or 'none', not '%s'", c->name, v);
     } else if (parse_int(v, 0, 10000, &n)) {
         *status = usage_error(c, "%s: %s takes a whole number 0..10000, not '%s'", c->name, s->name, v);
     } else if (IS("--iterations")) {
@@ -266,13 +288,15 @@ static void model_option_details(FILE *f, const sqffd_fit_options *d, const char
             "  --alpha A              spring weight of the energy, >= 0 (default %g)\n"
             "  --model-to-data W      weight of the model -> data term, >= 0 (default %g;\n"
             "                         0: the data -> model distances alone)\n"
+            "  --min-jacobian J       no step leaves the lattice's Jacobian bound below J, <= 1\n"
+            "                         (default %g: the model cannot fold; 'none': no bound)\n"
             "  --iterations K         FFD iterations at most, 0..10000 (default %d; %s)\n"
             "  --coarse-iterations K  of those, at most K first on a coarse grid (half the rows and\n"
             "                         columns, %d points at most), 0..10000 (default %d; 0: none)\n"
             "  --robust               outlier-robust fit in both stages\n"
             "  --no-taper             superquadric without tapering (11 parameters, not 13)\n",
             SQFFD_MAX_LATTICE, d->lattice[0], d->lattice[1], d->lattice[2], d->alpha, d->model_to_data,
-            d->max_iterations, iterations_note, SQFFD_FIT_COARSE_POINTS, d->coarse_iterations);
+            d->min_jacobian, d->max_iterations, iterations_note, SQFFD_FIT_COARSE_POINTS, d->coarse_iterations);
 }
 
 /* ---- inputs: point files and volumes ------------------------------------ */
@@ -652,6 +676,7 @@ static void fit_report(const fit_args *a, const input_summary *in, size_t n, con
     printf("    after FFD      %.4f %%   (max %.4f %%)   lattice %dx%dx%d, alpha %g\n",
            100.0 * r->error.rms_relative, 100.0 * r->error.max_relative, ffd->dims[0], ffd->dims[1], ffd->dims[2],
            a->options.alpha);
+    printf("    jacobian       %.4f   (the lattice's smallest Bernstein bound: > 0, no fold)\n", r->min_jacobian);
     if (r->coarse_iterations > 0) printf("  iterations       %d coarse + %d", r->coarse_iterations, r->iterations);
     else printf("  iterations       %d", r->iterations);
     printf("%s\n", r->iterations == 0 ? " (the superquadric alone)" : r->converged ? " (converged)" : " (iteration cap)");
@@ -835,22 +860,6 @@ typedef struct track_args {
     size_t dropped_nan, dropped_frames; /* PCD points dropped for NaN coordinates, and the frames that had some */
 } track_args;
 
-/* "X,Y,Z" (count numbers, any sign) into v; 0 on success. */
-static int parse_numbers(const char *s, int count, double *v)
-{
-    char *end;
-    int k;
-    for (k = 0; k < count; k++) {
-        if (!*s || *s == ' ' || *s == '\t') return 1;
-        errno = 0;
-        v[k] = strtod(s, &end);
-        if (errno || end == s || !isfinite(v[k])) return 1;
-        if (k + 1 < count && *end != ',') return 1;
-        s = end + (k + 1 < count);
-    }
-    return *end != '\0';
-}
-
 static int track_parse(int argc, char **argv, track_args *a, int *help)
 {
     const cli_command *c = find_command("track");
@@ -970,10 +979,10 @@ static void track_report(const track_args *a, const size_t *counts, const sqffd_
     if (a->dropped_nan)
         printf("  dropped          %lu points with NaN coordinates (invalid depth) in %lu frame%s\n",
                (unsigned long)a->dropped_nan, (unsigned long)a->dropped_frames, a->dropped_frames == 1 ? "" : "s");
-    printf("  frame  points      error %%  iterations  volume\n");
+    printf("  frame  points      error %%  iterations  jacobian  volume\n");
     for (t = 0; t < a->frame_count; t++)
-        printf("  %5lu  %8lu  %9.4f  %10d  %.6g%s\n", (unsigned long)t, (unsigned long)counts[t],
-               100.0 * reports[t].error.rms_relative, reports[t].iterations, volumes[t],
+        printf("  %5lu  %8lu  %9.4f  %10d  %8.3f  %.6g%s\n", (unsigned long)t, (unsigned long)counts[t],
+               100.0 * reports[t].error.rms_relative, reports[t].iterations, reports[t].min_jacobian, volumes[t],
                t == m->ed_frame ? "  ED" : t == m->es_frame ? "  ES" : "");
     printf("  end-diastolic volume   %.6g (frame %lu)\n", m->edv, (unsigned long)m->ed_frame);
     printf("  end-systolic volume    %.6g (frame %lu)\n", m->esv, (unsigned long)m->es_frame);

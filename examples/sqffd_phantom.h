@@ -463,6 +463,44 @@ static inline double phantom_lv_scale(const phantom_lv *p)
     return sqrt(d2);
 }
 
+/* A short-axis stack of the cup at a phase, as manual contours give it: on
+   each plane z = levels[k] the closed section of the wall, per_slice points
+   at evenly spread theta (the point of that meridian at height z, found by
+   bisection in u: z grows from the apex to the rim along every meridian),
+   each moved in-plane by shifts[2 k], shifts[2 k + 1] (NULL: none; a
+   breath-hold's misregistration). A plane the meridian does not cross (below
+   the apex, above the rim) gives no point there. Writes at most count x
+   per_slice points (3 doubles each) and returns how many. */
+static inline size_t phantom_lv_contours(const phantom_lv *p, double phase, const double *levels, int count,
+                                         int per_slice, const double *shifts, double *out)
+{
+    phantom__state s;
+    size_t n = 0;
+    int k, j, it;
+    phantom__prepare(p, phase, &s);
+    for (k = 0; k < count; k++)
+        for (j = 0; j < per_slice; j++) {
+            double theta = phantom__theta(j, per_slice), lo = 0.0, hi = 1.0, x[3];
+            phantom__point(p, &s, lo, theta, x);
+            if (x[2] > levels[k]) continue;
+            phantom__point(p, &s, hi, theta, x);
+            if (x[2] < levels[k]) continue;
+            for (it = 0; it < 60; it++) {
+                double mid = 0.5 * (lo + hi);
+                phantom__point(p, &s, mid, theta, x);
+                if (x[2] < levels[k]) lo = mid; else hi = mid;
+            }
+            phantom__point(p, &s, 0.5 * (lo + hi), theta, out + 3 * n);
+            out[3 * n + 2] = levels[k];
+            if (shifts) {
+                out[3 * n] += shifts[2 * k];
+                out[3 * n + 1] += shifts[2 * k + 1];
+            }
+            n++;
+        }
+    return n;
+}
+
 /* ---- frames: random points on the closed surface ------------------------- */
 
 /* splitmix64 (Steele, Lea & Flood 2014): small, and well mixed from any seed. */

@@ -122,6 +122,12 @@ foreign "$TMP/binary.xyz" "not a text point file (binary byte 0x01 at line 3)"
 [ ! -e "$TMP/x.ply" ] && ok || bad "a refused input left an output file"
 expect 0 "(the superquadric alone)" fit "$DATA" -o "$TMP/sq.ply" --iterations 0 --mesh 8
 expect 0 "after FFD" fit "$DATA" -o "$TMP/m2d.ply" --model-to-data 0 --iterations 2 --mesh 8
+# the Jacobian floor: its bound in the report, 'none' lifts it, anything but a number <= 1 is a usage error
+expect 0 "(the lattice's smallest Bernstein bound" fit "$DATA" -o "$TMP/j.ply" --iterations 3 --mesh 8
+expect 0 "after FFD" fit "$DATA" -o "$TMP/j.ply" --min-jacobian none --iterations 3 --mesh 8
+for v in 1.5 nan abc ""; do
+    expect 2 "--min-jacobian takes" fit "$DATA" -o "$TMP/x.ply" --min-jacobian "$v"
+done
 expect 0 "iterations       3 coarse + 2 (iteration cap)" fit "$DATA" -o "$TMP/c.ply" --iterations 5 --coarse-iterations 3 --mesh 8
 expect 0 "iterations       5 (iteration cap)" fit "$DATA" -o "$TMP/c.ply" --iterations 5 --coarse-iterations 0 --mesh 8
 expect 1 "$TMP/no/dir/out.ply: cannot create" fit "$DATA" -o "$TMP/no/dir/out.ply" --iterations 2 --mesh 8

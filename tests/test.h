@@ -49,5 +49,6 @@ void suite_model(void);
 void suite_memory(void);
 void suite_points(void);
 void suite_pcd(void);
+void suite_fold(void);
 
 #endif

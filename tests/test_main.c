@@ -53,6 +53,7 @@ int main(int argc, char **argv)
     suite_kdtree();
     suite_superquadric();
     suite_ffd();
+    suite_fold();
     suite_io();
     suite_internal();
     suite_phantom();

@@ -1,0 +1,220 @@
+/* The fold-free deformation: the lattice's Jacobian bound against its
+   definition (affine maps, sampled determinants), and fits and tracks of
+   short-axis stacks of the phantom (planar sections, ED and ES covering
+   different slices: the data that fold an unconstrained lattice) that end
+   with a positive bound, a surface that passes nowhere through itself and
+   the phantom's ejection fraction. */
+#include "test.h"
+#include "../examples/sqffd_phantom.h"
+#include "../examples/sqffd_synth.h"
+#include <stdlib.h>
+
+/* sqffd_ffd_jacobian_bound with a malloc'd workspace. */
+static sqffd_result jacobian_bound(const sqffd_ffd *f, double *min)
+{
+    size_t size;
+    void *ws;
+    sqffd_result r = sqffd_ffd_jacobian_workspace_size(f->dims, &size);
+    if (r != SQFFD_OK) return r;
+    ws = test_malloc(size);
+    r = sqffd_ffd_jacobian_bound(f, min, ws, size);
+    free(ws);
+    return r;
+}
+
+/* det(d deformed / d x) at local (s, t, u) by central differences, over det(box). */
+static double sampled_jacobian(const sqffd_ffd *f, const double stu[3])
+{
+    double j[3][3], box;
+    const double *e = f->edges;
+    int a, r;
+    for (a = 0; a < 3; a++) {
+        double hi[3], lo[3], xh[3], xl[3];
+        for (r = 0; r < 3; r++) hi[r] = lo[r] = stu[r];
+        hi[a] += 1e-6;
+        lo[a] -= 1e-6;
+        sqffd_ffd_eval(f, hi, xh);
+        sqffd_ffd_eval(f, lo, xl);
+        for (r = 0; r < 3; r++) j[r][a] = (xh[r] - xl[r]) / 2e-6;
+    }
+    box = e[0] * (e[4] * e[8] - e[5] * e[7]) - e[1] * (e[3] * e[8] - e[5] * e[6]) + e[2] * (e[3] * e[7] - e[4] * e[6]);
+    return (j[0][0] * (j[1][1] * j[2][2] - j[1][2] * j[2][1]) - j[0][1] * (j[1][0] * j[2][2] - j[1][2] * j[2][0]) +
+            j[0][2] * (j[1][0] * j[2][1] - j[1][1] * j[2][0])) / box;
+}
+
+/* The bound: 1 for the regular lattice, det A for an affine map A (J is
+   then constant, so its bound is exact), and never above the determinant
+   sampled on a 16^3 grid of the box for random lattices, folded or not,
+   with equality where the minimum sits at a corner (a coefficient there is
+   J's value). Bad input: result codes. */
+static void test_jacobian_bound(void)
+{
+    static const int shapes[][3] = {{5, 5, 5}, {4, 5, 3}, {2, 2, 2}, {8, 3, 6}};
+    const double origin[3] = {1.0, -2.0, 3.0}, edges[9] = {10.0, 1.0, 0.0, 0.0, 8.0, 2.0, 1.0, 0.0, 12.0};
+    const double affine[9] = {0.9, 0.2, 0.0, -0.1, 1.1, 0.3, 0.05, 0.0, 0.7};
+    synth_rng rng = synth_rng_seed(28);
+    sqffd_ffd f;
+    size_t g, p, size;
+    double bound, det = affine[0] * (affine[4] * affine[8] - affine[5] * affine[7]) -
+                        affine[1] * (affine[3] * affine[8] - affine[5] * affine[6]) +
+                        affine[2] * (affine[3] * affine[7] - affine[4] * affine[6]);
+    int c, trial, negative = 0;
+    for (g = 0; g < sizeof shapes / sizeof shapes[0]; g++) {
+        size_t l = (size_t)shapes[g][0] * (size_t)shapes[g][1] * (size_t)shapes[g][2];
+        CHECK_RESULT(sqffd_ffd_init(&f, shapes[g], origin, edges), SQFFD_OK);
+        CHECK_RESULT(jacobian_bound(&f, &bound), SQFFD_OK);
+        CHECK_NEAR(bound, 1.0, 1e-12);
+        for (p = 0; p < l; p++) { /* x -> origin + A (x - origin) */
+            double d[3];
+            for (c = 0; c < 3; c++) d[c] = f.control[p][c] - origin[c];
+            for (c = 0; c < 3; c++)
+                f.control[p][c] = origin[c] + affine[3 * c] * d[0] + affine[3 * c + 1] * d[1] + affine[3 * c + 2] * d[2];
+        }
+        CHECK_RESULT(jacobian_bound(&f, &bound), SQFFD_OK);
+        CHECK_NEAR(bound, det, 1e-12);
+        for (trial = 0; trial < 4; trial++) {
+            double least = HUGE_VAL, stu[3];
+            int i, j, k;
+            CHECK_RESULT(sqffd_ffd_init(&f, shapes[g], origin, edges), SQFFD_OK);
+            for (p = 0; p < l; p++)
+                for (c = 0; c < 3; c++) f.control[p][c] += 2.5 * (double)trial * synth_range(&rng, -1.0, 1.0);
+            CHECK_RESULT(jacobian_bound(&f, &bound), SQFFD_OK);
+            for (i = 0; i <= 16; i++)
+                for (j = 0; j <= 16; j++)
+                    for (k = 0; k <= 16; k++) {
+                        double v;
+                        stu[0] = i / 16.0; stu[1] = j / 16.0; stu[2] = k / 16.0;
+                        v = sampled_jacobian(&f, stu);
+                        if (v < least) least = v;
+                    }
+            CHECK_MSG(bound <= least + 1e-6, "lattice %dx%dx%d, trial %d: bound %.9g above the sampled %.9g",
+                      shapes[g][0], shapes[g][1], shapes[g][2], trial, bound, least);
+            negative += bound < 0.0;
+        }
+    }
+    CHECK(negative > 0); /* (the random lattices include folded ones) */
+    CHECK_RESULT(sqffd_ffd_jacobian_workspace_size(f.dims, &size), SQFFD_OK);
+    {
+        void *ws = test_malloc(size);
+        CHECK_RESULT(sqffd_ffd_jacobian_bound(&f, &bound, ws, size - 1), SQFFD_ERROR_WORKSPACE_TOO_SMALL);
+        CHECK_RESULT(sqffd_ffd_jacobian_bound(&f, NULL, ws, size), SQFFD_ERROR_INVALID_ARGUMENT);
+        f.dims[1] = SQFFD_MAX_LATTICE + 1;
+        CHECK_RESULT(sqffd_ffd_jacobian_bound(&f, &bound, ws, size), SQFFD_ERROR_INVALID_MODEL);
+        CHECK_RESULT(sqffd_ffd_jacobian_workspace_size(f.dims, &size), SQFFD_ERROR_INVALID_ARGUMENT);
+        CHECK(size == 0);
+        free(ws);
+    }
+}
+
+/* A short-axis stack of the phantom at a phase: `count` slices 7 mm apart
+   from `first` above the ED apex, 96 points each. */
+static size_t stack(const phantom_lv *p, double phase, int first, int count, double *out)
+{
+    double levels[16];
+    int k;
+    for (k = 0; k < count; k++) levels[k] = -p->height + 3.0 + 7.0 * (double)(first + k);
+    return phantom_lv_contours(p, phase, levels, count, 96, NULL, out);
+}
+
+/* The folded share of a model's grid mesh (1,000 samples). */
+static double model_folded(const sqffd_model *m)
+{
+    size_t nv, nt;
+    double *v, share;
+    uint32_t *t;
+    if (sqffd_model_mesh_size(m->grid[0], m->grid[1], &nv, &nt) != SQFFD_OK) return 1.0;
+    v = (double *)test_malloc(3 * nv * sizeof *v);
+    t = (uint32_t *)test_malloc(3 * nt * sizeof *t);
+    share = sqffd_model_mesh(m, m->grid[0], m->grid[1], v, t) == SQFFD_OK ? synth_folded_share(v, nv, t, nt, 1000, 7) : 1.0;
+    free(v);
+    free(t);
+    return share;
+}
+
+static sqffd_result fit(const double *pts, size_t n, const sqffd_fit_options *o, sqffd_model *m, sqffd_fit_report *rep)
+{
+    size_t size;
+    void *ws;
+    sqffd_result r = sqffd_fit_workspace_size(n, o, &size);
+    if (r != SQFFD_OK) return r;
+    ws = test_malloc(size);
+    r = sqffd_fit(pts, n, o, m, rep, ws, size);
+    free(ws);
+    return r;
+}
+
+/* A lone fit of a stack: with the bound off (min_jacobian -inf) the lattice
+   folds (the data built to fold); with the default it ends at or above
+   the floor, its mesh folds nowhere, the energy never rises, and the
+   report's bound is the lattice's. */
+static void test_fit_stack_fold_free(void)
+{
+    phantom_lv p = phantom_lv_default();
+    double *pts = (double *)test_malloc(16 * 96 * 3 * sizeof *pts), bound;
+    size_t n = stack(&p, 0.0, 0, 8, pts);
+    sqffd_fit_options o = sqffd_fit_options_default();
+    sqffd_model m;
+    sqffd_fit_report rep;
+    int k;
+    CHECK(n == 8 * 96);
+    o.min_jacobian = -HUGE_VAL;
+    CHECK_RESULT(fit(pts, n, &o, &m, &rep), SQFFD_OK);
+    CHECK_MSG(rep.min_jacobian < 0.0, "unconstrained bound %g: these data no longer fold the lattice", rep.min_jacobian);
+    o = sqffd_fit_options_default();
+    CHECK_RESULT(fit(pts, n, &o, &m, &rep), SQFFD_OK);
+    CHECK_MSG(rep.min_jacobian >= o.min_jacobian - 1e-12, "bound %g below the floor %g", rep.min_jacobian, o.min_jacobian);
+    CHECK_RESULT(jacobian_bound(&m.ffd, &bound), SQFFD_OK);
+    CHECK_NEAR(bound, rep.min_jacobian, 1e-12);
+    CHECK_MSG(model_folded(&m) == 0.0, "folded share %g", model_folded(&m));
+    CHECK_MSG(rep.error.rms_relative < 0.02, "error %g", rep.error.rms_relative);
+    for (k = 1; k < rep.history_count; k++)
+        CHECK_MSG(rep.energy_history[k] <= rep.energy_history[k - 1], "energy rose at iteration %d", k + 1);
+    o.min_jacobian = NAN;
+    CHECK_RESULT(fit(pts, n, &o, &m, &rep), SQFFD_ERROR_INVALID_ARGUMENT);
+    o.min_jacobian = 1.5;
+    CHECK_RESULT(fit(pts, n, &o, &m, &rep), SQFFD_ERROR_INVALID_ARGUMENT);
+    free(pts);
+}
+
+/* ED to ES in one step on stacks, the ES one a slice shorter at the apex
+   (its cavity closes there): both models fold-free, their meshes fold
+   nowhere, and the ejection fraction is the phantom's within 2 points. */
+static void test_track_stack_ejection(void)
+{
+    phantom_lv p = phantom_lv_default();
+    double *frames[2], truth = phantom_lv_ejection_fraction(&p, 2);
+    size_t counts[2], size, done;
+    sqffd_model models[2];
+    sqffd_fit_report reports[2];
+    sqffd_motion_report m;
+    void *ws;
+    int k;
+    frames[0] = (double *)test_malloc(16 * 96 * 3 * sizeof(double));
+    frames[1] = (double *)test_malloc(16 * 96 * 3 * sizeof(double));
+    counts[0] = stack(&p, 0.0, 0, 8, frames[0]);
+    counts[1] = stack(&p, 0.5, 1, 6, frames[1]);
+    CHECK_RESULT(sqffd_track_workspace_size(counts, 2, NULL, &size), SQFFD_OK);
+    ws = test_malloc(size);
+    CHECK_RESULT(sqffd_track((const double *const *)frames, counts, 2, NULL, models, reports, &done, ws, size), SQFFD_OK);
+    free(ws);
+    for (k = 0; k < 2; k++) {
+        CHECK_MSG(reports[k].min_jacobian > 0.0, "frame %d: bound %g", k, reports[k].min_jacobian);
+        CHECK_MSG(model_folded(&models[k]) == 0.0, "frame %d folds", k);
+    }
+    CHECK_RESULT(sqffd_motion_workspace_size(models, 2, &size), SQFFD_OK);
+    ws = test_malloc(size);
+    CHECK_RESULT(sqffd_motion(models, 2, NULL, NULL, &m, ws, size), SQFFD_OK);
+    printf("    stack: EF %.2f%% (the phantom's %.2f%%), errors %.3f%% / %.3f%%\n", 100.0 * m.ejection_fraction,
+           100.0 * truth, 100.0 * reports[0].error.rms_relative, 100.0 * reports[1].error.rms_relative);
+    CHECK_MSG(fabs(m.ejection_fraction - truth) <= 0.02, "EF %g, the phantom's %g", m.ejection_fraction, truth);
+    free(ws);
+    free(frames[0]);
+    free(frames[1]);
+}
+
+void suite_fold(void)
+{
+    RUN_TEST(test_jacobian_bound);
+    RUN_TEST(test_fit_stack_fold_free);
+    RUN_TEST(test_track_stack_ejection);
+}
