@@ -168,7 +168,8 @@ class _Model(ctypes.Structure):
 class _FitOptions(ctypes.Structure):
     _fields_ = [("sq", _SqFitOptions), ("lattice", _int * 3), ("box_margin", _double), ("grid", _int * 2),
                 ("alpha", _double), ("tether", _double), ("regularization", _int), ("solver", _int),
-                ("max_iterations", _int), ("coarse_iterations", _int), ("tolerance", _double), ("model_to_data", _double),
+                ("max_iterations", _int), ("coarse_iterations", _int), ("tolerance", _double), ("min_jacobian", _double),
+                ("model_to_data", _double),
                 ("sq_max_points", _size), ("ffd_max_points", _size), ("progress", _PROGRESS),
                 ("progress_user", _pointer)]
 
@@ -183,7 +184,7 @@ class _FitReport(ctypes.Structure):
                 ("coarse_iterations", _int), ("iterations", _int), ("converged", _int), ("step", _double),
                 ("history_count", _int),
                 ("history", _double * _FIT_HISTORY), ("energy", _double),
-                ("energy_history", _double * _FIT_HISTORY)]
+                ("energy_history", _double * _FIT_HISTORY), ("min_jacobian", _double)]
 
 
 class _TrackOptions(ctypes.Structure):
@@ -476,13 +477,14 @@ class FitReport:
     history: np.ndarray       # relative RMS error after iteration 1, 2, ...
     energy: float
     energy_history: np.ndarray
+    min_jacobian: float       # the lattice's Jacobian bound (> 0: the model folds nowhere)
 
     @classmethod
     def _from_c(cls, r):
         count = min(r.history_count, _FIT_HISTORY)
         return cls(SuperquadricReport._from_c(r.sq), DistanceStats._from_c(r.sq_error), DistanceStats._from_c(r.error),
                    r.coarse_iterations, r.iterations, bool(r.converged), r.step, _array(r.history[:count]), r.energy,
-                   _array(r.energy_history[:count]))
+                   _array(r.energy_history[:count]), r.min_jacobian)
 
 
 # ---- the model -----------------------------------------------------------------------------------

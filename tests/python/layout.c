@@ -78,6 +78,7 @@ int main(void)
     FIELD(sqffd_fit_options, max_iterations);
     FIELD(sqffd_fit_options, coarse_iterations);
     FIELD(sqffd_fit_options, tolerance);
+    FIELD(sqffd_fit_options, min_jacobian);
     FIELD(sqffd_fit_options, model_to_data);
     FIELD(sqffd_fit_options, sq_max_points);
     FIELD(sqffd_fit_options, ffd_max_points);
@@ -105,6 +106,7 @@ int main(void)
     FIELD(sqffd_fit_report, history);
     FIELD(sqffd_fit_report, energy);
     FIELD(sqffd_fit_report, energy_history);
+    FIELD(sqffd_fit_report, min_jacobian);
 
     STRUCT(sqffd_track_options);
     FIELD(sqffd_track_options, fit);

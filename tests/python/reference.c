@@ -113,6 +113,7 @@ static int write_report(const char *path, const sqffd_fit_report *r)
     put_array(f, "", "history", r->history, r->history_count);
     put(f, "", "energy", r->energy);
     put_array(f, "", "energy_history", r->energy_history, r->history_count);
+    put(f, "", "min_jacobian", r->min_jacobian);
     if (fclose(f) != 0) {
         fail(path, strerror(errno));
         return 0;
@@ -199,6 +200,7 @@ static int set_option(sqffd_fit_options *o, const char *setting)
     else if (NAME_IS("tether")) o->tether = number;
     else if (NAME_IS("box_margin")) o->box_margin = number;
     else if (NAME_IS("model_to_data")) o->model_to_data = number;
+    else if (NAME_IS("min_jacobian")) o->min_jacobian = number;
     else if (NAME_IS("tolerance")) o->tolerance = number;
     else if (NAME_IS("max_iterations")) o->max_iterations = (int)number;
     else if (NAME_IS("coarse_iterations")) o->coarse_iterations = (int)number;
