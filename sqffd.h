@@ -1325,6 +1325,9 @@ typedef struct sqffd_iso_options {
     double level;              /* a voxel is inside when its scaled value >= level */
     int largest_component;     /* keep only the crossings of the largest 6-connected inside component
                                   (by voxel count): drops specks (default 0) */
+    int labelled;              /* a label map (segmentation): a voxel is inside when its scaled value equals
+                                  label, and the crossings are the edges' midpoints; level is not read (default 0) */
+    double label;
 } sqffd_iso_options;
 
 SQFFD_DEF sqffd_iso_options sqffd_iso_options_default(void);
@@ -8851,6 +8854,8 @@ SQFFD_DEF sqffd_iso_options sqffd_iso_options_default(void)
     memset(&o, 0, sizeof o);
     o.level = 0.0;
     o.largest_component = 0;
+    o.labelled = 0;
+    o.label = 0.0;
     return o;
 }
 
@@ -8877,11 +8882,21 @@ static void sqffd__iso_layout(sqffd__arena *a, const sqffd_volume *v, size_t vox
     }
 }
 
-/* Slice k into slice and flag buffer b. */
-static void sqffd__iso_slice(const sqffd_volume *v, size_t k, double level, sqffd__iso_work *w, int b)
+/* The level the crossings are at: a label map's values become 1 (the
+   label) and 0 (any other), crossed at 0.5. */
+static double sqffd__iso_level(const sqffd_iso_options *o)
+{
+    return o->labelled ? 0.5 : o->level;
+}
+
+/* Slice k into slice and flag buffer b (a label map's as 1 and 0). */
+static void sqffd__iso_slice(const sqffd_volume *v, size_t k, const sqffd_iso_options *o, sqffd__iso_work *w, int b)
 {
     size_t at, plane = v->dims[0] * v->dims[1];
+    double level = sqffd__iso_level(o);
     sqffd__vol_slice(v, k, w->slice[b]);
+    if (o->labelled)
+        for (at = 0; at < plane; ++at) w->slice[b][at] = w->slice[b][at] == o->label ? 1.0 : 0.0;
     for (at = 0; at < plane; ++at) w->flag[b][at] = (unsigned char)(w->slice[b][at] >= level);
     memset(w->flag[b] + plane, 0, 8);
 }
@@ -8919,7 +8934,7 @@ static void sqffd__iso_union(uint32_t *parent, uint32_t a, uint32_t b)
 
 /* The root of the largest 6-connected inside component (by voxel count), or
    UINT32_MAX when nothing is inside. */
-static uint32_t sqffd__iso_largest(const sqffd_volume *v, double level, sqffd__iso_work *w)
+static uint32_t sqffd__iso_largest(const sqffd_volume *v, const sqffd_iso_options *o, sqffd__iso_work *w)
 {
     const uint32_t none = UINT32_MAX; /* an outside voxel's parent */
     size_t nx = v->dims[0], ny = v->dims[1], plane = nx * ny, voxels = plane * v->dims[2], i, j, k, x;
@@ -8927,7 +8942,7 @@ static uint32_t sqffd__iso_largest(const sqffd_volume *v, double level, sqffd__i
     for (k = 0; k < v->dims[2]; ++k) {
         const int b = (int)(k & 1);
         const unsigned char *f, *back = w->flag[b ^ 1];
-        sqffd__iso_slice(v, k, level, w, b);
+        sqffd__iso_slice(v, k, o, w, b);
         f = w->flag[b];
         for (j = 0; j < ny; ++j)
             for (i = 0; i < nx; ++i) {
@@ -8979,9 +8994,11 @@ SQFFD_DEF sqffd_result sqffd_iso_points(const sqffd_volume *volume, const sqffd_
     size_t voxels, nx, ny, plane, i, j, k, found = 0;
     uint32_t keep = UINT32_MAX;
     int d, r;
+    double level = sqffd__iso_level(o);
     sqffd_result res = sqffd__vol_check(volume, &voxels);
     if (res != SQFFD_OK) return res;
-    if (!count || (capacity && !points) || !isfinite(o->level)) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if (!count || (capacity && !points) || !isfinite(o->labelled ? o->label : o->level))
+        return SQFFD_ERROR_INVALID_ARGUMENT;
     *count = 0;
     sqffd__arena_init(&a, workspace, workspace_size);
     sqffd__iso_layout(&a, v, voxels, o->largest_component, &w);
@@ -8995,18 +9012,18 @@ SQFFD_DEF sqffd_result sqffd_iso_points(const sqffd_volume *volume, const sqffd_
         for (r = 0; r < 3; ++r) axis[d][r] = len > 0.0 ? axis[d][r] / len : 0.0;
     }
     if (o->largest_component) {
-        keep = sqffd__iso_largest(v, o->level, &w);
+        keep = sqffd__iso_largest(v, o, &w);
         if (keep == UINT32_MAX) return SQFFD_OK;
     }
     nx = v->dims[0];
     ny = v->dims[1];
     plane = nx * ny;
-    sqffd__iso_slice(v, 0, o->level, &w, 0);
+    sqffd__iso_slice(v, 0, o, &w, 0);
     for (k = 0; k < v->dims[2]; ++k) {
         const double *cur = w.slice[k & 1], *up = w.slice[(k + 1) & 1];
         const unsigned char *fc = w.flag[k & 1], *fu = w.flag[(k + 1) & 1];
         int inner_k = k + 1 < v->dims[2];
-        if (inner_k) sqffd__iso_slice(v, k + 1, o->level, &w, (int)((k + 1) & 1));
+        if (inner_k) sqffd__iso_slice(v, k + 1, o, &w, (int)((k + 1) & 1));
         for (j = 0; j < ny; ++j)
             for (i = 0; i < nx; ++i) {
                 size_t at = i + nx * j;
@@ -9029,8 +9046,8 @@ SQFFD_DEF sqffd_result sqffd_iso_points(const sqffd_volume *volume, const sqffd_
                     size_t in_at;
                     if (d == 0 ? i + 1 >= nx : d == 1 ? j + 1 >= ny : !inner_k) continue;
                     there = d == 0 ? cur[at + 1] : d == 1 ? cur[at + nx] : up[at];
-                    inside = here >= o->level;
-                    if (inside == (there >= o->level) || !isfinite(here) || !isfinite(there)) continue;
+                    inside = here >= level;
+                    if (inside == (there >= level) || !isfinite(here) || !isfinite(there)) continue;
                     if (o->largest_component) {
                         in_at = inside ? at + plane * k
                                        : (d == 0 ? at + 1 : d == 1 ? at + nx : at) + plane * (k + (d == 2 ? 1u : 0u));
@@ -9038,8 +9055,8 @@ SQFFD_DEF sqffd_result sqffd_iso_points(const sqffd_volume *volume, const sqffd_
                     }
                     if (found < capacity) {
                         double *out = points + 3 * found;
-                        t = isfinite(there - here) ? (o->level - here) / (there - here) /* (|level - here| <= it) */
-                                                   : (0.5 * o->level - 0.5 * here) / (0.5 * there - 0.5 * here);
+                        t = isfinite(there - here) ? (level - here) / (there - here) /* (|level - here| <= it) */
+                                                   : (0.5 * level - 0.5 * here) / (0.5 * there - 0.5 * here);
                         p[0] = (double)i + (d == 0 ? t : 0.0);
                         p[1] = (double)j + (d == 1 ? t : 0.0);
                         p[2] = (double)k + (d == 2 ? t : 0.0);

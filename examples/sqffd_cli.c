@@ -49,7 +49,7 @@ static int cmd_help(int argc, char **argv);
 
 static const cli_command commands[] = {
     {"fit", "fit a superquadric + free-form deformation model to a point file",
-     "sqffd fit INPUT -o OUT.ply [--iso V|auto] [--sample N] [--lattice N|LxMxN] [--alpha A] [--model-to-data W] "
+     "sqffd fit INPUT -o OUT.ply [--iso V|auto|--label N] [--sample N] [--lattice N|LxMxN] [--alpha A] [--model-to-data W] "
      "[--min-jacobian J|none] "
      "[--iterations K] [--coarse-iterations K] [--robust] [--no-taper] [--vtk] [--json FILE] [--svg FILE] [--quiet]",
      fit_details,
@@ -305,6 +305,8 @@ static void model_option_details(FILE *f, const sqffd_fit_options *d, const char
 typedef struct input_args {
     int iso_auto;         /* Otsu's threshold (the default) */
     double iso;           /* else this level */
+    int label_set;        /* a label map: the surface of the voxels of this label */
+    double label;
     size_t sample;        /* at most this many points (0: all); volumes default to VOLUME_SAMPLE */
     int sample_set;
     int all_components;   /* keep the specks: every component of the iso-surface */
@@ -340,7 +342,7 @@ static int scan_input_option(arg_scan *s, const cli_command *c, input_args *in, 
         in->all_components = 1;
         return 1;
     }
-    if (strcmp(s->name, "--iso") != 0 && strcmp(s->name, "--sample") != 0) return 0;
+    if (strcmp(s->name, "--iso") != 0 && strcmp(s->name, "--label") != 0 && strcmp(s->name, "--sample") != 0) return 0;
     if (!(v = scan_value(s, c))) {
         *status = EXIT_USAGE;
     } else if (strcmp(s->name, "--iso") == 0) {
@@ -352,6 +354,12 @@ static int scan_input_option(arg_scan *s, const cli_command *c, input_args *in, 
             if (!*v || *end || errno || !isfinite(in->iso))
                 *status = usage_error(c, "%s: --iso takes a number or 'auto', not '%s'", c->name, v);
         }
+        if (!*status && in->label_set) *status = usage_error(c, "%s: --iso and --label exclude each other", c->name);
+    } else if (strcmp(s->name, "--label") == 0) {
+        if (parse_numbers(v, 1, &in->label))
+            *status = usage_error(c, "%s: --label takes a voxel value (a label map's label), not '%s'", c->name, v);
+        else if (!in->iso_auto) *status = usage_error(c, "%s: --iso and --label exclude each other", c->name);
+        in->label_set = 1;
     } else if (parse_int(v, 20, 100000000L, &n)) {
         *status = usage_error(c, "%s: --sample takes a point count 20..100000000, not '%s'", c->name, v);
     } else {
@@ -365,6 +373,8 @@ static void input_option_details(FILE *f)
 {
     fprintf(f,
             "  --iso V|auto           volumes: the iso level (default auto: Otsu's threshold)\n"
+            "  --label N              label maps (segmentations): the surface of the voxels labelled N\n"
+            "                         (crossings at the voxel edges' midpoints), instead of --iso\n"
             "  --sample N             keep N points evenly spread (volumes: default %d; point files: all)\n"
             "  --all-components       volumes: keep every piece of the iso-surface (default: the\n"
             "                         largest connected one, so specks and noise are dropped)\n",
@@ -397,7 +407,9 @@ static int volume_points(const sqffd_image *image, size_t t, const char *name, c
     *points = NULL;
     o.largest_component = !in->all_components;
     o.level = in->iso;
-    if (in->iso_auto) r = sqffd_volume_otsu(&frame, &o.level);
+    o.labelled = in->label_set;
+    o.label = in->label;
+    if (in->iso_auto && !in->label_set) r = sqffd_volume_otsu(&frame, &o.level);
     if (r != SQFFD_OK) {
         snprintf(err, err_size, "%s: no automatic iso level: %s (give --iso V)", name, sqffd_result_string(r));
         return 1;
@@ -414,6 +426,7 @@ static int volume_points(const sqffd_image *image, size_t t, const char *name, c
     if (r != SQFFD_OK || !all) {
         free(all);
         if (r != SQFFD_OK) snprintf(err, err_size, "%s: iso-surface: %s", name, sqffd_result_string(r));
+        else if (n == 0 && in->label_set) snprintf(err, err_size, "%s: no voxel is labelled %g (see 'sqffd info')", name, o.label);
         else if (n == 0) snprintf(err, err_size, "%s: no voxel crosses the iso level %g (values range over the image: see 'sqffd info')", name, o.level);
         else snprintf(err, err_size, "%s: out of memory for %lu iso-surface points", name, (unsigned long)n);
         return 1;
@@ -652,8 +665,10 @@ static void fit_report(const fit_args *a, const input_summary *in, size_t n, con
     if (in->volume) {
         printf("  volume           %s, %lu frame%s%s\n", in->format, (unsigned long)in->frames, in->frames == 1 ? "" : "s",
                in->frames > 1 ? " (frame 0 fitted)" : "");
-        printf("  iso-surface      level %g%s, %lu crossing points%s, %lu kept\n", in->level,
-               a->in.iso_auto ? " (Otsu)" : "", (unsigned long)in->crossings,
+        char surface[64];
+        if (a->in.label_set) snprintf(surface, sizeof surface, "label %g", a->in.label);
+        else snprintf(surface, sizeof surface, "level %g%s", in->level, a->in.iso_auto ? " (Otsu)" : "");
+        printf("  iso-surface      %s, %lu crossing points%s, %lu kept\n", surface, (unsigned long)in->crossings,
                a->in.all_components ? "" : " of the largest component", (unsigned long)n);
     } else {
         printf("  points read      %lu\n", (unsigned long)n);

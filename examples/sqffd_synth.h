@@ -345,4 +345,49 @@ static inline double synth_folded_share(const double *vertices, size_t vertex_co
     return (double)folded / (double)samples;
 }
 
+/* A label map of a short-axis stack of closed contours, as a segmentation
+   with thick slices gives it: labels[i + dims[0] (j + dims[1] k)] (u8) is
+   `inside` where voxel (i, j, k)'s centre, origin + (i pixel, j pixel,
+   k spacing), lies in slice k's contour (even-odd rule), `ring` within
+   ring_pixels (a square around) of such a voxel, else 0. The points come
+   slice by slice (consecutive points with the same z, each slice's in
+   drawing order); a slice goes to the k nearest its z. */
+static inline void synth_rasterise_stack(const double *points, size_t n, const double origin[3], double pixel,
+                                         double spacing, const size_t dims[3], unsigned char inside,
+                                         unsigned char ring, int ring_pixels, unsigned char *labels)
+{
+    size_t plane = dims[0] * dims[1], first = 0, last, i, j, e;
+    memset(labels, 0, plane * dims[2]);
+    for (; first < n; first = last) {
+        double kf;
+        unsigned char *s;
+        for (last = first + 1; last < n && points[3 * last + 2] == points[3 * first + 2]; last++) {}
+        kf = floor((points[3 * first + 2] - origin[2]) / spacing + 0.5);
+        if (kf < 0.0 || kf >= (double)dims[2]) continue;
+        s = labels + plane * (size_t)kf;
+        for (j = 0; j < dims[1]; j++)
+            for (i = 0; i < dims[0]; i++) {
+                double x = origin[0] + pixel * (double)i, y = origin[1] + pixel * (double)j;
+                int in = 0;
+                for (e = first; e < last; e++) { /* edge e -> e + 1, the last back to the first */
+                    const double *a = points + 3 * e, *b = points + 3 * (e + 1 < last ? e + 1 : first);
+                    if ((a[1] > y) != (b[1] > y) && x < a[0] + (y - a[1]) * (b[0] - a[0]) / (b[1] - a[1])) in = !in;
+                }
+                if (in) s[i + dims[0] * j] = inside;
+            }
+        for (j = 0; j < dims[1]; j++)
+            for (i = 0; i < dims[0]; i++) {
+                long di, dj;
+                if (s[i + dims[0] * j] == inside) continue;
+                for (dj = -ring_pixels; dj <= ring_pixels; dj++)
+                    for (di = -ring_pixels; di <= ring_pixels; di++) {
+                        long ii = (long)i + di, jj = (long)j + dj;
+                        if (ii >= 0 && jj >= 0 && ii < (long)dims[0] && jj < (long)dims[1] &&
+                            s[(size_t)ii + dims[0] * (size_t)jj] == inside)
+                            s[i + dims[0] * j] = ring;
+                    }
+            }
+    }
+}
+
 #endif /* SQFFD_SYNTH_H */
