@@ -3329,8 +3329,8 @@ SQFFD_DEF sqffd_result sqffd_sq_iou(const sqffd_superquadric *a, const sqffd_sup
 /* Row stride of J^T W J: padded to 16 so that the per-point row update has a
    fixed length and vectorises (the padding columns stay 0). */
 #define SQFFD__SQ_ROW 16
-/* The starts and how much work each gets (measured on issue 3's random
-   shapes: fewer or smaller cost accuracy, more cost time). */
+/* The starts and how much work each gets (measured on random tapered
+   superquadrics: fewer or smaller cost accuracy, more cost time). */
 #define SQFFD__SQ_SCREEN 48            /* subsample every start is screened on */
 #define SQFFD__SQ_START_ITERATIONS 4   /* LM iterations per start on it */
 #define SQFFD__SQ_KEEP 2               /* best starts ranked ... */
@@ -4258,7 +4258,7 @@ static double sqffd__sq_robust_d2(const sqffd_superquadric *sq, const double *pt
 #define SQFFD__SQ_ROBUST_COST SQFFD_SQ_COST_RADIAL /* the mixture's own residual */
 /* Optimiser iterations per EM round but the last (the CG's get multiplied by
    SQFFD__SQ_CG_FACTOR too): one LM step lets the weights follow; the CG's
-   steps do less (measured on issue 3's shapes). */
+   steps do less (measured on random tapered superquadrics). */
 #define SQFFD__SQ_ROUND_ITERATIONS(o) ((o)->optimizer == SQFFD_SQ_OPTIMIZER_CG ? 3 : 1)
 #define SQFFD__SQ_FULL_ROUNDS 1      /* EM rounds on all points after the polish subsample */
 /* Field by field: the core may not call memcmp. */

@@ -21,7 +21,7 @@ sys.path.insert(0, os.path.join(REPO, "examples", "python"))
 import sqffd  # noqa: E402
 
 RUNS = 31
-TARGET = 0.05  # the issue's: overhead <= 5% of a 6,000-point fit
+TARGET = 0.05  # overhead <= 5% of a 6,000-point fit
 
 timer = ctypes.CDLL(os.path.join(BUILD, "python_timer.so"))
 timer.python_timer_phantom.argtypes = (ctypes.c_size_t, ctypes.c_void_p)
