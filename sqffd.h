@@ -742,7 +742,8 @@ typedef enum sqffd_regularization {
 } sqffd_regularization;
 
 typedef enum sqffd_solver {
-    SQFFD_SOLVER_CHOLESKY = 0,  /* Cholesky factor of a step's normal matrix (default), later steps of the run by two conjugate-gradient steps it preconditions (refactored when they fall short); where it is singular (alpha = 0 with parts of the lattice no data reach) the SVD's minimum-norm solution instead, every step */
+    SQFFD_SOLVER_CHOLESKY = 0,  /* factor a run's first normal matrix, then two CG steps preconditioned by it (refactored
+                                   when they fall short); singular (alpha = 0, lattice parts no data reach): SVD (default) */
     SQFFD_SOLVER_SVD = 1        /* every step by the SVD of its normal matrix: pseudo-inverse solution, singular values below 1e-10 of the largest dropped (as the paper's resolution; slower) */
 } sqffd_solver;
 
@@ -757,14 +758,12 @@ typedef struct sqffd_fit_options {
     sqffd_solver solver;
     int max_iterations;          /* two-step iterations at most, all stages (default 33; 0: the superquadric alone,
                                     identity lattice) */
-    int coarse_iterations;       /* sqffd_fit only: how many of them at most (never all) run first on a coarse grid
-                                    (half the rows and columns) with an even subsample of at most
-                                    SQFFD_FIT_COARSE_POINTS points (default 25; 0: none). From the superquadric they
-                                    do most of the moving, at about half the cost; skipped where the coarse grid
-                                    would have fewer than 4 model points a control point (e.g. an 8 x 8 x 8 lattice
-                                    on the default grid) */
+    int coarse_iterations;       /* sqffd_fit only: how many of them (never all) run first on a half-resolution grid
+                                    and at most SQFFD_FIT_COARSE_POINTS points: most of the moving at about half the
+                                    cost (default 25; 0: none; skipped below 4 model points a control point) */
     double tolerance;            /* stop when the plain step moves the model points by at most this (RMS / diagonal; default 1e-4; 0 = always max_iterations) */
-    double model_to_data;        /* weight >= 0 of the model -> data term of the energy (the squared distance of every other model point in each grid direction to its nearest data point, among at most 16,384 of them evenly spread; builds a tree over those): holds the parts of the model no data reach near the data (default 0.02; 0: none; 1: as much as the data -> model term) */
+    double model_to_data;        /* weight >= 0 of the model -> data term (THE ENERGY below): holds the parts of the model no
+                                    data reach near the data (default 0.02; 0: none; 1: as much as the data -> model term) */
     size_t sq_max_points;        /* stage 1 runs on an even subsample of at most this many points (default 20,000; 0 = all) */
     size_t ffd_max_points;       /* the FFD iterations run on an even subsample of at most this many points (default 200,000; 0 = all); report.error is always over all points */
     sqffd_progress_fn progress;  /* per FFD iteration k = 1, 2, ...: stage SQFFD_STAGE_FFD, error = relative RMS error after it */
@@ -971,12 +970,9 @@ SQFFD_DEF sqffd_result sqffd_fit_prepared_view(const sqffd_ffd_system *system, s
    frame: its trajectory is vertex v through the frames, and
    sqffd_motion measures it. */
 typedef struct sqffd_track_options {
-    sqffd_fit_options fit;       /* frame 0's fit and every frame's FFD stage (fit.progress is not used);
-                                    fit.max_iterations is frame 0's (default 100, and no coarse_iterations,
-                                    so that it converges and the later frames measure motion, not the rest of
-                                    its convergence);
-                                    fit.alpha defaults to 1e-5, stiffer than a lone fit's 1e-6, so the
-                                    parts no data reach stay still from frame to frame */
+    sqffd_fit_options fit;       /* frame 0's fit and every frame's FFD stage (fit.progress unused); frame 0 runs to
+                                    convergence (max_iterations 100, no coarse stage) so later frames measure motion;
+                                    alpha 1e-5, stiffer than a lone fit's, so unreached parts stay still */
     int frame_iterations;        /* FFD iterations of frames 1, 2, ... at most (default 5: they start near
                                     their answer, and on the phantom 10 lower a frame's error by ~1% at
                                     1.3x the time; the tolerance may stop them sooner) */
@@ -5170,8 +5166,8 @@ static void sqffd__fit_bvh_layout(sqffd__arena *a, const int grid[2], sqffd__fit
    fit's first and last, and sqffd_model_distances) then proves the answer
    the closest of the whole mesh or finds the one that is
    (sqffd__fit_certify). (Bounds on the vertices' moves that would prove the
-   nearest vertex unchanged without a descent run out within a pass of a
-   tree query on real shapes: measured, bench/README.md, 0.8.0.) */
+   nearest vertex unchanged without a descent run out within a pass on real
+   shapes: bench/NOTES.md.) */
 #define SQFFD__FIT_DESCENT 16 /* vertex-to-vertex moves of a descent at most */
 
 typedef struct sqffd__fit_search {
@@ -5547,9 +5543,8 @@ typedef struct sqffd__fit_step1 {
    and, with its sums, spreads each point's displacement from its closest
    mesh point over that triangle's vertices with the barycentric weights
    (times the point's Welsch weight in robust mode). Points go in batches:
-   the searches of a batch first, then their sums (measured: each loop short
-   enough for the processor to overlap one point's search with the next:
-   20.8 -> 19.9 ms on the 6,000-point fit). */
+   the searches of a batch first, then their sums (each loop short enough
+   for the processor to overlap one point's search with the next). */
 #define SQFFD__FIT_BATCH 8
 
 static sqffd_result sqffd__fit_pass(const sqffd_points *points, sqffd__fit_search *search, double diagonal,
@@ -5973,10 +5968,8 @@ SQFFD_DEF sqffd_fit_options sqffd_fit_options_default(void)
     memset(&o, 0, sizeof o);
     o.sq = sqffd_sq_fit_options_default();
     /* Stage 1 stops where the winner has converged on its 384-point
-       subsample: the last run refines a cost that is no distance, moves the
-       error by a few percent either way (the FFD stage outweighs it), was
-       discarded by the guard on 6 of 13 real shapes, and costs 2-21% of a
-       whole fit (bench/README.md, 0.11.0). */
+       subsample: a last run refines a cost that is no distance, which the
+       FFD stage outweighs, at a cost (bench/NOTES.md). */
     o.sq.final_points = SQFFD__SQ_POLISH;
     o.lattice[0] = o.lattice[1] = o.lattice[2] = 5;
     o.box_margin = 0.1;
