@@ -41,8 +41,9 @@
        superquadric, the lattice, the model) are plain structs you can keep on
        the stack, copy or store.
        The stack: no function frame over 2 KB and no recursion; sqffd_fit
-       and sqffd_track need at most 7.5 KB in all (x86-64 gcc -O2;
-       Cortex-M7 -Os: 6.0 KB), plus what your progress callback uses.
+       and sqffd_track need under 8 KB in all (make stack checks it; the
+       measured figures: README.md, "Safety and portability"), plus what
+       your progress callback uses.
 
    RESULTS
        Every fallible call returns sqffd_result: SQFFD_OK (0) or an error,
