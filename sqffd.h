@@ -41,8 +41,9 @@
        superquadric, the lattice, the model) are plain structs you can keep on
        the stack, copy or store.
        The stack: no function frame over 2 KB and no recursion; sqffd_fit
-       and sqffd_track need at most 7.5 KB in all (x86-64 gcc -O2;
-       Cortex-M7 -Os: 6.0 KB), plus what your progress callback uses.
+       and sqffd_track need under 8 KB in all (make stack checks it; the
+       measured figures: README.md, "Safety and portability"), plus what
+       your progress callback uses.
 
    RESULTS
        Every fallible call returns sqffd_result: SQFFD_OK (0) or an error,
@@ -165,115 +166,7 @@
                                        iso-surface crossing points (largest component)
        sqffd_points_subsample(_view)   an even subsample of points
 
-   CHANGES
-       0.11.1 (2026-11) built with gcc -O3, fits and tracks take 1.04x and
-                        1.07x the time they take at -O2 (were 1.19x and
-                        1.21x): the exact passes' box test stays a
-                        vectorised loop. The closest point on a triangle
-                        is inlined into its callers: fits 0.96x the time
-                        at -O2 (tracking unchanged). Results unchanged to
-                        the bit.
-       0.11.0 (2026-11) sqffd_sq_fit_options.final_points (new; default
-                        1,536 as before): the winner's last run. sqffd_fit's
-                        defaults set 384, so its stage 1 stops where the
-                        winner has converged on its 384-point subsample:
-                        fits 0.77-0.99x 0.10.0's time (median ~0.94), errors
-                        0.97-1.06x (within the path's own spread).
-                        sqffd_track_options.frame_iterations defaults to 5
-                        (was 10): tracking 0.80x the time, a later frame's
-                        error ~1% higher, the phantom's Dice 0.918 -> 0.899
-       0.10.0 (2026-11) the FFD step's solve: the first step of a run
-                        factors the weighted normal matrix, the later ones
-                        take two conjugate-gradient steps preconditioned by
-                        that factor (refactored when they leave over 10% of
-                        the residual; convergence is decided by a factored
-                        step). Energy still never rises; a fit takes
-                        0.84-1.05x 0.9.0's time (median ~0.92), tracking
-                        ~0.9x; the workspace grows by 15 x L doubles.
-                        The passes visit the data points in Morton order
-                        (up to 16,384 points; 4 bytes a point): scans
-                        sampled in random order a further 0.91-0.95x
-       0.9.0 (2026-11)  sqffd_fit runs the first coarse_iterations (new
-                        option, default 25) of its max_iterations (default
-                        33, was 30) on a coarse grid (half the rows and
-                        columns) with at most SQFFD_FIT_COARSE_POINTS
-                        (2,000) points, then the rest on the grid from an
-                        exact pass; report.coarse_iterations,
-                        SQFFD_STAGE_COARSE; report.iterations and the
-                        histories are the grid's. A fit takes 0.77-0.96x
-                        0.8.0's time with errors 0.81-1.01x (phantom
-                        0.95x); sqffd_fit_ffd, prepared systems and
-                        tracking run every iteration on the grid (tracking
-                        unchanged: its frame 0 has coarse_iterations 0)
-       0.8.0 (2026-11)  the exact closest-point passes walk a 4-wide tree
-                        over the grid's patches that tests each cell's box
-                        before its triangles (sqffd_model_distances
-                        0.54-0.64x 0.7.0's time); a fit's last pass starts
-                        from each point's matched triangle; the warm start
-                        keeps no bounds on vertex moves (they had run out
-                        after one pass): 36 fewer workspace bytes per FFD
-                        point; same errors (a fit 0.84-0.89x, tracking
-                        0.75x 0.7.0's time)
-       0.7.0 (2026-11)  sqffd_fit_options_default's alpha is 1e-6 (was
-                        1e-5): the default fit's error is lower on every
-                        real shape of the bench; sqffd_track_options_default
-                        keeps 1e-5; the exact passes start from the warm
-                        answer and prove it by the triangle tree alone; the
-                        step's normal matrix in vectorisable rounds (a fit
-                        0.85-0.91x 0.6.0's time, tracking 0.85x)
-       0.6.0 (2026-11)  point views: sqffd_points (float or double x y z,
-                        any byte stride and alignment, read in place),
-                        sqffd_points_packed/_strided, and a _view form of
-                        every function taking points (kdtree_build, _refit,
-                        sq_fit, fit, fit_ffd, fit_prepared, track,
-                        model_distances, model_reverse_distances,
-                        points_subsample); breaking: sqffd_kdtree.points is
-                        a sqffd_points view (was const double *);
-                        sqffd_track_frame(_workspace_size): a stream's later
-                        frames one at a time, as sqffd_track runs them
-       0.5.0 (2026-11)  toward the 1.0 contract (breaking):
-                        - every _workspace_size returns sqffd_result and the
-                          size through a last size_t *size (was: size_t, 0
-                          for any problem); operations tell TOO_LARGE from
-                          WORKSPACE_TOO_SMALL everywhere;
-                        - stored data is data: sqffd_sq_validate,
-                          sqffd_ffd_validate, sqffd_model_validate; new codes
-                          INVALID_MODEL, BAD_FORMAT, OUTPUT_TOO_SMALL;
-                          sqffd_sq_inside_outside, _radial_distance, _point,
-                          _volume, _iou, _sample_uniform, sqffd_ffd_local,
-                          _eval, _deform, _weights, sqffd_model_point and
-                          sqffd_points_subsample return sqffd_result (values
-                          through pointers; sq_iou's -1 is gone);
-                        - sqffd_model_save_size/_save/_load (versioned,
-                          little-endian byte form with a CRC-32);
-                        - kd-tree queries return sqffd_result (nearest's NaN
-                          and knn/radius counts move to pointers);
-                        - layer 1 counts are size_t; sqffd_svd_solve takes a
-                          workspace (sqffd_svd_solve_workspace_size) and
-                          returns the rank through a pointer;
-                          sqffd_ncg_minimize takes sqffd_ncg_options;
-                        - NULL options mean defaults in sqffd_fit and
-                          sqffd_fit_ffd too;
-                        - SQFFD_MAX_LATTICE other than 8 renames the
-                          functions taking lattices (mismatches fail to
-                          link); SQFFD_KDTREE_MAX_DEPTH 40; sqffd_kdtree has
-                          a scratch field (3 KB more workspace);
-                        - no stack frame over 2 KB (scratch moved into the
-                          workspaces).
-       0.4.0 (2026-11)  layer 7: volume views, Otsu, iso-surface points,
-                        largest component, subsample
-       0.3.0 (2026-11)  layer 6: prepared FFD systems, sqffd_track,
-                        sqffd_motion; SQFFD_STAGE_FRAME; the FFD stage takes
-                        the plain step once it is within the tolerance
-       0.2.0 (2026-11)  the FFD stage minimises a stated energy (MM steps,
-                        over-relaxed); the error is the exact
-                        distance to the model mesh; robust FFD; options
-                        model_to_data (a weight, replacing the int
-                        symmetric; default 0.02) and tether; report energy,
-                        energy_history, sq.best_start, sq.fallback (the
-                        superquadric guard); alpha = 0 solves by SVD;
-                        max_iterations 0 allowed
-       0.1.0 (2026-11)  first release: layers 1-5
+   CHANGES: see CHANGELOG.md
 */
 #ifndef SQFFD_H
 #define SQFFD_H
@@ -897,7 +790,8 @@ typedef enum sqffd_regularization {
 } sqffd_regularization;
 
 typedef enum sqffd_solver {
-    SQFFD_SOLVER_CHOLESKY = 0,  /* Cholesky factor of a step's normal matrix (default), later steps of the run by two conjugate-gradient steps it preconditions (refactored when they fall short); where it is singular (alpha = 0 with parts of the lattice no data reach) the SVD's minimum-norm solution instead, every step */
+    SQFFD_SOLVER_CHOLESKY = 0,  /* factor a run's first normal matrix, then two CG steps preconditioned by it (refactored
+                                   when they fall short); singular (alpha = 0, lattice parts no data reach): SVD (default) */
     SQFFD_SOLVER_SVD = 1        /* every step by the SVD of its normal matrix: pseudo-inverse solution, singular values below 1e-10 of the largest dropped (as the paper's resolution; slower) */
 } sqffd_solver;
 
@@ -912,16 +806,14 @@ typedef struct sqffd_fit_options {
     sqffd_solver solver;
     int max_iterations;          /* two-step iterations at most, all stages (default 33; 0: the superquadric alone,
                                     identity lattice) */
-    int coarse_iterations;       /* sqffd_fit only: how many of them at most (never all) run first on a coarse grid
-                                    (half the rows and columns) with an even subsample of at most
-                                    SQFFD_FIT_COARSE_POINTS points (default 25; 0: none). From the superquadric they
-                                    do most of the moving, at about half the cost; skipped where the coarse grid
-                                    would have fewer than 4 model points a control point (e.g. an 8 x 8 x 8 lattice
-                                    on the default grid) */
+    int coarse_iterations;       /* sqffd_fit only: how many of them (never all) run first on a half-resolution grid
+                                    and at most SQFFD_FIT_COARSE_POINTS points: most of the moving at about half the
+                                    cost (default 25; 0: none; skipped below 4 model points a control point) */
     double tolerance;            /* stop when the plain step moves the model points by at most this (RMS / diagonal; default 1e-4; 0 = always max_iterations) */
     double min_jacobian;         /* fold-free steps: none leaves the lattice's Jacobian bound (sqffd_ffd_jacobian_bound)
                                     below this (default 0.02; -HUGE_VAL: no bound) */
-    double model_to_data;        /* weight >= 0 of the model -> data term of the energy (the squared distance of every other model point in each grid direction to its nearest data point, among at most 16,384 of them evenly spread; builds a tree over those): holds the parts of the model no data reach near the data (default 0.02; 0: none; 1: as much as the data -> model term) */
+    double model_to_data;        /* weight >= 0 of the model -> data term (THE ENERGY below): holds the parts of the model no
+                                    data reach near the data (default 0.02; 0: none; 1: as much as the data -> model term) */
     size_t sq_max_points;        /* stage 1 runs on an even subsample of at most this many points (default 20,000; 0 = all) */
     size_t ffd_max_points;       /* the FFD iterations run on an even subsample of at most this many points (default 200,000; 0 = all); report.error is always over all points */
     sqffd_progress_fn progress;  /* per FFD iteration k = 1, 2, ...: stage SQFFD_STAGE_FFD, error = relative RMS error after it */
@@ -1130,13 +1022,10 @@ SQFFD_DEF sqffd_result sqffd_fit_prepared_view(const sqffd_ffd_system *system, s
    frame: its trajectory is vertex v through the frames, and
    sqffd_motion measures it. */
 typedef struct sqffd_track_options {
-    sqffd_fit_options fit;       /* frame 0's fit and every frame's FFD stage (fit.progress is not used);
-                                    fit.max_iterations is frame 0's (default 100, and no coarse_iterations,
-                                    so that it converges and the later frames measure motion, not the rest of
-                                    its convergence);
-                                    fit.alpha defaults to 1e-3, stiffer than a lone fit's 1e-6, and
-                                    fit.model_to_data to 0: the parts a frame's data do not reach follow
-                                    the reached ones smoothly instead of being pulled onto the nearest data */
+    sqffd_fit_options fit;       /* frame 0's fit and every frame's FFD stage (fit.progress unused); frame 0 runs to
+                                    convergence (max_iterations 100, no coarse stage) so later frames measure motion;
+                                    alpha 1e-3, stiffer than a lone fit's, and model_to_data 0: the parts a frame's
+                                    data do not reach follow the reached ones instead of being pulled onto the data */
     int frame_iterations;        /* FFD iterations of frames 1, 2, ... at most (default 100: a frame runs to the
                                     tolerance; ED to ES in one frame takes 50-100 under the Jacobian floor) */
     sqffd_progress_fn progress;  /* frames (SQFFD_STAGE_FRAME) and, within each, the stages' iterations */
@@ -3499,8 +3388,8 @@ SQFFD_DEF sqffd_result sqffd_sq_iou(const sqffd_superquadric *a, const sqffd_sup
 /* Row stride of J^T W J: padded to 16 so that the per-point row update has a
    fixed length and vectorises (the padding columns stay 0). */
 #define SQFFD__SQ_ROW 16
-/* The starts and how much work each gets (measured on issue 3's random
-   shapes: fewer or smaller cost accuracy, more cost time). */
+/* The starts and how much work each gets (measured on random tapered
+   superquadrics: fewer or smaller cost accuracy, more cost time). */
 #define SQFFD__SQ_SCREEN 48            /* subsample every start is screened on */
 #define SQFFD__SQ_START_ITERATIONS 4   /* LM iterations per start on it */
 #define SQFFD__SQ_KEEP 2               /* best starts ranked ... */
@@ -4428,7 +4317,7 @@ static double sqffd__sq_robust_d2(const sqffd_superquadric *sq, const double *pt
 #define SQFFD__SQ_ROBUST_COST SQFFD_SQ_COST_RADIAL /* the mixture's own residual */
 /* Optimiser iterations per EM round but the last (the CG's get multiplied by
    SQFFD__SQ_CG_FACTOR too): one LM step lets the weights follow; the CG's
-   steps do less (measured on issue 3's shapes). */
+   steps do less (measured on random tapered superquadrics). */
 #define SQFFD__SQ_ROUND_ITERATIONS(o) ((o)->optimizer == SQFFD_SQ_OPTIMIZER_CG ? 3 : 1)
 #define SQFFD__SQ_FULL_ROUNDS 1      /* EM rounds on all points after the polish subsample */
 /* Field by field: the core may not call memcmp. */
@@ -5616,8 +5505,8 @@ static void sqffd__fit_bvh_layout(sqffd__arena *a, const int grid[2], sqffd__fit
    fit's first and last, and sqffd_model_distances) then proves the answer
    the closest of the whole mesh or finds the one that is
    (sqffd__fit_certify). (Bounds on the vertices' moves that would prove the
-   nearest vertex unchanged without a descent run out within a pass of a
-   tree query on real shapes: measured, bench/README.md, 0.8.0.) */
+   nearest vertex unchanged without a descent run out within a pass on real
+   shapes: bench/NOTES.md.) */
 #define SQFFD__FIT_DESCENT 16 /* vertex-to-vertex moves of a descent at most */
 
 typedef struct sqffd__fit_search {
@@ -5993,9 +5882,8 @@ typedef struct sqffd__fit_step1 {
    and, with its sums, spreads each point's displacement from its closest
    mesh point over that triangle's vertices with the barycentric weights
    (times the point's Welsch weight in robust mode). Points go in batches:
-   the searches of a batch first, then their sums (measured: each loop short
-   enough for the processor to overlap one point's search with the next:
-   20.8 -> 19.9 ms on the 6,000-point fit). */
+   the searches of a batch first, then their sums (each loop short enough
+   for the processor to overlap one point's search with the next). */
 #define SQFFD__FIT_BATCH 8
 
 static sqffd_result sqffd__fit_pass(const sqffd_points *points, sqffd__fit_search *search, double diagonal,
@@ -6419,10 +6307,8 @@ SQFFD_DEF sqffd_fit_options sqffd_fit_options_default(void)
     memset(&o, 0, sizeof o);
     o.sq = sqffd_sq_fit_options_default();
     /* Stage 1 stops where the winner has converged on its 384-point
-       subsample: the last run refines a cost that is no distance, moves the
-       error by a few percent either way (the FFD stage outweighs it), was
-       discarded by the guard on 6 of 13 real shapes, and costs 2-21% of a
-       whole fit (bench/README.md, 0.11.0). */
+       subsample: a last run refines a cost that is no distance, which the
+       FFD stage outweighs, at a cost (bench/NOTES.md). */
     o.sq.final_points = SQFFD__SQ_POLISH;
     o.lattice[0] = o.lattice[1] = o.lattice[2] = 5;
     o.box_margin = 0.1;

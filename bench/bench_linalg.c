@@ -1,6 +1,6 @@
 /* Linear algebra bench: SVD and Cholesky, medians of repeated runs, side by
    side with LAPACKE (dgesvd, dpotrf) when built with -DSQFFD_BENCH_LAPACKE.
-   Target (issue 2): SVD 2000x125 within 3x of dgesvd, singular values equal
+   Target: SVD 2000x125 within 3x of dgesvd, singular values equal
    to 1e-12 relative. */
 #define SQFFD_IMPLEMENTATION
 #include "../sqffd.h"

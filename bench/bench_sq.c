@@ -1,5 +1,5 @@
 /* Superquadric fit: time per fit and the volumetric IoU reached, on random
-   tapered superquadrics (issue 3's ranges: e in [0.1, 1.9], sizes 1:5,
+   tapered superquadrics (the tests' ranges: e in [0.1, 1.9], sizes 1:5,
    |K| <= 0.6), clean and with 20% uniform outliers (robust mode).
    Targets: 1,000 points <= 2 ms, 6,000 points <= 10 ms (median, one core). */
 #define SQFFD_IMPLEMENTATION

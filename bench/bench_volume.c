@@ -3,7 +3,7 @@
    points (count pass + fill pass, as a caller sizes its buffer), the largest
    component; voxel throughput next to scikit-image's marching_cubes on the
    same volume where python3 and skimage are installed (bench/install_peers.sh
-   tries), else next to the figure quoted for this machine in issue 12
+   tries), else next to the figure measured once on this machine
    (92 ms, 77 M voxels/s). Medians of repeated runs. */
 #define SQFFD_IMPLEMENTATION
 #include "../sqffd.h"
@@ -158,7 +158,7 @@ int main(void)
     if (sk > 0.0)
         printf("| skimage marching_cubes (same volume and level) | %.1f | %.0f |\n", 1e3 * sk, (double)voxels / sk / 1e6);
     else
-        printf("| skimage marching_cubes: not installed; quoted for this machine (issue 12) | 92 | 77 |\n");
+        printf("| skimage marching_cubes: not installed; measured once on this machine | 92 | 77 |\n");
     printf("\nTarget: count + fill >= 2x skimage's throughput.\n");
     end_to_end();
     free(points);

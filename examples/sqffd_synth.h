@@ -85,7 +85,7 @@ typedef struct synth_sq_ranges {
     double center_max;           /* centre uniform in [-center_max, center_max]^3 */
 } synth_sq_ranges;
 
-/* The test ranges of issue 3: e in [0.1, 1.9], sizes spread 1:5, |K| <= 0.6. */
+/* The tests' ranges: e in [0.1, 1.9], sizes spread 1:5, |K| <= 0.6. */
 static inline synth_sq_ranges synth_sq_ranges_default(void)
 {
     synth_sq_ranges g;
@@ -224,7 +224,7 @@ static inline void synth_bounds(const double *points, size_t n, double lo[3], do
 }
 
 /* m outliers uniform in the bounding box of the n points scaled by `scale`
-   about its centre (1.5 in the issue's tests), written to out (3m doubles).
+   about its centre (1.5 in the tests), written to out (3m doubles).
    The caller appends them (out may point just past the n points). */
 static inline void synth_outliers(synth_rng *r, const double *points, size_t n, size_t m, double scale, double *out)
 {

@@ -790,7 +790,7 @@ static void test_fit_no_drift(void)
     free(pts);
 }
 
-/* ---- the energy and the exact error (issue 10) ---- */
+/* ---- the energy and the exact error ---- */
 
 /* Squared distance from q to the triangle abc, written independently of the
    library: inside the face, the plane's distance; else the nearest edge. */

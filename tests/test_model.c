@@ -146,7 +146,7 @@ static void test_model_validation(void)
     BAD(sq.taper[0], 1.0, 1);
     BAD(sq.center[2], INFINITY, 1);
     BAD(sq.rotation[4], good.sq.rotation[4] + 1e-3, 1); /* not orthonormal */
-    BAD(ffd.dims[0], 40, 1);                            /* the flipped byte */
+    BAD(ffd.dims[0], 40, 1);                            /* a flipped byte */
     BAD(ffd.dims[1], 1, 1);
     BAD(ffd.dims[2], -3, 1);
     BAD(ffd.origin[0], NAN, 1);

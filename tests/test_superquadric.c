@@ -343,7 +343,7 @@ static sqffd_result fit_points(const double *pts, size_t n, const sqffd_sq_fit_o
     return r;
 }
 
-/* The kinds of test data of issue 3. */
+/* The kinds of test data: clean, noisy, cut by a plane, with outliers. */
 enum { DATA_CLEAN, DATA_NOISE, DATA_CUT, DATA_OUTLIERS };
 
 /* Random superquadric and n surface points of the given kind (pts holds

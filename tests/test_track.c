@@ -424,7 +424,7 @@ static void test_motion_geometry(void)
     free(segment);
 }
 
-/* The issue's phantom: 16 frames x 6,000 points, 1% noise, a zone of ~15%
+/* The bench's phantom: 16 frames x 6,000 points, 1% noise, a zone of ~15%
    of the wall at 20% of normal motion. The flagged surface overlaps the
    true zone (area-weighted Dice >= 0.8); segments the zone covers for the
    most part are flagged and those it barely touches are not; the inward
