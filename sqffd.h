@@ -1081,12 +1081,38 @@ SQFFD_DEF sqffd_result sqffd_track_frame_view(const sqffd_ffd_system *system, sq
                                               const sqffd_track_options *options, sqffd_model *model,
                                               sqffd_fit_report *report, void *workspace, size_t workspace_size);
 
+/* A short-axis stack: points on parallel planes, as the contours of cine
+   MRI slices lie (and Simpson's method measures). */
+#define SQFFD_STACK_PLANES 64
+typedef struct sqffd_stack {
+    double axis[3];                    /* unit normal of the planes (its largest component positive) */
+    size_t planes;                     /* how many hold points, 3..SQFFD_STACK_PLANES */
+    double level[SQFFD_STACK_PLANES];  /* their positions along the axis (axis . x), ascending */
+    double spacing;                    /* the median gap between neighbouring planes */
+} sqffd_stack;
+
+/* Whether the points form a short-axis stack, listed slice by slice (each
+   contour in drawing order, as contour exports list them): the planes'
+   normal is that of the steps between consecutive points (those across
+   slices, longer than twice the RMS step, left out), and every point must
+   lie within 1e-6 of the points' bounding-box diagonal of one of 3 to
+   SQFFD_STACK_PLANES planes. *found: 1 and *stack filled, or 0 (stack
+   untouched). INVALID_ARGUMENT (NULL stack or found, a bad view),
+   NON_FINITE. */
+SQFFD_DEF sqffd_result sqffd_points_stack(sqffd_points points, sqffd_stack *stack, int *found);
+
 /* Motion and function of a tracked left ventricle, from the frames' models
    (sqffd_track's; all with the same superquadric, lattice and grid). Per
    grid point v (sqffd_model_mesh's vertex order on the models' grid, M =
    n_eta n_omega + 2 of them), everything measured on the models' grid mesh:
    - volumes: each frame's closed model volume, exact for the triangle mesh
      (divergence theorem: the sum over its triangles of det(a, b, c) / 6);
+     with options->stacks (the frames' short-axis stacks, one each), the
+     model's volume between the frame's outer planes each moved out by half
+     the spacing: the extent Simpson's method gives its discs (the model
+     closes the base above the basal slice, Simpson's stops there), from the
+     areas of its sections (Simpson's rule, SQFFD__MOTION_SECTIONS
+     intervals);
    - ED: options->ed_frame (default 0); ES: the frame of least volume;
      EDV, ESV, ejection fraction (EDV - ESV) / EDV;
    - displacement[v]: |x_v(ES) - x_v(ED)|; trajectories: x_v in every frame;
@@ -1122,7 +1148,8 @@ SQFFD_DEF sqffd_result sqffd_track_frame_view(const sqffd_ffd_system *system, sq
      when that share is at least hypokinetic_share.
    outputs (may be NULL, and so may each of its arrays) receives the arrays.
    Results: INVALID_ARGUMENT (NULL models, frame_count 0, ed_frame out of
-   range, models that differ in superquadric, lattice or grid, bad options,
+   range, models that differ in superquadric, lattice or grid, bad options
+   or stacks,
    an apex or septum direction of zero length or along the axis),
    NON_FINITE, DEGENERATE (EDV <= 0, a flat model), WORKSPACE_TOO_SMALL. */
 #define SQFFD_SEGMENTS 17
@@ -1134,6 +1161,8 @@ typedef struct sqffd_motion_options {
     double apex_fraction;        /* the apex segment's share of the long axis (default 0.1) */
     double apex_direction[3];    /* base -> apex, world; all 0 (default): automatic */
     double septum_direction[3];  /* world (only its part across the axis counts); all 0 (default): see above */
+    const sqffd_stack *stacks;   /* NULL (default): closed volumes; else frame_count stacks: volumes between their
+                                    planes (see above) */
 } sqffd_motion_options;
 
 typedef struct sqffd_motion_outputs {
@@ -8293,6 +8322,148 @@ static double sqffd__fit_volume(const int grid[2], const double *x)
     return volume / 6.0;
 }
 
+/* ---- short-axis stacks ----------------------------------------------------- */
+
+#define SQFFD__STACK_TOLERANCE 1e-6 /* of the points' diagonal: a point off its plane by more is no stack's */
+#define SQFFD__MOTION_SECTIONS 64   /* intervals of a slab volume's Simpson's rule */
+
+SQFFD_DEF sqffd_result sqffd_points_stack(sqffd_points points, sqffd_stack *stack, int *found)
+{
+    double cov[9] = {0}, values[3], vectors[9], prev[3], p[3], mean = 0.0, diagonal, gaps[SQFFD_STACK_PLANES];
+    double lo[3], hi[3];
+    sqffd_stack s;
+    size_t n = points.count, i, k;
+    int a, b;
+    sqffd_result r;
+    if (!stack || !found) return SQFFD_ERROR_INVALID_ARGUMENT;
+    *found = 0;
+    if ((r = sqffd__points_check(&points)) != SQFFD_OK) return r;
+    if (n < 8) return SQFFD_OK;
+    for (i = 0; i < n; ++i) { /* the steps' mean square, and the box */
+        sqffd__points_get(&points, i, p);
+        if (!sqffd__finite3(p)) return SQFFD_ERROR_NON_FINITE;
+        for (a = 0; a < 3; ++a) {
+            lo[a] = i ? (p[a] < lo[a] ? p[a] : lo[a]) : p[a];
+            hi[a] = i ? (p[a] > hi[a] ? p[a] : hi[a]) : p[a];
+        }
+        if (i) mean += sqffd__dist2_3(p, prev) / (double)(n - 1);
+        memcpy(prev, p, sizeof p);
+    }
+    for (i = 1; i < n; ++i) { /* the steps within slices: their normal is the axis */
+        double d[3], q[3];
+        sqffd__points_get(&points, i - 1, q);
+        sqffd__points_get(&points, i, p);
+        sqffd__sub3(p, q, d);
+        if (sqffd__dot3(d, d) > 4.0 * mean) continue;
+        for (a = 0; a < 3; ++a)
+            for (b = 0; b < 3; ++b) cov[3 * a + b] += d[a] * d[b];
+    }
+    sqffd_sym3_eigen(cov, values, vectors);
+    if (!(values[0] <= 1e-9 * values[1])) return SQFFD_OK; /* the steps are not planar */
+    for (a = 0; a < 3; ++a) s.axis[a] = vectors[3 * a];
+    diagonal = sqrt(sqffd__dist2_3(lo, hi));
+    s.planes = 0;
+    for (i = 0; i < n; ++i) { /* the planes: the points' positions along the axis, within the tolerance */
+        double at;
+        sqffd__points_get(&points, i, p);
+        at = sqffd__dot3(p, s.axis);
+        for (k = 0; k < s.planes && !(fabs(at - s.level[k]) <= SQFFD__STACK_TOLERANCE * diagonal); ++k) {}
+        if (k < s.planes) continue;
+        if (s.planes == SQFFD_STACK_PLANES) return SQFFD_OK;
+        s.level[s.planes++] = at;
+    }
+    if (s.planes < 3) return SQFFD_OK;
+    for (i = 1; i < s.planes; ++i) /* ascending (insertion: at most 64) */
+        for (k = i; k > 0 && s.level[k] < s.level[k - 1]; --k) {
+            double t = s.level[k];
+            s.level[k] = s.level[k - 1];
+            s.level[k - 1] = t;
+        }
+    for (i = 1; i < s.planes; ++i) {
+        gaps[i - 1] = s.level[i] - s.level[i - 1];
+        for (k = i - 1; k > 0 && gaps[k] < gaps[k - 1]; --k) {
+            double t = gaps[k];
+            gaps[k] = gaps[k - 1];
+            gaps[k - 1] = t;
+        }
+    }
+    s.spacing = gaps[(s.planes - 1) / 2];
+    *stack = s;
+    *found = 1;
+    return SQFFD_OK;
+}
+
+/* The signed area of the grid mesh's section by the plane axis . x = at
+   (positive for an outward-facing closed mesh): each crossing triangle adds
+   its segment, oriented along axis x its normal, as a triangle with the
+   plane's point at * axis. */
+static double sqffd__motion_section(const int grid[2], const double *x, const double axis[3], double at)
+{
+    uint32_t r, c, cell[2][3];
+    double area = 0.0, o[3];
+    int k, e, count;
+    for (e = 0; e < 3; ++e) o[e] = at * axis[e];
+    for (r = 0; r <= (uint32_t)grid[0]; ++r)
+        for (c = 0; c < (uint32_t)grid[1]; ++c)
+            for (count = sqffd__fit_cell(grid, r, c, cell), k = 0; k < count; ++k) {
+                const double *v[3];
+                double d[3], seg[2][3], n[3], u[3], w[3], s[3];
+                int found = 0;
+                for (e = 0; e < 3; ++e) {
+                    v[e] = x + 3 * (size_t)cell[k][e];
+                    d[e] = sqffd__dot3(v[e], axis) - at;
+                }
+                if ((d[0] > 0.0) == (d[1] > 0.0) && (d[1] > 0.0) == (d[2] > 0.0)) continue;
+                for (e = 0; e < 3 && found < 2; ++e) {
+                    const double *p = v[e], *q = v[(e + 1) % 3];
+                    double dp = d[e], dq = d[(e + 1) % 3], t;
+                    int i;
+                    if ((dp > 0.0) == (dq > 0.0)) continue;
+                    t = dp / (dp - dq);
+                    for (i = 0; i < 3; ++i) seg[found][i] = p[i] + t * (q[i] - p[i]) - o[i];
+                    ++found;
+                }
+                if (found < 2) continue;
+                sqffd__sub3(v[1], v[0], u);
+                sqffd__sub3(v[2], v[0], w);
+                sqffd__cross3(u, w, n);
+                sqffd__cross3(axis, n, u); /* the segment's direction */
+                sqffd__sub3(seg[1], seg[0], w);
+                sqffd__cross3(seg[0], seg[1], s);
+                area += 0.5 * (sqffd__dot3(w, u) >= 0.0 ? 1.0 : -1.0) * sqffd__dot3(s, axis);
+            }
+    return area;
+}
+
+/* Frame t's volume: the closed mesh's, or with stacks between its stack's
+   outer planes moved out by half the spacing. */
+static double sqffd__motion_volume(const sqffd_motion_options *o, size_t t, const int grid[2], const double *x)
+{
+    const sqffd_stack *s;
+    double lo, hi, sum = 0.0;
+    int i;
+    if (!o->stacks) return sqffd__fit_volume(grid, x);
+    s = o->stacks + t;
+    lo = s->level[0] - 0.5 * s->spacing;
+    hi = s->level[s->planes - 1] + 0.5 * s->spacing;
+    for (i = 0; i <= SQFFD__MOTION_SECTIONS; ++i) /* Simpson's rule: weights 1 4 2 4 ... 4 1 */
+        sum += (i == 0 || i == SQFFD__MOTION_SECTIONS ? 1.0 : i % 2 ? 4.0 : 2.0) *
+               sqffd__motion_section(grid, x, s->axis, lo + (hi - lo) * (double)i / SQFFD__MOTION_SECTIONS);
+    return sum * (hi - lo) / (3.0 * SQFFD__MOTION_SECTIONS);
+}
+
+/* A stack handed in: 3.. planes ascending, finite, a unit axis, a positive spacing. */
+static int sqffd__stack_valid(const sqffd_stack *s)
+{
+    size_t k;
+    if (s->planes < 3 || s->planes > SQFFD_STACK_PLANES || !sqffd__finite3(s->axis) ||
+        !(fabs(sqffd__dot3(s->axis, s->axis) - 1.0) <= 1e-9) || !(s->spacing > 0.0) || !isfinite(s->spacing))
+        return 0;
+    for (k = 0; k < s->planes; ++k)
+        if (!isfinite(s->level[k]) || (k && !(s->level[k] > s->level[k - 1]))) return 0;
+    return 1;
+}
+
 typedef struct sqffd__motion_work {
     double *ed, *es, *x;     /* M x 3: the ED, ES and current frame's mesh vertices */
     double *area;            /* M: a third of the ED area of the triangles around each vertex */
@@ -8440,6 +8611,7 @@ SQFFD_DEF sqffd_result sqffd_motion(const sqffd_model *models, size_t frame_coun
     for (t = 0; t < frame_count; ++t) {
         sqffd_result r = sqffd_model_validate(models + t);
         if (r != SQFFD_OK) return r;
+        if (o->stacks && !sqffd__stack_valid(o->stacks + t)) return SQFFD_ERROR_INVALID_ARGUMENT;
         if (t && !sqffd__fit_same_frame(&models->sq, models->ffd.dims, models->ffd.origin, models->ffd.edges,
                                         models->grid, models + t))
             return SQFFD_ERROR_INVALID_ARGUMENT;
@@ -8458,7 +8630,7 @@ SQFFD_DEF sqffd_result sqffd_motion(const sqffd_model *models, size_t frame_coun
         sqffd__fit_surface(models + t, models->grid, w.x);
         for (v = 0; v < m; ++v)
             if (!sqffd__finite3(w.x + 3 * v)) return SQFFD_ERROR_NON_FINITE;
-        volume = sqffd__fit_volume(models->grid, w.x);
+        volume = sqffd__motion_volume(o, t, models->grid, w.x);
         if (out->volumes) out->volumes[t] = volume;
         if (out->trajectories) memcpy(out->trajectories + 3 * m * t, w.x, 3 * m * sizeof(double));
         if (t == o->ed_frame) memcpy(w.ed, w.x, 3 * m * sizeof(double));
@@ -8470,7 +8642,7 @@ SQFFD_DEF sqffd_result sqffd_motion(const sqffd_model *models, size_t frame_coun
     }
     ed = models + o->ed_frame;
     rep->ed_frame = o->ed_frame;
-    rep->edv = sqffd__fit_volume(models->grid, w.ed);
+    rep->edv = sqffd__motion_volume(o, o->ed_frame, models->grid, w.ed);
     rep->esv = least;
     if (!(rep->edv > 0.0)) return SQFFD_ERROR_DEGENERATE;
     rep->ejection_fraction = (rep->edv - rep->esv) / rep->edv;

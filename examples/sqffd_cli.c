@@ -56,6 +56,7 @@ static const cli_command commands[] = {
      cmd_fit},
     {"track", "track a model through a sequence of point files: motion, volumes, ejection fraction, 17 segments",
      "sqffd track FRAME... -o DIR [--ed N] [--septum X,Y,Z] [--apex X,Y,Z] [--low-motion F] [--frame-iterations K] "
+     "[--volume auto|closed|slices] "
      "[input and model options of fit] [--ascii] [--quiet]",
      track_details,
      cmd_track},
@@ -862,6 +863,8 @@ static const char *const segment_names[SQFFD_SEGMENTS] = {
     "mid inferolateral", "mid anterolateral", "apical anterior", "apical septal", "apical inferior",
     "apical lateral", "apex"};
 
+enum { VOLUME_AUTO, VOLUME_CLOSED, VOLUME_SLICES };
+
 typedef struct track_args {
     const char **inputs;         /* the FRAME arguments */
     size_t input_count;
@@ -871,6 +874,8 @@ typedef struct track_args {
     const char *output;
     sqffd_track_options options;
     sqffd_motion_options motion;
+    int volume;                  /* VOLUME_AUTO, VOLUME_CLOSED or VOLUME_SLICES */
+    sqffd_stack *stacks;         /* the frames' short-axis stacks, when the volumes are the slices' */
     int ascii, quiet;
     size_t dropped_nan, dropped_frames; /* PCD points dropped for NaN coordinates, and the frames that had some */
 } track_args;
@@ -908,7 +913,7 @@ static int track_parse(int argc, char **argv, track_args *a, int *help)
             continue;
         }
         if (!(IS("-o") || IS("--output") || IS("--ed") || IS("--septum") || IS("--apex") || IS("--low-motion") ||
-              IS("--frame-iterations")))
+              IS("--frame-iterations") || IS("--volume")))
             return usage_error(c, "track: unknown option '%s'", s.argv[s.i]);
         if (!(v = scan_value(&s, c))) return EXIT_USAGE;
         if (IS("-o") || IS("--output")) a->output = v;
@@ -918,6 +923,10 @@ static int track_parse(int argc, char **argv, track_args *a, int *help)
         } else if (IS("--septum") || IS("--apex")) {
             if (parse_numbers(v, 3, IS("--septum") ? a->motion.septum_direction : a->motion.apex_direction))
                 return usage_error(c, "track: %s takes a direction X,Y,Z, not '%s'", s.name, v);
+        } else if (IS("--volume")) {
+            a->volume = strcmp(v, "auto") == 0 ? VOLUME_AUTO : strcmp(v, "closed") == 0 ? VOLUME_CLOSED
+                      : strcmp(v, "slices") == 0 ? VOLUME_SLICES : -1;
+            if (a->volume < 0) return usage_error(c, "track: --volume takes auto, closed or slices, not '%s'", v);
         } else if (IS("--low-motion")) {
             if (parse_nonnegative(v, &a->motion.low_motion_fraction) || a->motion.low_motion_fraction > 1.0)
                 return usage_error(c, "track: --low-motion takes a fraction 0..1, not '%s'", v);
@@ -962,7 +971,13 @@ static void track_details(FILE *f)
             "  --low-motion F         a vertex is low-motion below F x the median excursion\n"
             "                         of the wall at its level (default %g); a segment is\n"
             "                         hypokinetic when at least %g of its area is\n"
-            "  --frame-iterations K   FFD iterations of the frames after the first (default %d)\n",
+            "  --frame-iterations K   FFD iterations of the frames after the first (default %d)\n"
+            "  --volume auto|closed|slices\n"
+            "                         the frames' volumes (EF): 'closed', the closed models'; 'slices',\n"
+            "                         the models' between each frame's outer short-axis slices, each\n"
+            "                         moved out by half the spacing, where Simpson's method puts its\n"
+            "                         discs (point files on 3 or more parallel planes, slice by\n"
+            "                         slice); 'auto' (default): slices for such stacks, else closed\n",
             (unsigned long)m.ed_frame, m.low_motion_fraction, m.hypokinetic_share, d.frame_iterations);
     input_option_details(f);
     model_option_details(f, &d.fit, "frame 0");
@@ -999,6 +1014,9 @@ static void track_report(const track_args *a, const size_t *counts, const sqffd_
         printf("  %5lu  %8lu  %9.4f  %10d  %8.3f  %.6g%s\n", (unsigned long)t, (unsigned long)counts[t],
                100.0 * reports[t].error.rms_relative, reports[t].iterations, reports[t].min_jacobian, volumes[t],
                t == m->ed_frame ? "  ED" : t == m->es_frame ? "  ES" : "");
+    if (a->motion.stacks)
+        printf("  volumes          between each frame's outer short-axis slices +- half the spacing (%.4g)\n",
+               a->motion.stacks[m->ed_frame].spacing);
     printf("  end-diastolic volume   %.6g (frame %lu)\n", m->edv, (unsigned long)m->ed_frame);
     printf("  end-systolic volume    %.6g (frame %lu)\n", m->esv, (unsigned long)m->es_frame);
     printf("  ejection fraction  %.1f %%\n", 100.0 * m->ejection_fraction);
@@ -1106,6 +1124,32 @@ static void track_result_free(track_result *r)
 
 /* Tracks the frames, measures the motion and writes the outputs into
    a->output; 0, or an exit status after a message. */
+/* The frames' short-axis stacks (sqffd_points_stack) into a->stacks and
+   a->motion.stacks, when every frame is one and their planes are parallel;
+   else 1, with a message under --volume slices. */
+static int track_stacks(track_args *a, const double *const *points, const size_t *counts, size_t frames)
+{
+    size_t t;
+    int found = 0;
+    a->stacks = (sqffd_stack *)malloc(frames * sizeof *a->stacks);
+    for (t = 0; a->stacks && t < frames; t++) {
+        const double *axis = a->stacks[0].axis, *here = a->stacks[t].axis;
+        if (sqffd_points_stack(sqffd_points_packed(points[t], counts[t]), &a->stacks[t], &found) != SQFFD_OK || !found ||
+            fabs(axis[0] * here[0] + axis[1] * here[1] + axis[2] * here[2]) < 0.999)
+            break;
+    }
+    if (a->stacks && t == frames) {
+        a->motion.stacks = a->stacks;
+        return 0;
+    }
+    if (a->volume == VOLUME_SLICES)
+        fprintf(stderr, "%s: --volume slices: not a short-axis stack (points on 3 or more parallel planes, slice by "
+                        "slice), or its planes are not the other frames'\n", a->stacks ? a->frames[t] : "sqffd track");
+    free(a->stacks);
+    a->stacks = NULL;
+    return 1;
+}
+
 static int track_run(track_args *a, double **points, size_t *counts, track_result *res)
 {
     track_progress progress;
@@ -1167,6 +1211,8 @@ static int track_run(track_args *a, double **points, size_t *counts, track_resul
         fprintf(stderr, "sqffd track: out of memory\n");
         goto done;
     }
+    if (a->volume != VOLUME_CLOSED && track_stacks(a, (const double *const *)points, counts, frames) && a->volume == VOLUME_SLICES)
+        goto done;
     r = sqffd_motion(res->models, frames, &a->motion, &res->out, &res->motion, work, work_size);
     if (r != SQFFD_OK) {
         fprintf(stderr, "sqffd track: the motion analysis failed: %s\n", sqffd_result_string(r));
@@ -1242,6 +1288,7 @@ static int cmd_track(int argc, char **argv)
 done:
     free_frames(points, counts, a.frame_count);
     track_result_free(&res);
+    free(a.stacks);
     free((void *)a.frames);
     free((void *)a.inputs);
     return status;
