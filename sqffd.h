@@ -1699,18 +1699,30 @@ SQFFD_DEF sqffd_result sqffd_cholesky_factor(double *a, size_t n)
     return SQFFD_OK;
 }
 
-SQFFD_DEF sqffd_result sqffd_cholesky_solve(const double *l, size_t n, double *b)
+/* L y = b in place (L lower triangular, row-major n x n). */
+static void sqffd__la_forward(const double *l, size_t n, double *b)
 {
-    size_t nn = (size_t)n, i;
-    if (!l || !b || n < 1) return SQFFD_ERROR_INVALID_ARGUMENT;
-    for (i = 0; i < nn; ++i) /* L y = b */
-        b[i] = (b[i] - sqffd__la_dot(l + i * nn, b, i)) / l[i * nn + i];
-    for (i = nn; i-- > 0;) { /* L^T x = y, column-oriented so rows of L are read */
-        const double *li = l + i * nn;
+    size_t i;
+    for (i = 0; i < n; ++i) b[i] = (b[i] - sqffd__la_dot(l + i * n, b, i)) / l[i * n + i];
+}
+
+/* L^T x = y in place, column-oriented so rows of L are read. */
+static void sqffd__la_backward(const double *l, size_t n, double *b)
+{
+    size_t i;
+    for (i = n; i-- > 0;) {
+        const double *li = l + i * n;
         double xi = b[i] / li[i];
         b[i] = xi;
         sqffd__la_axpy(b, -xi, li, i);
     }
+}
+
+SQFFD_DEF sqffd_result sqffd_cholesky_solve(const double *l, size_t n, double *b)
+{
+    if (!l || !b || n < 1) return SQFFD_ERROR_INVALID_ARGUMENT;
+    sqffd__la_forward(l, n, b);
+    sqffd__la_backward(l, n, b);
     return SQFFD_OK;
 }
 
@@ -4997,6 +5009,15 @@ static void sqffd__ffd_jacobian_layout(sqffd__arena *ar, const int dims[3], int 
     w->coef = (double *)sqffd__arena_take(ar, sqffd__jacobian_count(ext), sizeof(double));
 }
 
+/* C(d, k) (d < 3 SQFFD_MAX_LATTICE: every partial product is a binomial, exact in doubles). */
+static double sqffd__binomial(int d, int k)
+{
+    double c = 1.0;
+    int t;
+    for (t = 1; t <= k; ++t) c = c * (double)(d - k + t) / (double)t;
+    return c;
+}
+
 /* Binomials C(d, 0..d) (d < 3 SQFFD_MAX_LATTICE: exact in doubles). */
 static void sqffd__binomials(int d, double *c)
 {
@@ -5120,13 +5141,13 @@ static void sqffd__ffd_jacobian_gradient(const int dims[3], const double inverse
 {
     size_t l = (size_t)dims[0] * (size_t)dims[1] * (size_t)dims[2];
     int ej[3], c[3], a, b, i, j, k;
-    double bin[3][3 * SQFFD_MAX_LATTICE], unscale;
+    double unscale;
     sqffd__jacobian_extent(dims, 3, ej);
     c[2] = (int)(index % (size_t)ej[2]);
     c[1] = (int)(index / (size_t)ej[2] % (size_t)ej[1]);
     c[0] = (int)(index / ((size_t)ej[2] * (size_t)ej[1]));
-    for (b = 0; b < 3; ++b) sqffd__binomials(ej[b] - 1, bin[b]);
-    unscale = 1.0 / (bin[0][c[0]] * bin[1][c[1]] * bin[2][c[2]]);
+    unscale = 1.0 / (sqffd__binomial(ej[0] - 1, c[0]) * sqffd__binomial(ej[1] - 1, c[1]) *
+                     sqffd__binomial(ej[2] - 1, c[2]));
     memset(grad, 0, 3 * l * sizeof(double));
     for (a = 0; a < 3; ++a) {
         int ed[3], ec[3], lo[3], hi[3];
@@ -6517,7 +6538,7 @@ typedef struct sqffd__fit_system {
    SVD's, A singular) starts at the first mu > 0. A lagged
    (conjugate-gradient) step only approximates G(P): it is shortened by
    halves and the next step is direct. */
-#define SQFFD__FIT_FOLD_ACTIVE 48
+#define SQFFD__FIT_FOLD_ACTIVE 32
 #define SQFFD__FIT_FOLD_ROUNDS 4
 #define SQFFD__FIT_FOLD_TRIES 12
 #define SQFFD__FIT_FOLD_KEEP 0.25
@@ -6529,7 +6550,8 @@ typedef struct sqffd__fit_fold {
     double floor;              /* the run's */
     double *normal;            /* L x L: A, lower triangle */
     double *r;                 /* 3L, planar: A (G(P) - P) */
-    double *grad, *solved;     /* SQFFD__FIT_FOLD_ACTIVE x 3L, planar: g_c and (A + mu K)^-1 g_c */
+    double *grad;              /* 3L, planar: a constraint's gradient g_c */
+    double *solved;            /* SQFFD__FIT_FOLD_ACTIVE x 3L, planar: y_c = L^-1 g_c, L (A + mu K)'s factor */
     double *gram;              /* SQFFD__FIT_FOLD_ACTIVE^2 */
     double *factor, *z, *slope; /* the multipliers' solve: SQFFD__FIT_FOLD_ACTIVE^2, and two of SQFFD__FIT_FOLD_ACTIVE */
     unsigned char *free_set;   /* SQFFD__FIT_FOLD_ACTIVE: multiplier i is free (> 0) */
@@ -6545,7 +6567,7 @@ static void sqffd__fit_fold_layout(sqffd__arena *a, const int dims[3], sqffd__fi
     sqffd__ffd_jacobian_layout(a, dims, 3, &f->from);
     f->normal = (double *)sqffd__arena_take(a, l * l, sizeof(double));
     f->r = (double *)sqffd__arena_take(a, 3 * l, sizeof(double));
-    f->grad = (double *)sqffd__arena_take(a, k * 3 * l, sizeof(double));
+    f->grad = (double *)sqffd__arena_take(a, 3 * l, sizeof(double));
     f->solved = (double *)sqffd__arena_take(a, k * 3 * l, sizeof(double));
     f->gram = (double *)sqffd__arena_take(a, k * k, sizeof(double));
     f->factor = (double *)sqffd__arena_take(a, k * k, sizeof(double));
@@ -6615,7 +6637,8 @@ static void sqffd__fit_fold_multipliers(sqffd__fit_fold *f, size_t k)
 {
     const size_t stride = SQFFD__FIT_FOLD_ACTIVE;
     double ridge = 0.0;
-    size_t i, j, r, n, solves = 0, map[SQFFD__FIT_FOLD_ACTIVE];
+    size_t i, j, r, n, solves = 0;
+    unsigned char map[SQFFD__FIT_FOLD_ACTIVE]; /* (the free set's multipliers; SQFFD__FIT_FOLD_ACTIVE <= 256) */
     for (i = 0; i < k; ++i) {
         f->lambda[i] = 0.0;
         f->free_set[i] = 0;
@@ -6634,7 +6657,7 @@ static void sqffd__fit_fold_multipliers(sqffd__fit_fold *f, size_t k)
         for (;;) {
             double step = 1.0;
             if (++solves > 3 * k) return;
-            for (n = 0, i = 0; i < k; ++i) if (f->free_set[i]) map[n++] = i;
+            for (n = 0, i = 0; i < k; ++i) if (f->free_set[i]) map[n++] = (unsigned char)i;
             for (r = 0; r < n; ++r) { /* z = -H_FF^-1 need_F on the free set */
                 for (j = 0; j <= r; ++j) f->factor[r * n + j] = f->gram[map[r] * stride + map[j]] + (r == j ? ridge : 0.0);
                 f->slope[r] = -f->need[map[r]];
@@ -6696,7 +6719,7 @@ typedef struct sqffd__fit_work {
     double *v;           /* L x L: SVD solves: V (NULL: Cholesky only) */
     void *svd_ws;
     size_t svd_size;
-    sqffd__fit_fold fold; /* the fold-free steps' and the report's Jacobian bound */
+    sqffd__fit_fold *fold; /* the fold-free steps' and the report's Jacobian bound (in the workspace: 0.3 KB) */
 } sqffd__fit_work;
 
 /* At most cap of n points (cap 0: all of them). */
@@ -6779,7 +6802,11 @@ static void sqffd__fit_work_layout(sqffd__arena *a, size_t n, const int dims[3],
     w->matched_accepted = (uint32_t (*)[3])sqffd__arena_take(a, w->sample_count, 3 * sizeof(uint32_t));
     if (w->sample_count <= SQFFD__FIT_ORDER_MAX) w->order = (uint32_t *)sqffd__arena_take(a, w->sample_count, sizeof(uint32_t));
     sqffd__fit_bvh_layout(a, grid, &w->bvh);
-    sqffd__fit_fold_layout(a, dims, &w->fold);
+    {
+        sqffd__fit_fold measuring; /* (the arena gives no memory while it measures) */
+        w->fold = (sqffd__fit_fold *)sqffd__arena_take(a, 1, sizeof *w->fold);
+        sqffd__fit_fold_layout(a, dims, w->fold ? w->fold : &measuring);
+    }
     if (o->model_to_data > 0.0) {
         w->data_count = sqffd__fit_cap(w->sample_count, SQFFD__FIT_DATA_MAX);
         if (w->data_count < w->sample_count) w->data = (double *)sqffd__arena_take(a, w->data_count, 3 * sizeof(double));
@@ -7136,7 +7163,7 @@ static sqffd_result sqffd__fit_step(const sqffd__fit_system *s, sqffd__fit_work 
 static void sqffd__fit_fold_constrained(const sqffd__fit_system *s, sqffd__fit_work *w, const double *control,
                                         const double inverse[9])
 {
-    sqffd__fit_fold *f = &w->fold;
+    sqffd__fit_fold *f = w->fold;
     size_t l = s->lattice, size = 3 * l, count = 0, done = 0, i, j, p;
     int round, k;
     memcpy(f->move, f->free, size * sizeof(double));
@@ -7145,22 +7172,24 @@ static void sqffd__fit_fold_constrained(const sqffd__fit_system *s, sqffd__fit_w
         for (i = 0; i < count; ++i) /* the linearised step's shortfalls: raised by them */
             if (f->at.coef[f->active[i]] < f->floor) f->need[i] -= f->floor - f->at.coef[f->active[i]];
         count = sqffd__fit_fold_activate(s, f, count);
-        for (i = done; i < count; ++i) { /* the new constraints: g_c, (A + mu K)^-1 g_c, their Gram row */
-            double *g = f->grad + i * size, *u = f->solved + i * size, now = f->from.coef[f->active[i]];
+        for (i = done; i < count; ++i) { /* the new constraints: g_c, y_c = L^-1 g_c, their Gram row y_i . y_j */
+            double *y = f->solved + i * size, now = f->from.coef[f->active[i]];
             double keep = now > f->floor ? f->floor + SQFFD__FIT_FOLD_KEEP * (now - f->floor) : now;
-            sqffd__ffd_jacobian_gradient(s->dims, inverse, &f->from, f->active[i], g);
-            memcpy(u, g, size * sizeof(double));
-            for (k = 0; k < 3; ++k) sqffd_cholesky_solve(w->matrix, l, u + (size_t)k * l);
-            f->need[i] = sqffd__la_dot(g, f->free, size) - (keep - now); /* >= 0: the free step keeps c */
+            sqffd__ffd_jacobian_gradient(s->dims, inverse, &f->from, f->active[i], f->grad);
+            f->need[i] = sqffd__la_dot(f->grad, f->free, size) - (keep - now); /* >= 0: the free step keeps c */
+            memcpy(y, f->grad, size * sizeof(double));
+            for (k = 0; k < 3; ++k) sqffd__la_forward(w->matrix, l, y + (size_t)k * l);
             for (j = 0; j <= i; ++j)
                 f->gram[i * SQFFD__FIT_FOLD_ACTIVE + j] = f->gram[j * SQFFD__FIT_FOLD_ACTIVE + i] =
-                    sqffd__la_dot(g, f->solved + j * size, size);
+                    sqffd__la_dot(y, f->solved + j * size, size);
         }
         done = count;
         sqffd__fit_fold_multipliers(f, count);
-        memcpy(f->move, f->free, size * sizeof(double));
+        memset(f->move, 0, size * sizeof(double)); /* the free step + (A + mu K)^-1 sum lambda_c g_c */
         for (i = 0; i < count; ++i)
             for (p = 0; p < size; ++p) f->move[p] += f->lambda[i] * f->solved[i * size + p];
+        for (k = 0; k < 3; ++k) sqffd__la_backward(w->matrix, l, f->move + (size_t)k * l);
+        for (p = 0; p < size; ++p) f->move[p] += f->free[p];
     }
 }
 
@@ -7169,7 +7198,7 @@ static void sqffd__fit_fold_constrained(const sqffd__fit_system *s, sqffd__fit_w
 static void sqffd__fit_fold_free(const sqffd__fit_system *s, sqffd__fit_work *w, const double *control,
                                  const double inverse[9], int direct, double *bmove)
 {
-    sqffd__fit_fold *f = &w->fold;
+    sqffd__fit_fold *f = w->fold;
     size_t l = s->lattice, size = 3 * l, p, q;
     double *scratch = w->cg, tau = 1.0, unit = 0.0;
     int k, axis, tries;
@@ -7219,9 +7248,9 @@ static void sqffd__fit_fold_free(const sqffd__fit_system *s, sqffd__fit_work *w,
 static int sqffd__fit_fold_relaxed(const sqffd__fit_system *s, sqffd__fit_work *w, const double *control,
                                    double omega, const double inverse[9])
 {
-    if (w->fold.floor == -HUGE_VAL) return 1;
-    sqffd__fit_planar(w->rhs, s->lattice, w->fold.move);
-    return !sqffd__fit_fold_broken(s, &w->fold, control, w->fold.move, omega, inverse, w->cg);
+    if (w->fold->floor == -HUGE_VAL) return 1;
+    sqffd__fit_planar(w->rhs, s->lattice, w->fold->move);
+    return !sqffd__fit_fold_broken(s, w->fold, control, w->fold->move, omega, inverse, w->cg);
 }
 
 
@@ -7394,11 +7423,11 @@ static void sqffd__fit_begin(sqffd__fit_iteration *it, const sqffd_points *point
     if (data_tree)
         for (v = 0; v < s->count; ++v) w->data_near[SQFFD__FIT_DATA_KNN * v] = UINT32_MAX;
     w->factored = 0;
-    w->fold.floor = o->min_jacobian; /* (a start below it may not fold more) */
+    w->fold->floor = o->min_jacobian; /* (a start below it may not fold more) */
     if (o->min_jacobian > -HUGE_VAL) {
-        double start = sqffd__ffd_jacobian_min(s->dims, &model->ffd.control[0][0], model->ffd.inverse, &w->fold.at,
+        double start = sqffd__ffd_jacobian_min(s->dims, &model->ffd.control[0][0], model->ffd.inverse, &w->fold->at,
                                                o->min_jacobian);
-        if (start < w->fold.floor) w->fold.floor = start;
+        if (start < w->fold->floor) w->fold->floor = start;
     }
     it->step1.weights = w->weights;
     it->step1.nu2 = w->nu2;
@@ -7554,7 +7583,7 @@ static sqffd_result sqffd__fit_advance(sqffd__fit_iteration *it)
     res = sqffd__fit_step(s, w, control, it->x, w->target, it->next, &direct); /* (B (G(P) - P) into it->next,
                                                                                  read by the targets before) */
     if (res != SQFFD_OK) return res;
-    if (w->fold.floor > -HUGE_VAL) sqffd__fit_fold_free(s, w, control, it->model->ffd.inverse, direct, it->next);
+    if (w->fold->floor > -HUGE_VAL) sqffd__fit_fold_free(s, w, control, it->model->ffd.inverse, direct, it->next);
     rep->step = sqrt(sqffd__la_dot(it->next, it->next, 3 * m) / (double)m) / it->diagonal;
     ++rep->iterations;
     rep->converged = rep->step <= it->o->tolerance && direct;
@@ -7591,7 +7620,7 @@ static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagon
         if (!sqffd__fit_accept_or_roll_back(&it, energy)) continue; /* rolled back: measure the replacement */
         res = sqffd__fit_record(&it, energy, &stats);
         if (last) rep->min_jacobian = sqffd__ffd_jacobian_min(s->dims, &model->ffd.control[0][0], model->ffd.inverse,
-                                                             &w->fold.at, HUGE_VAL);
+                                                             &w->fold->at, HUGE_VAL);
         if (res != SQFFD_OK || last) return res;
         res = sqffd__fit_advance(&it);
         if (res != SQFFD_OK) return res;
