@@ -6769,7 +6769,7 @@ static void sqffd__fit_system_layout(sqffd__arena *a, const int dims[3], const i
 
 /* The iteration's scratch for n data points against a system of that lattice and grid. */
 static void sqffd__fit_work_layout(sqffd__arena *a, size_t n, const int dims[3], const int grid[2],
-                                   const sqffd_fit_options *o, sqffd__fit_work *w)
+                                   const sqffd_fit_options *o, sqffd__fit_fold *fold, sqffd__fit_work *w)
 {
     size_t m = sqffd__fit_grid_count(grid), l = (size_t)dims[0] * (size_t)dims[1] * (size_t)dims[2];
     memset(w, 0, sizeof *w);
@@ -6804,8 +6804,8 @@ static void sqffd__fit_work_layout(sqffd__arena *a, size_t n, const int dims[3],
     sqffd__fit_bvh_layout(a, grid, &w->bvh);
     {
         sqffd__fit_fold measuring; /* (the arena gives no memory while it measures) */
-        w->fold = (sqffd__fit_fold *)sqffd__arena_take(a, 1, sizeof *w->fold);
-        sqffd__fit_fold_layout(a, dims, w->fold ? w->fold : &measuring);
+        w->fold = fold;
+        sqffd__fit_fold_layout(a, dims, fold ? fold : &measuring);
     }
     if (o->model_to_data > 0.0) {
         w->data_count = sqffd__fit_cap(w->sample_count, SQFFD__FIT_DATA_MAX);
@@ -7673,6 +7673,7 @@ static sqffd_fit_options sqffd__fit_coarse_options(const sqffd_fit_options *o)
 static void sqffd__fit_frame_layout(sqffd__arena *a, size_t n, const int dims[3], const int grid[2],
                                     const sqffd_fit_options *o, int whole, sqffd__fit_frame *f)
 {
+    sqffd__fit_fold *grid_fold, *coarse_fold;
     size_t mark = a->used;
     f->sample = NULL;
     f->sq_ws = NULL;
@@ -7695,12 +7696,15 @@ static void sqffd__fit_frame_layout(sqffd__arena *a, size_t n, const int dims[3]
     } else
         f->coarse_grid[0] = f->coarse_grid[1] = 0;
     f->report = (sqffd_fit_report *)sqffd__arena_take(a, 1, sizeof(sqffd_fit_report));
+    /* (the fold-free steps' bookkeeping before the shared scratch: each stage keeps its own) */
+    grid_fold = (sqffd__fit_fold *)sqffd__arena_take(a, 1, sizeof(sqffd__fit_fold));
+    coarse_fold = f->coarse_grid[0] ? (sqffd__fit_fold *)sqffd__arena_take(a, 1, sizeof(sqffd__fit_fold)) : NULL;
     mark = a->used;
-    sqffd__fit_work_layout(a, n, dims, grid, o, &f->w);
+    sqffd__fit_work_layout(a, n, dims, grid, o, grid_fold, &f->w);
     if (f->coarse_grid[0]) {
         sqffd_fit_options c = sqffd__fit_coarse_options(o);
         sqffd__arena_rewind(a, &mark);
-        sqffd__fit_work_layout(a, n, dims, f->coarse_grid, &c, &f->coarse_w);
+        sqffd__fit_work_layout(a, n, dims, f->coarse_grid, &c, coarse_fold, &f->coarse_w);
         sqffd__arena_past(a, mark);
     }
 }

@@ -150,6 +150,7 @@ static void test_internal_lagged_step(void)
     size_t size, m, l, v, p, trial;
     int direct;
     void *memory;
+    sqffd__fit_fold fold;
     double *start, *exact, *weights, *changed, *targets, *bx, *by_coord, *springs, *target;
     memset(&sq, 0, sizeof sq);
     sq.size[0] = 1.0; sq.size[1] = 0.7; sq.size[2] = 1.5;
@@ -161,12 +162,12 @@ static void test_internal_lagged_step(void)
     CHECK_RESULT(sqffd_model_init(&model, &sq, &o), SQFFD_OK);
     sqffd__arena_measure(&a);
     sqffd__fit_system_layout(&a, dims, grid, &s);
-    sqffd__fit_work_layout(&a, 100, dims, grid, &o, &w);
+    sqffd__fit_work_layout(&a, 100, dims, grid, &o, &fold, &w);
     size = a.used + 64;
     memory = malloc(size);
     sqffd__arena_init(&a, memory, size);
     sqffd__fit_system_layout(&a, dims, grid, &s);
-    sqffd__fit_work_layout(&a, 100, dims, grid, &o, &w);
+    sqffd__fit_work_layout(&a, 100, dims, grid, &o, &fold, &w);
     CHECK(!a.overflow);
     m = s.count;
     l = s.lattice;
@@ -272,8 +273,59 @@ static void test_internal_pass_order(void)
     }
 }
 
+/* Each Jacobian coefficient's gradient (sqffd__ffd_jacobian_gradient)
+   against central differences of the coefficients, on a folded random
+   lattice of 4 x 5 x 3 in a skewed box. */
+static void test_internal_jacobian_gradient(void)
+{
+    const int dims[3] = {4, 5, 3};
+    const double origin[3] = {1.0, 2.0, 3.0}, edges[9] = {10.0, 1.0, 0.0, 0.0, 8.0, 2.0, 1.0, 0.0, 12.0};
+    sqffd_ffd f;
+    sqffd__arena a;
+    sqffd__jacobian_work w;
+    void *memory;
+    double grad[3 * 60], *control = &f.control[0][0], worst = 0.0, scale = 0.0;
+    int ej[3];
+    size_t index, count, p, size;
+    int c;
+    CHECK_RESULT(sqffd_ffd_init(&f, dims, origin, edges), SQFFD_OK);
+    srand(13);
+    for (p = 0; p < 3 * 60; p++) control[p] += 3.0 * ((double)rand() / RAND_MAX - 0.5);
+    sqffd__arena_measure(&a);
+    sqffd__ffd_jacobian_layout(&a, dims, 3, &w);
+    size = a.used + 64;
+    memory = malloc(size);
+    sqffd__arena_init(&a, memory, size);
+    sqffd__ffd_jacobian_layout(&a, dims, 3, &w);
+    CHECK(!a.overflow);
+    sqffd__jacobian_extent(dims, 3, ej);
+    count = sqffd__jacobian_count(ej);
+    for (index = 0; index < count; index += 17) {
+        sqffd__ffd_jacobian_derivatives(dims, control, f.inverse, &w);
+        sqffd__ffd_jacobian_products(dims, 3, &w);
+        sqffd__ffd_jacobian_gradient(dims, f.inverse, &w, index, grad);
+        for (p = 0; p < 60; p += 7)
+            for (c = 0; c < 3; c++) {
+                double keep = control[3 * p + (size_t)c], up, down;
+                control[3 * p + (size_t)c] = keep + 1e-5;
+                sqffd__ffd_jacobian_min(dims, control, f.inverse, &w, HUGE_VAL);
+                up = w.coef[index];
+                control[3 * p + (size_t)c] = keep - 1e-5;
+                sqffd__ffd_jacobian_min(dims, control, f.inverse, &w, HUGE_VAL);
+                down = w.coef[index];
+                control[3 * p + (size_t)c] = keep;
+                if (fabs((up - down) / 2e-5 - grad[(size_t)c * 60 + p]) > worst)
+                    worst = fabs((up - down) / 2e-5 - grad[(size_t)c * 60 + p]);
+                if (fabs(grad[(size_t)c * 60 + p]) > scale) scale = fabs(grad[(size_t)c * 60 + p]);
+            }
+    }
+    CHECK_MSG(scale > 0.0 && worst <= 1e-7 * scale, "gradient off its differences by %g (largest %g)", worst, scale);
+    free(memory);
+}
+
 void suite_internal(void)
 {
+    RUN_TEST(test_internal_jacobian_gradient);
     RUN_TEST(test_internal_triangle_tree);
     RUN_TEST(test_internal_lagged_step);
     RUN_TEST(test_internal_pass_order);
