@@ -14,8 +14,8 @@
 
 #define FIT_M7_POINTS 384
 /* Grid and lattice smaller than the defaults (32 x 64, 5 x 5 x 5): the
-   workspace is sqffd_fit_workspace_size's answer, about 340 KB on 32-bit. */
-#define FIT_M7_WORKSPACE (384u * 1024u)
+   workspace is sqffd_fit_workspace_size's answer, about 530 KB on 32-bit. */
+#define FIT_M7_WORKSPACE (576u * 1024u)
 
 static double points[3 * FIT_M7_POINTS];
 static unsigned char workspace[FIT_M7_WORKSPACE];
