@@ -1,4 +1,4 @@
-/* sqffd.h - v0.11.1 - superquadric + free-form deformation shape fitting
+/* sqffd.h - v0.12.0 - superquadric + free-form deformation shape fitting
    Public domain or MIT, your choice (see the end of this file).
 
    Turns 3-D points into a compact global shape model: a superquadric with
@@ -136,6 +136,8 @@
        sqffd_ffd_validate              a stored lattice's check
        sqffd_ffd_local / _eval / _deform / _weights
                                        local coordinates, Bernstein evaluation
+       sqffd_ffd_jacobian_bound(_workspace_size)
+                                       the Jacobian's Bernstein bound: > 0, no fold
    5. Model fit
        sqffd_fit(_view, _workspace_size), sqffd_fit_options_default
                                        superquadric + FFD two-step fit
@@ -156,14 +158,17 @@
                                        a sequence: frame 0 whole, then frame to frame
        sqffd_track_frame(_view, _workspace_size)
                                        a stream: one later frame at a time, as sqffd_track
+       sqffd_points_stack              a short-axis stack's planes (contours on slices)
        sqffd_motion(_workspace_size), sqffd_motion_options_default
-                                       volumes, EF, motion, low-motion zones, 17 segments
+                                       volumes (closed or between slices), EF, motion,
+                                       low-motion zones, 17 segments
    7. Volumes to points
        sqffd_volume                    a view of a 3-D image (any voxel type, strides, affine)
        sqffd_volume_range, sqffd_volume_otsu
                                        value range, automatic threshold
        sqffd_iso_points(_workspace_size), sqffd_iso_options_default
-                                       iso-surface crossing points (largest component)
+                                       iso-surface crossing points of a level or a label
+                                       (largest component)
        sqffd_points_subsample(_view)   an even subsample of points
 
    CHANGES: see CHANGELOG.md
@@ -175,9 +180,9 @@
 #include <stdint.h>
 
 #define SQFFD_VERSION_MAJOR 0
-#define SQFFD_VERSION_MINOR 11
-#define SQFFD_VERSION_PATCH 1
-#define SQFFD_VERSION_STRING "0.11.1"
+#define SQFFD_VERSION_MINOR 12
+#define SQFFD_VERSION_PATCH 0
+#define SQFFD_VERSION_STRING "0.12.0"
 
 #ifndef SQFFD_DEF
 #ifdef SQFFD_STATIC
@@ -754,9 +759,10 @@ SQFFD_DEF sqffd_result sqffd_ffd_weights(const int dims[3], const double stu[3],
    affine map A): *min receives the smallest coefficient of its Bernstein
    form, a lower bound of it at every point of the box. *min > 0 proves the
    deformation locally injective on the box: it cannot fold a surface inside
-   it. The workspace depends on the dims only (about 20 KB for 5 x 5 x 5).
-   INVALID_MODEL for a lattice sqffd_ffd_validate rejects, NON_FINITE where
-   the bound overflows, WORKSPACE_TOO_SMALL. */
+   it. The workspace depends on the dims only (about 20 KB for 5 x 5 x 5;
+   INVALID_ARGUMENT for dims outside 2..SQFFD_MAX_LATTICE). INVALID_MODEL
+   for a lattice sqffd_ffd_validate rejects, NON_FINITE where the bound
+   overflows, WORKSPACE_TOO_SMALL. */
 SQFFD_DEF sqffd_result sqffd_ffd_jacobian_workspace_size(const int dims[3], size_t *size);
 SQFFD_DEF sqffd_result sqffd_ffd_jacobian_bound(const sqffd_ffd *ffd, double *min, void *workspace,
                                                size_t workspace_size);
