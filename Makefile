@@ -216,7 +216,7 @@ threads: | $(BUILD)
 	done; \
 	if [ -z "$$tsan" ]; then echo "check: no compiler with a working ThreadSanitizer (clang or gcc), thread check skipped"; \
 	else \
-	  $$tsan -std=c99 -O1 -g -fsanitize=thread -Wall -Wextra -o $(BUILD)/check_threads tests/check_threads.c -lm -pthread || exit 1; \
+	  $$tsan -std=c99 -O1 -g -fsanitize=thread -Wall -Wextra -o $(BUILD)/check_threads tests/check_threads.c tests/test_util.c -lm -pthread || exit 1; \
 	  ./$(BUILD)/check_threads > $(BUILD)/check_threads.log 2>&1 \
 	    && sed "s/^threads:/threads ($$tsan -fsanitize=thread):/" $(BUILD)/check_threads.log || { cat $(BUILD)/check_threads.log; exit 1; }; \
 	fi

@@ -615,6 +615,48 @@ static const char *const met_names[7] = {"MET_UCHAR", "MET_CHAR", "MET_USHORT", 
    2.5; Offset (10, -20, 30). The NRRD test below states the same geometry. */
 static const double permuted_affine[12] = {0, -2, 0, 10, 1.5, 0, 0, -20, 0, 0, 2.5, 30};
 
+/* A detached header b and its data file raw written as NAME.EXT and
+   NAME.raw, the pair read: the voxels of type, big-endian, on the permuted
+   affine; from memory (as h.EXT) the header cannot reach its data file.
+   0, with b and raw freed, when the files cannot be written (the test is
+   skipped). */
+static int check_detached(bytes *b, bytes *raw, const char *name, const char *ext, sqffd_voxel_type type)
+{
+    sqffd_image im;
+    char err[256] = "", header[64], data[64], memory_name[16], part[128];
+    snprintf(header, sizeof header, "%s.%s", name, ext);
+    snprintf(data, sizeof data, "%s.raw", name);
+    if (!write_file(header, b->data, b->size) || !write_file(data, raw->data, raw->size)) {
+        printf("    (skipped: cannot write files in the working directory)\n");
+        bytes_free(b);
+        bytes_free(raw);
+        return 0;
+    }
+    CHECK_MSG(sqffd_image_read_file(header, &im, err, sizeof err) == 0, "%s", err);
+    CHECK(count_wrong_voxels(&im, type) == 0 && im.big_endian == 1);
+    CHECK_AFFINE(&im, permuted_affine, 0);
+    sqffd_image_free(&im);
+    snprintf(memory_name, sizeof memory_name, "h.%s", ext);
+    snprintf(part, sizeof part, "the voxels are in the data file '%s'", data);
+    CHECK_FAILS(sqffd_image_read_memory(b->data, b->size, memory_name, &im, err, sizeof err), &im, err, memory_name,
+                part);
+    return 1;
+}
+
+/* A broken header read from memory as name fails with "name: ...part...";
+   when it holds data_mark, 10 bytes of data follow it (too short for any
+   case that gets that far). */
+static void check_broken(const char *header, const char *data_mark, const char *name, const char *part)
+{
+    bytes b = {NULL, 0, 0};
+    sqffd_image im;
+    char err[256] = "";
+    bytes_text(&b, "%s", header);
+    if (strstr(header, data_mark)) bytes_put(&b, "0123456789", 10);
+    CHECK_FAILS(sqffd_image_read_memory(b.data, b.size, name, &im, err, sizeof err), &im, err, name, part);
+    bytes_free(&b);
+}
+
 static void mha_header(bytes *b, const char *type, int msb, const char *extra)
 {
     bytes_text(b, "ObjectType = Image\nNDims = 3\nBinaryData = True\nBinaryDataByteOrderMSB = %s\n"
@@ -790,19 +832,7 @@ static void test_volume_io_metaimage_detached(void)
     mha_header(&b, "MET_USHORT", 1, "HeaderSize = 16\nElementDataFile = sqffd_test_mhd.raw\n");
     bytes_text(&raw, "sixteen bytes...");
     put_voxels(&raw, SQFFD_VOXEL_U16, 4, 3, 2, 1, 1);
-    if (!write_file("sqffd_test_mhd.mhd", b.data, b.size) || !write_file("sqffd_test_mhd.raw", raw.data, raw.size)) {
-        printf("    (skipped: cannot write files in the working directory)\n");
-        bytes_free(&b);
-        bytes_free(&raw);
-        return;
-    }
-    CHECK_MSG(sqffd_image_read_file("sqffd_test_mhd.mhd", &im, err, sizeof err) == 0, "%s", err);
-    CHECK(count_wrong_voxels(&im, SQFFD_VOXEL_U16) == 0 && im.big_endian == 1);
-    CHECK_AFFINE(&im, permuted_affine, 0);
-    sqffd_image_free(&im);
-    /* from memory the header cannot reach its data file */
-    CHECK_FAILS(sqffd_image_read_memory(b.data, b.size, "h.mhd", &im, err, sizeof err), &im, err, "h.mhd",
-                "the voxels are in the data file 'sqffd_test_mhd.raw'");
+    if (!check_detached(&b, &raw, "sqffd_test_mhd", "mhd", SQFFD_VOXEL_U16)) return;
     /* the data file one byte short */
     CHECK(write_file("sqffd_test_mhd.raw", raw.data, raw.size - 1));
     CHECK_FAILS(sqffd_image_read_file("sqffd_test_mhd.mhd", &im, err, sizeof err), &im, err, "sqffd_test_mhd.raw",
@@ -854,17 +884,8 @@ static void test_volume_io_metaimage_broken(void)
          "data: the header promises 48 bytes from offset"},
     };
     size_t c;
-    for (c = 0; c < sizeof cases / sizeof cases[0]; c++) {
-        bytes b = {NULL, 0, 0};
-        sqffd_image im;
-        char err[256] = "";
-        bytes_text(&b, "%s", cases[c].header);
-        if (strstr(cases[c].header, "ElementDataFile"))
-            bytes_put(&b, "0123456789", 10); /* data too short for any case that gets that far */
-        CHECK_FAILS(sqffd_image_read_memory(b.data, b.size, "b.mha", &im, err, sizeof err), &im, err, "b.mha",
-                    cases[c].part);
-        bytes_free(&b);
-    }
+    for (c = 0; c < sizeof cases / sizeof cases[0]; c++)
+        check_broken(cases[c].header, "ElementDataFile", "b.mha", cases[c].part);
 }
 
 /* ---- NRRD ----------------------------------------------------------------- */
@@ -1018,18 +1039,7 @@ static void test_volume_io_nrrd_detached(void)
     nrrd_header(&b, "int32", "big", "raw", "data file: sqffd_test_nhdr.raw\nline skip: 2\nbyte skip: 3\n");
     bytes_text(&raw, "first line\nsecond line\nxyz");
     put_voxels(&raw, SQFFD_VOXEL_I32, 4, 3, 2, 1, 1);
-    if (!write_file("sqffd_test_nhdr.nhdr", b.data, b.size) || !write_file("sqffd_test_nhdr.raw", raw.data, raw.size)) {
-        printf("    (skipped: cannot write files in the working directory)\n");
-        bytes_free(&b);
-        bytes_free(&raw);
-        return;
-    }
-    CHECK_MSG(sqffd_image_read_file("sqffd_test_nhdr.nhdr", &im, err, sizeof err) == 0, "%s", err);
-    CHECK(count_wrong_voxels(&im, SQFFD_VOXEL_I32) == 0 && im.big_endian == 1);
-    CHECK_AFFINE(&im, permuted_affine, 0);
-    sqffd_image_free(&im);
-    CHECK_FAILS(sqffd_image_read_memory(b.data, b.size, "h.nhdr", &im, err, sizeof err), &im, err, "h.nhdr",
-                "the voxels are in the data file 'sqffd_test_nhdr.raw'");
+    if (!check_detached(&b, &raw, "sqffd_test_nhdr", "nhdr", SQFFD_VOXEL_I32)) return;
     bytes_free(&b);
     /* byte skip -1: the data are the file's last bytes */
     nrrd_header(&b, "int32", "big", "raw", "data file: ./sqffd_test_nhdr.raw\nbyte skip: -1\n");
@@ -1108,17 +1118,7 @@ static void test_volume_io_nrrd_broken(void)
         {"NRRD0004\nthis line has no colon\n\n", "line 2: expected \"field: value\""},
     };
     size_t c;
-    for (c = 0; c < sizeof cases / sizeof cases[0]; c++) {
-        bytes b = {NULL, 0, 0};
-        sqffd_image im;
-        char err[256] = "";
-        bytes_text(&b, "%s", cases[c].header);
-        if (strstr(cases[c].header, "\n\n"))
-            bytes_put(&b, "0123456789", 10); /* data too short for any case that gets that far */
-        CHECK_FAILS(sqffd_image_read_memory(b.data, b.size, "b.nrrd", &im, err, sizeof err), &im, err, "b.nrrd",
-                    cases[c].part);
-        bytes_free(&b);
-    }
+    for (c = 0; c < sizeof cases / sizeof cases[0]; c++) check_broken(cases[c].header, "\n\n", "b.nrrd", cases[c].part);
     {   /* ascii: out of the type's range, and too few values */
         bytes b = {NULL, 0, 0};
         sqffd_image im;
