@@ -161,6 +161,21 @@ static void check_failure(int r, const sqffd_image *im, const char *err, const c
 }
 #define CHECK_FAILS(call, im, err, name, part) check_failure((call), im, err, name, part, __LINE__)
 
+/* Whether b, read from memory as name, holds the voxels of type; b is freed. */
+static void check_reads(bytes *b, const char *name, sqffd_voxel_type type, int line)
+{
+    sqffd_image im;
+    char err[256] = "";
+    if (sqffd_image_read_memory(b->data, b->size, name, &im, err, sizeof err) != 0) {
+        test_fail(__FILE__, line, "%s", err);
+    } else {
+        if (count_wrong_voxels(&im, type) != 0) test_fail(__FILE__, line, "%s: voxel values wrong", name);
+        sqffd_image_free(&im);
+    }
+    bytes_free(b);
+}
+#define CHECK_READS(b, name, type) check_reads(b, name, type, __LINE__)
+
 /* Writes a file for the detached-data tests (in the working directory, like
    test_io's writer test); 0 when it cannot. */
 static int write_file(const char *path, const void *data, size_t size)
@@ -493,17 +508,11 @@ static void test_volume_io_nifti_affine_sources(void)
     nifti_header(&b, &f);
     bytes_put(&b, "\x10\0\0\0\x06\0\0\0comment!", 16); /* esize 16, ecode 6 (comment), 8 bytes */
     put_voxels(&b, SQFFD_VOXEL_U8, 4, 3, 2, 1, 0);
-    CHECK_MSG(sqffd_image_read_memory(b.data, b.size, "e.nii", &im, err, sizeof err) == 0, "%s", err);
-    CHECK(count_wrong_voxels(&im, SQFFD_VOXEL_U8) == 0);
-    sqffd_image_free(&im);
-    bytes_free(&b);
+    CHECK_READS(&b, "e.nii", SQFFD_VOXEL_U8);
     f = nifti_default(SQFFD_VOXEL_U8, 1);
     f.vox_offset = 0;
     nifti_file(&b, &f, SQFFD_VOXEL_U8);
-    CHECK_MSG(sqffd_image_read_memory(b.data, b.size, "z.nii", &im, err, sizeof err) == 0, "%s", err);
-    CHECK(count_wrong_voxels(&im, SQFFD_VOXEL_U8) == 0);
-    sqffd_image_free(&im);
-    bytes_free(&b);
+    CHECK_READS(&b, "z.nii", SQFFD_VOXEL_U8);
 }
 
 /* A .hdr/.img pair on disk, named by either file; from memory it is refused. */
@@ -711,17 +720,11 @@ static void test_volume_io_metaimage(void)
     mha_header(&b, "MET_SHORT", 0, "HeaderSize = -1\nElementDataFile = LOCAL\n");
     bytes_text(&b, "junk before the data");
     put_voxels(&b, SQFFD_VOXEL_I16, 4, 3, 2, 1, 0);
-    CHECK_MSG(sqffd_image_read_memory(b.data, b.size, "e.mha", &im, err, sizeof err) == 0, "%s", err);
-    CHECK(count_wrong_voxels(&im, SQFFD_VOXEL_I16) == 0);
-    sqffd_image_free(&im);
-    bytes_free(&b);
+    CHECK_READS(&b, "e.mha", SQFFD_VOXEL_I16);
     mha_header(&b, "MET_SHORT", 0, "HeaderSize = 5\nElementDataFile = LOCAL\n");
     bytes_text(&b, "junk!");
     put_voxels(&b, SQFFD_VOXEL_I16, 4, 3, 2, 1, 0);
-    CHECK_MSG(sqffd_image_read_memory(b.data, b.size, "s.mha", &im, err, sizeof err) == 0, "%s", err);
-    CHECK(count_wrong_voxels(&im, SQFFD_VOXEL_I16) == 0);
-    sqffd_image_free(&im);
-    bytes_free(&b);
+    CHECK_READS(&b, "s.mha", SQFFD_VOXEL_I16);
 }
 
 /* Python 3 zlib 1.2.13, level 9: zlib.compress of the 48 bytes of the
@@ -793,10 +796,7 @@ static void test_volume_io_metaimage_compressed(void)
     /* without CompressedDataSize: the stream runs to the end */
     mha_header(&b, "MET_SHORT", 0, "CompressedData = True\nElementDataFile = LOCAL\n");
     bytes_put(&b, zlib_i16_le, sizeof zlib_i16_le);
-    CHECK_MSG(sqffd_image_read_memory(b.data, b.size, "z.mha", &im, err, sizeof err) == 0, "%s", err);
-    CHECK(count_wrong_voxels(&im, SQFFD_VOXEL_I16) == 0);
-    sqffd_image_free(&im);
-    bytes_free(&b);
+    CHECK_READS(&b, "z.mha", SQFFD_VOXEL_I16);
     /* a stream shorter and one longer than DimSize promises */
     mha_header(&b, "MET_SHORT", 0, "CompressedData = True\nElementDataFile = LOCAL\n");
     bytes_put(&b, zlib_i16_le_short, sizeof zlib_i16_le_short);
@@ -946,10 +946,7 @@ static void test_volume_io_nrrd(void)
     /* ascii voxels (endian may be absent) */
     nrrd_header(&b, "short", "little", "ascii", "\n");
     bytes_text(&b, "-50 -49 -48 -47\n-40 -39 -38 -37 -30 -29 -28 -27\n50 51 52 53 60 61 62 63 70 71 72 73\n");
-    CHECK_MSG(sqffd_image_read_memory(b.data, b.size, "a.nrrd", &im, err, sizeof err) == 0, "%s", err);
-    CHECK(count_wrong_voxels(&im, SQFFD_VOXEL_I16) == 0);
-    sqffd_image_free(&im);
-    bytes_free(&b);
+    CHECK_READS(&b, "a.nrrd", SQFFD_VOXEL_I16);
     /* 4-D without space directions: spacings, the 4th axis is time */
     {
         static const double diagonal[12] = {1.5, 0, 0, 0, 0, 2, 0, 0, 0, 0, 2.5, 0};
