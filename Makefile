@@ -41,11 +41,12 @@ $(BUILD)/stream_fit: examples/stream_fit.c $(TEST_DEP) | $(BUILD)
 # ---- make test (about a minute): the strictness matrix, the snippets, the unit tests at -O2, the CLI
 # end to end, the API demo. make check: all of that, then the sanitizers, the fuzz corpora, symbols,
 # packaging, streaming, Python, threads, valgrind, cppcheck, clang's analyzer and the stack bound.
-# Both run their parts JOBS at a time, each part's output in one piece, and end with the unit-test
-# runner's "N passed, N failed" line.
-PARTS = rm -f $(BUILD)/O2/unit.log; \
-  $(MAKE) --no-print-directory $(if $(filter -j%,$(MAKEFLAGS)),,-j$(JOBS)) \
-    $(if $(filter output-sync,$(.FEATURES)),--output-sync=target) $(1); s=$$?; \
+# Both build the unit tests first (make starts jobs in the order it meets them: so the longest run
+# starts first), then run their parts JOBS at a time, each part's output in one piece, and end
+# with the unit-test runner's "N passed, N failed" line.
+SUBMAKE = $(MAKE) --no-print-directory $(if $(filter -j%,$(MAKEFLAGS)),,-j$(JOBS)) \
+  $(if $(filter output-sync,$(.FEATURES)),--output-sync=target)
+PARTS = rm -f $(BUILD)/O2/unit.log; $(SUBMAKE) $(BUILD)/O2/sqffd_tests && $(SUBMAKE) $(1); s=$$?; \
   tail -n 1 $(BUILD)/O2/unit.log 2>/dev/null; exit $$s
 test:
 	@$(call PARTS,$(TEST_PARTS))
