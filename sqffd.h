@@ -90,12 +90,15 @@
 
    QUICK START
        sqffd_fit_options opt = sqffd_fit_options_default();
-       size_t size = sqffd_fit_workspace_size(n, &opt);
-       void *ws = malloc(size);                  (or any memory you own)
+       size_t size;
        sqffd_model model;
        sqffd_fit_report report;
-       if (sqffd_fit(points, n, &opt, &model, &report, ws, size) == SQFFD_OK)
-           printf("relative RMS error %g\n", report.error.rms_relative);
+       if (sqffd_fit_workspace_size(n, &opt, &size) == SQFFD_OK) {
+           void *ws = malloc(size);              // or any memory you own
+           if (sqffd_fit(points, n, &opt, &model, &report, ws, size) == SQFFD_OK)
+               printf("relative RMS error %g\n", report.error.rms_relative);
+           free(ws);
+       }
 
    POINTS
        Points go in as packed doubles (x0 y0 z0 x1 y1 z1 ...) or, through
@@ -412,10 +415,11 @@ SQFFD_DEF sqffd_result sqffd_ncg_minimize(size_t n, sqffd_objective_fn f, void *
    point's distance, so it never exceeds the computed distance of any point
    in the subtree and no point is missed by rounding.
 
-       size_t size = sqffd_kdtree_workspace_size(n);
-       void *memory = malloc(size);
+   Example:
+       size_t size;
        sqffd_kdtree tree;
-       if (sqffd_kdtree_build(&tree, points, n, memory, size) == SQFFD_OK)
+       void *memory = sqffd_kdtree_workspace_size(n, &size) == SQFFD_OK ? malloc(size) : NULL;
+       if (memory && sqffd_kdtree_build(&tree, points, n, memory, size) == SQFFD_OK)
            sqffd_kdtree_nearest(&tree, query, &nearest, &dist2);
 
    Query contract shared by nearest / knn / radius:

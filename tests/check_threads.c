@@ -12,6 +12,7 @@
 #define SQFFD_IMPLEMENTATION
 #include "../sqffd.h"
 #include "../examples/sqffd_phantom.h"
+#include "test.h" /* test_malloc, test_fit (tests/test_util.c) */
 #include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -20,16 +21,6 @@
 enum { N = 2500, THREADS = 2, QUERIES = 4000 };
 
 static pthread_barrier_t start_together;
-
-static void *xmalloc(size_t size)
-{
-    void *p = malloc(size ? size : 1);
-    if (!p) {
-        fprintf(stderr, "check_threads: out of memory\n");
-        exit(2);
-    }
-    return p;
-}
 
 /* The fields of a model, compared bit for bit (not the padding): the
    superquadric, the box, the used control points and the grid. */
@@ -59,15 +50,9 @@ typedef struct fit_job {
 
 static sqffd_result run_fit(fit_job *j)
 {
-    size_t size;
-    void *work;
     sqffd_fit_report report;
-    sqffd_result r = sqffd_fit_workspace_size(N, j->options, &size);
-    if (r != SQFFD_OK) return r;
-    work = xmalloc(size);
-    r = sqffd_fit(j->points, N, j->options, &j->model, &report, work, size);
-    j->error = report.error.rms_relative;
-    free(work);
+    sqffd_result r = test_fit(j->points, N, j->options, &j->model, &report);
+    j->error = r == SQFFD_OK ? report.error.rms_relative : 0.0;
     return r;
 }
 
@@ -96,7 +81,7 @@ static sqffd_result run_prepared(prepared_job *j)
     sqffd_fit_report report;
     sqffd_result r = sqffd_fit_prepared_workspace_size(N, j->system, j->options, &size);
     if (r != SQFFD_OK) return r;
-    work = xmalloc(size);
+    work = test_malloc(size);
     r = sqffd_fit_prepared(j->system, j->points, N, j->options, &j->model, &report, work, size);
     j->error = report.error.rms_relative;
     free(work);
@@ -158,10 +143,11 @@ int main(void)
 {
     phantom_lv ph = phantom_lv_default();
     sqffd_fit_options o = sqffd_fit_options_default();
-    double *ed = (double *)xmalloc(3 * N * sizeof *ed), *es = (double *)xmalloc(3 * N * sizeof *es);
+    double *ed = (double *)test_malloc(3 * N * sizeof *ed), *es = (double *)test_malloc(3 * N * sizeof *es);
     fit_job ref, fits[THREADS];
     prepared_job pref, prep[THREADS];
-    query_job *qref = (query_job *)xmalloc(sizeof *qref), *queries = (query_job *)xmalloc(THREADS * sizeof *queries);
+    query_job *qref = (query_job *)test_malloc(sizeof *qref);
+    query_job *queries = (query_job *)test_malloc(THREADS * sizeof *queries);
     sqffd_ffd_system system;
     sqffd_kdtree tree;
     void *system_memory, *tree_memory;
@@ -197,7 +183,7 @@ int main(void)
         printf("threads: sqffd_ffd_system_size failed\n");
         return 1;
     }
-    system_memory = xmalloc(size);
+    system_memory = test_malloc(size);
     if (sqffd_ffd_system_init(&system, &ref.model, &o, system_memory, size) != SQFFD_OK) {
         printf("threads: sqffd_ffd_system_init failed\n");
         return 1;
@@ -231,13 +217,13 @@ int main(void)
         printf("threads: sqffd_kdtree_workspace_size failed\n");
         return 1;
     }
-    tree_memory = xmalloc(size);
+    tree_memory = test_malloc(size);
     if (sqffd_kdtree_build(&tree, ed, N, tree_memory, size) != SQFFD_OK) {
         printf("threads: sqffd_kdtree_build failed\n");
         return 1;
     }
     {
-        double *q = (double *)xmalloc(3 * QUERIES * sizeof *q);
+        double *q = (double *)test_malloc(3 * QUERIES * sizeof *q);
         size_t i;
         for (i = 0; i < QUERIES; i++) {
             q[3 * i] = es[3 * (i % N)] * (1.0 + (double)(i / N));

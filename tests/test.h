@@ -13,8 +13,11 @@ void test_fail(const char *file, int line, const char *fmt, ...)
     __attribute__((format(printf, 3, 4)))
 #endif
     ;
-/* malloc that never returns NULL (the runner stops: a test cannot go on). */
+/* malloc that never returns NULL (the program stops: a test cannot go on). */
 void *test_malloc(size_t size);
+/* sqffd_fit with its workspace from test_malloc, freed after (report may be NULL). */
+sqffd_result test_fit(const double *points, size_t n, const sqffd_fit_options *options, sqffd_model *model,
+                      sqffd_fit_report *report);
 /* Run one test case: it fails when any check inside it failed. */
 void test_run(const char *name, void (*fn)(void));
 

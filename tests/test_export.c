@@ -422,17 +422,12 @@ static int fit_phantom(void)
     phantom_lv p = phantom_lv_default();
     sqffd_fit_options o = sqffd_fit_options_default();
     double *pts;
-    void *ws;
-    size_t size;
     sqffd_result r;
     if (fitted) return 1;
     pts = (double *)malloc(3 * N * sizeof *pts);
     phantom_lv_frame(&p, 0.0, N, 0.01, 21, pts, NULL);
     o.max_iterations = 12;
-    CHECK_RESULT(sqffd_fit_workspace_size(N, &o, &size), SQFFD_OK);
-    ws = malloc(size);
-    r = sqffd_fit(pts, N, &o, &fitted_model, &fitted_report, ws, size);
-    free(ws);
+    r = test_fit(pts, N, &o, &fitted_model, &fitted_report);
     free(pts);
     CHECK_RESULT(r, SQFFD_OK);
     fitted = r == SQFFD_OK;

@@ -96,19 +96,6 @@ static double spring_energy(const sqffd_ffd *f)
     return e;
 }
 
-/* Runs sqffd_fit with a malloc'd workspace. */
-static sqffd_result run_fit(const double *pts, size_t n, const sqffd_fit_options *o, sqffd_model *m, sqffd_fit_report *rep)
-{
-    size_t size;
-    void *ws;
-    sqffd_result r = sqffd_fit_workspace_size(n, o, &size);
-    if (r != SQFFD_OK) return r;
-    ws = malloc(size);
-    r = sqffd_fit(pts, n, o, m, rep, ws, size);
-    free(ws);
-    return r;
-}
-
 static sqffd_result run_fit_ffd(const double *pts, size_t n, const sqffd_fit_options *o, sqffd_model *m,
                                 sqffd_fit_report *rep)
 {
@@ -518,7 +505,7 @@ static void check_warm_start(const double *pts, size_t n, sqffd_fit_options o, d
     int c;
     o.tolerance = 0.0;
     o.max_iterations = 0;
-    CHECK_RESULT(run_fit(pts, n, &o, &start, &rep), SQFFD_OK); /* the superquadric only */
+    CHECK_RESULT(test_fit(pts, n, &o, &start, &rep), SQFFD_OK); /* the superquadric only */
     CHECK_RESULT(sqffd_model_distances_workspace_size(n, &start, &size), SQFFD_OK);
     ws = malloc(size);
     for (c = 0; c < RUNS; c++) {
@@ -620,7 +607,7 @@ static void test_fit_convergence_lv(void)
         o.coarse_iterations = coarse ? 25 : 0;
         o.max_iterations = coarse ? sqffd_fit_options_default().max_iterations : 30;
         grid_iterations = o.max_iterations - o.coarse_iterations;
-        CHECK_RESULT(run_fit(pts, N, &o, &m, &rep), SQFFD_OK);
+        CHECK_RESULT(test_fit(pts, N, &o, &m, &rep), SQFFD_OK);
         CHECK(rep.coarse_iterations == o.coarse_iterations);
         CHECK(rep.iterations == grid_iterations && rep.history_count == grid_iterations);
         CHECK(rep.history[0] <= rep.sq_error.rms_relative);
@@ -652,16 +639,16 @@ static void test_fit_bunny(void)
         return;
     }
     CHECK(n == 1839);
-    CHECK_RESULT(run_fit(pts, n, &o, &m, &r5), SQFFD_OK);
+    CHECK_RESULT(test_fit(pts, n, &o, &m, &r5), SQFFD_OK);
     rev = reverse_rms(&m, pts, n);
     CHECK_MSG(2.0 * r5.error.rms_relative <= r5.sq_error.rms_relative, "5x5x5: error %g, superquadric alone %g",
               r5.error.rms_relative, r5.sq_error.rms_relative);
     CHECK_MSG(rev < 0.06, "model -> data RMS %g of the diagonal", rev);
     stiff.alpha = 1e-5; /* the springs alone (no Jacobian floor): 1e-6 fits closer than 1e-5 (measured 0.639% vs 0.763%) */
     stiff.min_jacobian = -HUGE_VAL;
-    CHECK_RESULT(run_fit(pts, n, &stiff, &m_stiff, &r8), SQFFD_OK);
+    CHECK_RESULT(test_fit(pts, n, &stiff, &m_stiff, &r8), SQFFD_OK);
     stiff.alpha = o.alpha;
-    CHECK_RESULT(run_fit(pts, n, &stiff, &m_stiff, &r_free), SQFFD_OK);
+    CHECK_RESULT(test_fit(pts, n, &stiff, &m_stiff, &r_free), SQFFD_OK);
     CHECK_MSG(r_free.error.rms_relative < 0.9 * r8.error.rms_relative, "alpha 1e-6: error %g, alpha 1e-5: %g",
               r_free.error.rms_relative, r8.error.rms_relative);
     CHECK_MSG(r5.min_jacobian > 0.0 && r_free.min_jacobian < 0.0, "Jacobian bound %g, without the floor %g",
@@ -676,7 +663,7 @@ static void test_fit_bunny(void)
     o = sqffd_fit_options_default(); /* the model -> data term holds the parts no data reach (5.3% -> 1.3%) */
     o.model_to_data = 1.0;
     o.min_jacobian = -HUGE_VAL; /* (the term's own effect) */
-    CHECK_RESULT(run_fit(pts, n, &o, &m, &r5), SQFFD_OK);
+    CHECK_RESULT(test_fit(pts, n, &o, &m, &r5), SQFFD_OK);
     rev = reverse_rms(&m, pts, n);
     CHECK_MSG(rev < 0.02 && r5.error.rms_relative < 0.015, "model -> data weight 1: model -> data %g, error %g", rev,
               r5.error.rms_relative);
@@ -748,7 +735,7 @@ static void test_fit_model_to_data(void)
     phantom_lv_sample(&ph, 0.0, N, pts);
     o.model_to_data = 0.0;
     o.min_jacobian = -HUGE_VAL; /* (the term's own effect) */
-    CHECK_RESULT(run_fit(pts, N, &o, &m, &plain), SQFFD_OK);
+    CHECK_RESULT(test_fit(pts, N, &o, &m, &plain), SQFFD_OK);
     rev_plain = reverse_rms(&m, pts, N);
     o.model_to_data = sqffd_fit_options_default().model_to_data; /* from the same superquadric */
     CHECK_RESULT(sqffd_model_init(&m, &m.sq, &o), SQFFD_OK);
@@ -781,7 +768,7 @@ static void test_fit_no_drift(void)
         sqffd_model m;
         o.tolerance = 0.0;
         o.max_iterations = counts[c];
-        CHECK_RESULT(run_fit(pts, n, &o, &m, &rep), SQFFD_OK);
+        CHECK_RESULT(test_fit(pts, n, &o, &m, &rep), SQFFD_OK);
         rev[c] = reverse_rms(&m, pts, n);
     }
     printf("    bunny model -> data after 10, 30, 90 iterations: %.3f%% %.3f%% %.3f%%\n", 100.0 * rev[0], 100.0 * rev[1],
@@ -880,7 +867,7 @@ static void test_fit_error_exact(void)
     if (sqffd_io_read_file("tests/data/bunny.ply", &pts, &n, err, sizeof err) != 0) {
         CHECK_MSG(0, "%s (run the tests from the repository root)", err);
     } else {
-        CHECK_RESULT(run_fit(pts, n, &o, &m, &rep), SQFFD_OK);
+        CHECK_RESULT(test_fit(pts, n, &o, &m, &rep), SQFFD_OK);
         worst = worst_vs_brute(&m, pts, n, &diagonal);
         CHECK_MSG(worst <= 1e-9 * diagonal, "bunny: largest difference from the brute force %g (diagonal %g)", worst,
                   diagonal);
@@ -905,7 +892,7 @@ static void check_energy_monotone(const double *pts, size_t n, const sqffd_fit_o
     sqffd_model m;
     sqffd_fit_report rep;
     int k;
-    CHECK_RESULT(run_fit(pts, n, o, &m, &rep), SQFFD_OK);
+    CHECK_RESULT(test_fit(pts, n, o, &m, &rep), SQFFD_OK);
     CHECK_MSG(rep.history_count >= 5, "%s: %d iterations", what, rep.history_count);
     for (k = 1; k < rep.history_count; k++)
         CHECK_MSG(rep.energy_history[k] <= rep.energy_history[k - 1], "%s: energy %.17g after iteration %d, %.17g before",
@@ -951,7 +938,7 @@ static void test_fit_iterations_zero(void)
     int p, c, same = 1;
     phantom_lv_sample(&ph, 0.0, N, pts);
     o.max_iterations = 0;
-    CHECK_RESULT(run_fit(pts, N, &o, &m, &rep), SQFFD_OK);
+    CHECK_RESULT(test_fit(pts, N, &o, &m, &rep), SQFFD_OK);
     CHECK(rep.iterations == 0 && rep.history_count == 0);
     CHECK(rep.error.rms == rep.sq_error.rms);
     CHECK_RESULT(sqffd_model_init(&regular, &m.sq, &o), SQFFD_OK);
@@ -981,7 +968,7 @@ static void test_fit_stage1_is_sq_fit(void)
     CHECK(o.sq.final_points == 384 && sqffd_sq_fit_options_default().final_points == 1536);
     for (k = 0; k < 2; k++) {
         if (k == 1) o.sq.final_points = sqffd_sq_fit_options_default().final_points;
-        CHECK_RESULT(run_fit(pts, N, &o, &m, &rep), SQFFD_OK);
+        CHECK_RESULT(test_fit(pts, N, &o, &m, &rep), SQFFD_OK);
         CHECK(rep.sq.fallback == 0); /* (else the model's superquadric is the best start) */
         CHECK_RESULT(sqffd_sq_fit_workspace_size(N, &o.sq, &size), SQFFD_OK);
         ws = malloc(size);
@@ -1011,17 +998,17 @@ static void test_fit_robust_ffd(void)
     void *ws;
     memcpy(noisy, clean, 3 * N * sizeof *noisy);
     synth_outliers(&r, clean, N, OUT, 1.5, noisy + 3 * N);
-    CHECK_RESULT(run_fit(clean, N, &o, &m, &rep), SQFFD_OK);
+    CHECK_RESULT(test_fit(clean, N, &o, &m, &rep), SQFFD_OK);
     CHECK_RESULT(sqffd_model_distances_workspace_size(N, &m, &size), SQFFD_OK);
     ws = malloc(size);
     CHECK_RESULT(sqffd_model_distances(&m, clean, N, NULL, &s, ws, size), SQFFD_OK);
     d_clean = s.rms;
     o.sq.robust = 1;
-    CHECK_RESULT(run_fit(noisy, N + OUT, &o, &m, &rep), SQFFD_OK);
+    CHECK_RESULT(test_fit(noisy, N + OUT, &o, &m, &rep), SQFFD_OK);
     CHECK_RESULT(sqffd_model_distances(&m, clean, N, NULL, &s, ws, size), SQFFD_OK);
     d_robust = s.rms;
     o.sq.robust = 0;
-    CHECK_RESULT(run_fit(noisy, N + OUT, &o, &m, &rep), SQFFD_OK);
+    CHECK_RESULT(test_fit(noisy, N + OUT, &o, &m, &rep), SQFFD_OK);
     CHECK_RESULT(sqffd_model_distances(&m, clean, N, NULL, &s, ws, size), SQFFD_OK);
     d_plain = s.rms;
     printf("    robust FFD, 20%% outliers: true-surface RMS %.3g robust, %.3g plain, %.3g clean\n", d_robust, d_plain, d_clean);
@@ -1075,7 +1062,7 @@ static void test_fit_superquadric_guard(void)
                 for (i = 0, k = 0; i < N; i++)
                     if (i != d * 80) memcpy(sub + 3 * k++, pts + 3 * i, 3 * sizeof(double));
                 o.sq.robust = robust;
-                CHECK_RESULT(run_fit(sub, k, &o, &m, &rep), SQFFD_OK);
+                CHECK_RESULT(test_fit(sub, k, &o, &m, &rep), SQFFD_OK);
                 CHECK_RESULT(sqffd_model_init(&start, &rep.sq.best_start, &o), SQFFD_OK);
                 fitted = error_statistic(&m, sub, k, robust);
                 begun = error_statistic(&start, sub, k, robust);
@@ -1102,8 +1089,8 @@ static void test_fit_deterministic_and_restartable(void)
     sqffd_model m1, m2;
     double *pts = (double *)malloc(3 * N * sizeof *pts);
     phantom_lv_sample(&ph, 0.0, N, pts);
-    CHECK_RESULT(run_fit(pts, N, &o, &m1, &r1), SQFFD_OK);
-    CHECK_RESULT(run_fit(pts, N, &o, &m2, &r2), SQFFD_OK);
+    CHECK_RESULT(test_fit(pts, N, &o, &m1, &r1), SQFFD_OK);
+    CHECK_RESULT(test_fit(pts, N, &o, &m2, &r2), SQFFD_OK);
     CHECK(memcmp(&m1, &m2, sizeof m1) == 0);
     CHECK(memcmp(&r1, &r2, sizeof r1) == 0);
     CHECK_RESULT(run_fit_ffd(pts, N, &o, &m2, &r3), SQFFD_OK);
@@ -1188,7 +1175,7 @@ static void test_fit_coarse_stage(void)
     o.tolerance = 0.0;
     o.progress = count_stages;
     o.progress_user = &calls;
-    CHECK_RESULT(run_fit(pts, N, &o, &m, &rep), SQFFD_OK);
+    CHECK_RESULT(test_fit(pts, N, &o, &m, &rep), SQFFD_OK);
     CHECK(rep.coarse_iterations == 25 && rep.iterations == o.max_iterations - 25 && rep.history_count == rep.iterations);
     CHECK(calls.coarse == 25 && calls.grid == rep.iterations && calls.out_of_order == 0);
     CHECK_RESULT(sqffd_model_distances_workspace_size(N, &m, &size), SQFFD_OK);
@@ -1198,7 +1185,7 @@ static void test_fit_coarse_stage(void)
     all_grid = o;
     all_grid.coarse_iterations = 0;
     all_grid.progress = NULL;
-    CHECK_RESULT(run_fit(pts, N, &all_grid, &m, &rep_grid), SQFFD_OK);
+    CHECK_RESULT(test_fit(pts, N, &all_grid, &m, &rep_grid), SQFFD_OK);
     CHECK(rep_grid.coarse_iterations == 0 && rep_grid.iterations == o.max_iterations);
     CHECK_NEAR(rep.sq_error.rms, rep_grid.sq_error.rms, 0.0); /* (both: the superquadric on the grid) */
     printf("    coarse first %.4f%%, all on the grid %.4f%%\n", 100.0 * rep.error.rms_relative, 100.0 * rep_grid.error.rms_relative);
@@ -1206,25 +1193,25 @@ static void test_fit_coarse_stage(void)
               rep_grid.error.rms);
     o.progress = NULL;
     o.max_iterations = 3; /* never all coarse */
-    CHECK_RESULT(run_fit(pts, N, &o, &m, &rep), SQFFD_OK);
+    CHECK_RESULT(test_fit(pts, N, &o, &m, &rep), SQFFD_OK);
     CHECK(rep.coarse_iterations == 2 && rep.iterations == 1);
     o.max_iterations = 1;
-    CHECK_RESULT(run_fit(pts, N, &o, &m, &rep), SQFFD_OK);
+    CHECK_RESULT(test_fit(pts, N, &o, &m, &rep), SQFFD_OK);
     CHECK(rep.coarse_iterations == 0 && rep.iterations == 1);
     o.max_iterations = 10;
     o.lattice[0] = o.lattice[1] = o.lattice[2] = 8; /* 512 control points: the 16 x 32 grid's 514 points are too few */
-    CHECK_RESULT(run_fit(pts, N, &o, &m, &rep), SQFFD_OK);
+    CHECK_RESULT(test_fit(pts, N, &o, &m, &rep), SQFFD_OK);
     CHECK(rep.coarse_iterations == 0 && rep.iterations == 10);
     o = sqffd_fit_options_default();
     o.coarse_iterations = -1;
     CHECK_RESULT(sqffd_fit_workspace_size(N, &o, &size), SQFFD_ERROR_INVALID_ARGUMENT);
-    CHECK_RESULT(run_fit(pts, N, &o, &m, &rep), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(test_fit(pts, N, &o, &m, &rep), SQFFD_ERROR_INVALID_ARGUMENT);
     o.coarse_iterations = 25;
     o.progress = count_stages;
     o.progress_user = &calls;
     calls.coarse = calls.grid = 0;
     calls.cancel_at = 4;
-    CHECK_RESULT(run_fit(pts, N, &o, &m, &rep), SQFFD_ERROR_CANCELLED);
+    CHECK_RESULT(test_fit(pts, N, &o, &m, &rep), SQFFD_ERROR_CANCELLED);
     CHECK(calls.coarse == 4 && calls.grid == 0);
     free(ws); free(pts);
 }
@@ -1244,7 +1231,7 @@ static void test_fit_subsamples(void)
     size_t size;
     void *ws;
     phantom_lv_sample(&ph, 0.0, N, pts);
-    CHECK_RESULT(run_fit(pts, N, &o, &m, &all), SQFFD_OK);
+    CHECK_RESULT(test_fit(pts, N, &o, &m, &all), SQFFD_OK);
     CHECK_RESULT(sqffd_model_distances_workspace_size(N, &m, &size), SQFFD_OK);
     ws = malloc(size);
     CHECK_RESULT(sqffd_model_distances(&m, pts, N, NULL, &s, ws, size), SQFFD_OK);
@@ -1252,7 +1239,7 @@ static void test_fit_subsamples(void)
     CHECK_NEAR(s.max_relative, all.error.max_relative, 1e-9 * s.max_relative);
     o.sq_max_points = 1000;
     o.ffd_max_points = 1500;
-    CHECK_RESULT(run_fit(pts, N, &o, &m, &some), SQFFD_OK);
+    CHECK_RESULT(test_fit(pts, N, &o, &m, &some), SQFFD_OK);
     CHECK_RESULT(sqffd_model_distances(&m, pts, N, NULL, &s, ws, size), SQFFD_OK);
     CHECK_NEAR(s.rms_relative, some.error.rms_relative, 1e-9 * s.rms_relative);
     CHECK_MSG(some.error.rms_relative <= 1.3 * all.error.rms_relative, "subsampled error %g, all points %g",

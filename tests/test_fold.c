@@ -132,18 +132,6 @@ static double model_folded(const sqffd_model *m)
     return share;
 }
 
-static sqffd_result fit(const double *pts, size_t n, const sqffd_fit_options *o, sqffd_model *m, sqffd_fit_report *rep)
-{
-    size_t size;
-    void *ws;
-    sqffd_result r = sqffd_fit_workspace_size(n, o, &size);
-    if (r != SQFFD_OK) return r;
-    ws = test_malloc(size);
-    r = sqffd_fit(pts, n, o, m, rep, ws, size);
-    free(ws);
-    return r;
-}
-
 /* A lone fit of a stack: with the bound off (min_jacobian -inf) the lattice
    folds (the data built to fold); with the default it ends at or above
    the floor, its mesh folds nowhere, the energy never rises, and the
@@ -159,10 +147,10 @@ static void test_fit_stack_fold_free(void)
     int k;
     CHECK(n == 8 * 96);
     o.min_jacobian = -HUGE_VAL;
-    CHECK_RESULT(fit(pts, n, &o, &m, &rep), SQFFD_OK);
+    CHECK_RESULT(test_fit(pts, n, &o, &m, &rep), SQFFD_OK);
     CHECK_MSG(rep.min_jacobian < 0.0, "unconstrained bound %g: these data no longer fold the lattice", rep.min_jacobian);
     o = sqffd_fit_options_default();
-    CHECK_RESULT(fit(pts, n, &o, &m, &rep), SQFFD_OK);
+    CHECK_RESULT(test_fit(pts, n, &o, &m, &rep), SQFFD_OK);
     CHECK_MSG(rep.min_jacobian >= o.min_jacobian - 1e-12, "bound %g below the floor %g", rep.min_jacobian, o.min_jacobian);
     CHECK_RESULT(jacobian_bound(&m.ffd, &bound), SQFFD_OK);
     CHECK_NEAR(bound, rep.min_jacobian, 1e-12);
@@ -171,9 +159,9 @@ static void test_fit_stack_fold_free(void)
     for (k = 1; k < rep.history_count; k++)
         CHECK_MSG(rep.energy_history[k] <= rep.energy_history[k - 1], "energy rose at iteration %d", k + 1);
     o.min_jacobian = NAN;
-    CHECK_RESULT(fit(pts, n, &o, &m, &rep), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(test_fit(pts, n, &o, &m, &rep), SQFFD_ERROR_INVALID_ARGUMENT);
     o.min_jacobian = 1.5;
-    CHECK_RESULT(fit(pts, n, &o, &m, &rep), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(test_fit(pts, n, &o, &m, &rep), SQFFD_ERROR_INVALID_ARGUMENT);
     free(pts);
 }
 

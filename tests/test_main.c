@@ -2,7 +2,6 @@
    Usage: sqffd_tests [SUBSTRING]   runs only the cases whose name contains it. */
 #include "test.h"
 #include <stdarg.h>
-#include <stdlib.h>
 #include <string.h>
 #include <time.h>
 
@@ -20,16 +19,6 @@ void test_fail(const char *file, int line, const char *fmt, ...)
         fputc('\n', stdout);
     }
     case_failures++;
-}
-
-void *test_malloc(size_t size)
-{
-    void *p = malloc(size ? size : 1);
-    if (!p) {
-        fprintf(stderr, "out of memory\n");
-        exit(2);
-    }
-    return p;
 }
 
 void test_run(const char *name, void (*fn)(void))

@@ -113,18 +113,6 @@ static struct {
     sqffd_volume volume;
 } D;
 
-static sqffd_result run_fit_malloc(const double *pts, size_t n, const sqffd_fit_options *o, sqffd_model *m)
-{
-    size_t size;
-    void *ws;
-    sqffd_result r = sqffd_fit_workspace_size(n, o, &size);
-    if (r != SQFFD_OK) return r;
-    ws = test_malloc(size);
-    r = sqffd_fit(pts, n, o, m, NULL, ws, size);
-    free(ws);
-    return r;
-}
-
 static int setup(void)
 {
     phantom_lv ph;
@@ -147,7 +135,7 @@ static int setup(void)
     D.track = sqffd_track_options_default();
     D.track.fit = D.fit;
     D.track.frame_iterations = 2;
-    CHECK_RESULT(run_fit_malloc(D.ed, N_FIT, &D.fit, &D.model), SQFFD_OK);
+    CHECK_RESULT(test_fit(D.ed, N_FIT, &D.fit, &D.model, NULL), SQFFD_OK);
     CHECK_RESULT(sqffd_track_workspace_size(D.counts, FRAMES, &D.track, &size), SQFFD_OK);
     ws = test_malloc(size);
     CHECK_RESULT(sqffd_track(D.frames, D.counts, FRAMES, &D.track, D.tracked, NULL, NULL, ws, size), SQFFD_OK);
@@ -601,6 +589,53 @@ static uint64_t rw_digest(const mem_op *op)
     return h;
 }
 
+/* The operations as the sections below set them up: the context filled
+   (from the shared inputs), op pointing at it with its workspace size. */
+static void svd_op(mem_op *op, svd_ctx *s, double *a)
+{
+    svd_matrix(a);
+    s->a = a;
+    op->name = "sqffd_svd"; op->run = svd_run; op->digest = svd_digest; op->ctx = s;
+    CHECK_RESULT(sqffd_svd_workspace_size(SVD_M, SVD_N, &op->size), SQFFD_OK);
+}
+
+/* (b, diag: CG_N each) */
+static void cg_op(mem_op *op, cg_ctx *c, sqffd_cg_options *opt, double *b, double *diag)
+{
+    int i;
+    for (i = 0; i < CG_N; i++) {
+        b[i] = cos(0.9 * i);
+        diag[i] = 2.5 + 0.1 * i;
+    }
+    opt->jacobi_diagonal = diag;
+    c->b = b;
+    c->opt = opt;
+    op->name = "sqffd_cg_solve"; op->run = cg_run; op->digest = cg_digest; op->ctx = c;
+    CHECK_RESULT(sqffd_cg_workspace_size(CG_N, &op->size), SQFFD_OK);
+}
+
+static void track_op(mem_op *op, track_ctx *t)
+{
+    t->frames = D.frames;
+    t->counts = D.counts;
+    t->opt = &D.track;
+    op->name = "sqffd_track"; op->run = track_run; op->digest = track_digest; op->ctx = t;
+    CHECK_RESULT(sqffd_track_workspace_size(D.counts, FRAMES, &D.track, &op->size), SQFFD_OK);
+}
+
+/* (out: allocated here, motion_outputs_free after) */
+static void motion_op(mem_op *op, motion_ctx *m, const sqffd_motion_options *mo, sqffd_motion_outputs *out)
+{
+    size_t nv = grid_vertices(&D.tracked[0]);
+    motion_outputs_alloc(out, nv);
+    m->models = D.tracked;
+    m->opt = mo;
+    m->out = out;
+    m->m = nv;
+    op->name = "sqffd_motion"; op->run = motion_run; op->digest = motion_digest; op->ctx = m;
+    CHECK_RESULT(sqffd_motion_workspace_size(D.tracked, FRAMES, &op->size), SQFFD_OK);
+}
+
 /* ---- 1. exact workspaces --------------------------------------------------- */
 
 static void test_memory_linalg_exact_workspace(void)
@@ -612,21 +647,9 @@ static void test_memory_linalg_exact_workspace(void)
     sqffd_cg_options opt = sqffd_cg_options_default();
     double diag[CG_N];
     mem_op op;
-    int i;
-    svd_matrix(a);
-    s.a = a;
-    op.name = "sqffd_svd"; op.run = svd_run; op.digest = svd_digest; op.ctx = &s;
-    CHECK_RESULT(sqffd_svd_workspace_size(SVD_M, SVD_N, &op.size), SQFFD_OK);
+    svd_op(&op, &s, a);
     check_workspace(&op);
-    for (i = 0; i < CG_N; i++) {
-        b[i] = cos(0.9 * i);
-        diag[i] = 2.5 + 0.1 * i;
-    }
-    c.b = b;
-    opt.jacobi_diagonal = diag;
-    c.opt = &opt;
-    op.name = "sqffd_cg_solve"; op.run = cg_run; op.digest = cg_digest; op.ctx = &c;
-    CHECK_RESULT(sqffd_cg_workspace_size(CG_N, &op.size), SQFFD_OK);
+    cg_op(&op, &c, &opt, b, diag);
     check_workspace(&op);
     op.name = "sqffd_ncg_minimize"; op.run = ncg_run; op.digest = ncg_digest; op.ctx = &g;
     CHECK_RESULT(sqffd_ncg_workspace_size(NCG_N, &op.size), SQFFD_OK);
@@ -779,22 +802,10 @@ static void test_memory_track_motion_exact_workspace(void)
     sqffd_motion_options mo = sqffd_motion_options_default();
     sqffd_motion_outputs out;
     mem_op op;
-    size_t nv;
     if (!setup()) { free(t); return; }
-    t->frames = D.frames;
-    t->counts = D.counts;
-    t->opt = &D.track;
-    op.name = "sqffd_track"; op.run = track_run; op.digest = track_digest; op.ctx = t;
-    CHECK_RESULT(sqffd_track_workspace_size(D.counts, FRAMES, &D.track, &op.size), SQFFD_OK);
+    track_op(&op, t);
     check_workspace(&op);
-    nv = grid_vertices(&D.tracked[0]);
-    motion_outputs_alloc(&out, nv);
-    m.models = D.tracked;
-    m.opt = &mo;
-    m.out = &out;
-    m.m = nv;
-    op.name = "sqffd_motion"; op.run = motion_run; op.digest = motion_digest; op.ctx = &m;
-    CHECK_RESULT(sqffd_motion_workspace_size(D.tracked, FRAMES, &op.size), SQFFD_OK);
+    motion_op(&op, &m, &mo, &out);
     check_workspace(&op);
     motion_outputs_free(&out);
     free(t);
@@ -955,7 +966,6 @@ static void test_memory_read_only_inputs(void)
     mem_op op;
     uint64_t want;
     size_t nv, t;
-    int i;
     if (!setup()) { free(tr); return; }
     ed = (const double *)ro_copy(&b_ed, D.ed, sizeof D.ed);
     es = (const double *)ro_copy(&b_es, D.es, sizeof D.es);
@@ -963,23 +973,12 @@ static void test_memory_read_only_inputs(void)
     model = (const sqffd_model *)ro_copy(&b_model, &D.model, sizeof D.model);
 
     /* svd: the matrix */
-    svd_matrix(a);
-    sv.a = a;
-    op.name = "sqffd_svd"; op.run = svd_run; op.digest = svd_digest; op.ctx = &sv;
-    CHECK_RESULT(sqffd_svd_workspace_size(SVD_M, SVD_N, &op.size), SQFFD_OK);
+    svd_op(&op, &sv, a);
     want = rw_digest(&op);
     sv.a = (const double *)ro_copy(&b_a, a, sizeof a);
     CHECK(ro_run(&op) == want);
     /* cg: b, the options and their diagonal */
-    for (i = 0; i < CG_N; i++) {
-        b[i] = cos(0.9 * i);
-        diag[i] = 2.5 + 0.1 * i;
-    }
-    cgo.jacobi_diagonal = diag;
-    cg.b = b;
-    cg.opt = &cgo;
-    op.name = "sqffd_cg_solve"; op.run = cg_run; op.digest = cg_digest; op.ctx = &cg;
-    CHECK_RESULT(sqffd_cg_workspace_size(CG_N, &op.size), SQFFD_OK);
+    cg_op(&op, &cg, &cgo, b, diag);
     want = rw_digest(&op);
     cgo.jacobi_diagonal = (const double *)ro_copy(&b_diag, diag, sizeof diag);
     cg.opt = (const sqffd_cg_options *)ro_copy(&b_cg, &cgo, sizeof cgo);
@@ -1097,11 +1096,7 @@ static void test_memory_read_only_inputs(void)
     }
 
     /* tracking: the frame pointers, the frames, the counts, the options */
-    tr->frames = D.frames;
-    tr->counts = D.counts;
-    tr->opt = &D.track;
-    op.name = "sqffd_track"; op.run = track_run; op.digest = track_digest; op.ctx = tr;
-    CHECK_RESULT(sqffd_track_workspace_size(D.counts, FRAMES, &D.track, &op.size), SQFFD_OK);
+    track_op(&op, tr);
     want = rw_digest(&op);
     for (t = 0; t < FRAMES; t++) frame[t] = (const double *)ro_copy(&b_frame[t], D.frame[t], sizeof D.frame[t]);
     tr->frames = (const double *const *)ro_copy(&b_frames, frame, sizeof frame);
@@ -1110,14 +1105,7 @@ static void test_memory_read_only_inputs(void)
     CHECK(ro_run(&op) == want);
 
     /* motion: the models, the options, the outputs struct (its arrays are written) */
-    nv = grid_vertices(&D.tracked[0]);
-    motion_outputs_alloc(&out, nv);
-    mot.models = D.tracked;
-    mot.opt = &mo;
-    mot.out = &out;
-    mot.m = nv;
-    op.name = "sqffd_motion"; op.run = motion_run; op.digest = motion_digest; op.ctx = &mot;
-    CHECK_RESULT(sqffd_motion_workspace_size(D.tracked, FRAMES, &op.size), SQFFD_OK);
+    motion_op(&op, &mot, &mo, &out);
     want = rw_digest(&op);
     mot.models = (const sqffd_model *)ro_copy(&b_models, D.tracked, sizeof D.tracked);
     mot.opt = (const sqffd_motion_options *)ro_copy(&b_motion, &mo, sizeof mo);

@@ -161,6 +161,21 @@ static void check_failure(int r, const sqffd_image *im, const char *err, const c
 }
 #define CHECK_FAILS(call, im, err, name, part) check_failure((call), im, err, name, part, __LINE__)
 
+/* Whether b, read from memory as name, holds the voxels of type; b is freed. */
+static void check_reads(bytes *b, const char *name, sqffd_voxel_type type, int line)
+{
+    sqffd_image im;
+    char err[256] = "";
+    if (sqffd_image_read_memory(b->data, b->size, name, &im, err, sizeof err) != 0) {
+        test_fail(__FILE__, line, "%s", err);
+    } else {
+        if (count_wrong_voxels(&im, type) != 0) test_fail(__FILE__, line, "%s: voxel values wrong", name);
+        sqffd_image_free(&im);
+    }
+    bytes_free(b);
+}
+#define CHECK_READS(b, name, type) check_reads(b, name, type, __LINE__)
+
 /* Writes a file for the detached-data tests (in the working directory, like
    test_io's writer test); 0 when it cannot. */
 static int write_file(const char *path, const void *data, size_t size)
@@ -493,17 +508,11 @@ static void test_volume_io_nifti_affine_sources(void)
     nifti_header(&b, &f);
     bytes_put(&b, "\x10\0\0\0\x06\0\0\0comment!", 16); /* esize 16, ecode 6 (comment), 8 bytes */
     put_voxels(&b, SQFFD_VOXEL_U8, 4, 3, 2, 1, 0);
-    CHECK_MSG(sqffd_image_read_memory(b.data, b.size, "e.nii", &im, err, sizeof err) == 0, "%s", err);
-    CHECK(count_wrong_voxels(&im, SQFFD_VOXEL_U8) == 0);
-    sqffd_image_free(&im);
-    bytes_free(&b);
+    CHECK_READS(&b, "e.nii", SQFFD_VOXEL_U8);
     f = nifti_default(SQFFD_VOXEL_U8, 1);
     f.vox_offset = 0;
     nifti_file(&b, &f, SQFFD_VOXEL_U8);
-    CHECK_MSG(sqffd_image_read_memory(b.data, b.size, "z.nii", &im, err, sizeof err) == 0, "%s", err);
-    CHECK(count_wrong_voxels(&im, SQFFD_VOXEL_U8) == 0);
-    sqffd_image_free(&im);
-    bytes_free(&b);
+    CHECK_READS(&b, "z.nii", SQFFD_VOXEL_U8);
 }
 
 /* A .hdr/.img pair on disk, named by either file; from memory it is refused. */
@@ -623,6 +632,48 @@ static const char *const met_names[7] = {"MET_UCHAR", "MET_CHAR", "MET_USHORT", 
    2.5; Offset (10, -20, 30). The NRRD test below states the same geometry. */
 static const double permuted_affine[12] = {0, -2, 0, 10, 1.5, 0, 0, -20, 0, 0, 2.5, 30};
 
+/* A detached header b and its data file raw written as NAME.EXT and
+   NAME.raw, the pair read: the voxels of type, big-endian, on the permuted
+   affine; from memory (as h.EXT) the header cannot reach its data file.
+   0, with b and raw freed, when the files cannot be written (the test is
+   skipped). */
+static int check_detached(bytes *b, bytes *raw, const char *name, const char *ext, sqffd_voxel_type type)
+{
+    sqffd_image im;
+    char err[256] = "", header[64], data[64], memory_name[16], part[128];
+    snprintf(header, sizeof header, "%s.%s", name, ext);
+    snprintf(data, sizeof data, "%s.raw", name);
+    if (!write_file(header, b->data, b->size) || !write_file(data, raw->data, raw->size)) {
+        printf("    (skipped: cannot write files in the working directory)\n");
+        bytes_free(b);
+        bytes_free(raw);
+        return 0;
+    }
+    CHECK_MSG(sqffd_image_read_file(header, &im, err, sizeof err) == 0, "%s", err);
+    CHECK(count_wrong_voxels(&im, type) == 0 && im.big_endian == 1);
+    CHECK_AFFINE(&im, permuted_affine, 0);
+    sqffd_image_free(&im);
+    snprintf(memory_name, sizeof memory_name, "h.%s", ext);
+    snprintf(part, sizeof part, "the voxels are in the data file '%s'", data);
+    CHECK_FAILS(sqffd_image_read_memory(b->data, b->size, memory_name, &im, err, sizeof err), &im, err, memory_name,
+                part);
+    return 1;
+}
+
+/* A broken header read from memory as name fails with "name: ...part...";
+   when it holds data_mark, 10 bytes of data follow it (too short for any
+   case that gets that far). */
+static void check_broken(const char *header, const char *data_mark, const char *name, const char *part)
+{
+    bytes b = {NULL, 0, 0};
+    sqffd_image im;
+    char err[256] = "";
+    bytes_text(&b, "%s", header);
+    if (strstr(header, data_mark)) bytes_put(&b, "0123456789", 10);
+    CHECK_FAILS(sqffd_image_read_memory(b.data, b.size, name, &im, err, sizeof err), &im, err, name, part);
+    bytes_free(&b);
+}
+
 static void mha_header(bytes *b, const char *type, int msb, const char *extra)
 {
     bytes_text(b, "ObjectType = Image\nNDims = 3\nBinaryData = True\nBinaryDataByteOrderMSB = %s\n"
@@ -677,17 +728,11 @@ static void test_volume_io_metaimage(void)
     mha_header(&b, "MET_SHORT", 0, "HeaderSize = -1\nElementDataFile = LOCAL\n");
     bytes_text(&b, "junk before the data");
     put_voxels(&b, SQFFD_VOXEL_I16, 4, 3, 2, 1, 0);
-    CHECK_MSG(sqffd_image_read_memory(b.data, b.size, "e.mha", &im, err, sizeof err) == 0, "%s", err);
-    CHECK(count_wrong_voxels(&im, SQFFD_VOXEL_I16) == 0);
-    sqffd_image_free(&im);
-    bytes_free(&b);
+    CHECK_READS(&b, "e.mha", SQFFD_VOXEL_I16);
     mha_header(&b, "MET_SHORT", 0, "HeaderSize = 5\nElementDataFile = LOCAL\n");
     bytes_text(&b, "junk!");
     put_voxels(&b, SQFFD_VOXEL_I16, 4, 3, 2, 1, 0);
-    CHECK_MSG(sqffd_image_read_memory(b.data, b.size, "s.mha", &im, err, sizeof err) == 0, "%s", err);
-    CHECK(count_wrong_voxels(&im, SQFFD_VOXEL_I16) == 0);
-    sqffd_image_free(&im);
-    bytes_free(&b);
+    CHECK_READS(&b, "s.mha", SQFFD_VOXEL_I16);
 }
 
 /* Python 3 zlib 1.2.13, level 9: zlib.compress of the 48 bytes of the
@@ -759,10 +804,7 @@ static void test_volume_io_metaimage_compressed(void)
     /* without CompressedDataSize: the stream runs to the end */
     mha_header(&b, "MET_SHORT", 0, "CompressedData = True\nElementDataFile = LOCAL\n");
     bytes_put(&b, zlib_i16_le, sizeof zlib_i16_le);
-    CHECK_MSG(sqffd_image_read_memory(b.data, b.size, "z.mha", &im, err, sizeof err) == 0, "%s", err);
-    CHECK(count_wrong_voxels(&im, SQFFD_VOXEL_I16) == 0);
-    sqffd_image_free(&im);
-    bytes_free(&b);
+    CHECK_READS(&b, "z.mha", SQFFD_VOXEL_I16);
     /* a stream shorter and one longer than DimSize promises */
     mha_header(&b, "MET_SHORT", 0, "CompressedData = True\nElementDataFile = LOCAL\n");
     bytes_put(&b, zlib_i16_le_short, sizeof zlib_i16_le_short);
@@ -798,19 +840,7 @@ static void test_volume_io_metaimage_detached(void)
     mha_header(&b, "MET_USHORT", 1, "HeaderSize = 16\nElementDataFile = sqffd_test_mhd.raw\n");
     bytes_text(&raw, "sixteen bytes...");
     put_voxels(&raw, SQFFD_VOXEL_U16, 4, 3, 2, 1, 1);
-    if (!write_file("sqffd_test_mhd.mhd", b.data, b.size) || !write_file("sqffd_test_mhd.raw", raw.data, raw.size)) {
-        printf("    (skipped: cannot write files in the working directory)\n");
-        bytes_free(&b);
-        bytes_free(&raw);
-        return;
-    }
-    CHECK_MSG(sqffd_image_read_file("sqffd_test_mhd.mhd", &im, err, sizeof err) == 0, "%s", err);
-    CHECK(count_wrong_voxels(&im, SQFFD_VOXEL_U16) == 0 && im.big_endian == 1);
-    CHECK_AFFINE(&im, permuted_affine, 0);
-    sqffd_image_free(&im);
-    /* from memory the header cannot reach its data file */
-    CHECK_FAILS(sqffd_image_read_memory(b.data, b.size, "h.mhd", &im, err, sizeof err), &im, err, "h.mhd",
-                "the voxels are in the data file 'sqffd_test_mhd.raw'");
+    if (!check_detached(&b, &raw, "sqffd_test_mhd", "mhd", SQFFD_VOXEL_U16)) return;
     /* the data file one byte short */
     CHECK(write_file("sqffd_test_mhd.raw", raw.data, raw.size - 1));
     CHECK_FAILS(sqffd_image_read_file("sqffd_test_mhd.mhd", &im, err, sizeof err), &im, err, "sqffd_test_mhd.raw",
@@ -862,17 +892,8 @@ static void test_volume_io_metaimage_broken(void)
          "data: the header promises 48 bytes from offset"},
     };
     size_t c;
-    for (c = 0; c < sizeof cases / sizeof cases[0]; c++) {
-        bytes b = {NULL, 0, 0};
-        sqffd_image im;
-        char err[256] = "";
-        bytes_text(&b, "%s", cases[c].header);
-        if (strstr(cases[c].header, "ElementDataFile"))
-            bytes_put(&b, "0123456789", 10); /* data too short for any case that gets that far */
-        CHECK_FAILS(sqffd_image_read_memory(b.data, b.size, "b.mha", &im, err, sizeof err), &im, err, "b.mha",
-                    cases[c].part);
-        bytes_free(&b);
-    }
+    for (c = 0; c < sizeof cases / sizeof cases[0]; c++)
+        check_broken(cases[c].header, "ElementDataFile", "b.mha", cases[c].part);
 }
 
 /* ---- NRRD ----------------------------------------------------------------- */
@@ -933,10 +954,7 @@ static void test_volume_io_nrrd(void)
     /* ascii voxels (endian may be absent) */
     nrrd_header(&b, "short", "little", "ascii", "\n");
     bytes_text(&b, "-50 -49 -48 -47\n-40 -39 -38 -37 -30 -29 -28 -27\n50 51 52 53 60 61 62 63 70 71 72 73\n");
-    CHECK_MSG(sqffd_image_read_memory(b.data, b.size, "a.nrrd", &im, err, sizeof err) == 0, "%s", err);
-    CHECK(count_wrong_voxels(&im, SQFFD_VOXEL_I16) == 0);
-    sqffd_image_free(&im);
-    bytes_free(&b);
+    CHECK_READS(&b, "a.nrrd", SQFFD_VOXEL_I16);
     /* 4-D without space directions: spacings, the 4th axis is time */
     {
         static const double diagonal[12] = {1.5, 0, 0, 0, 0, 2, 0, 0, 0, 0, 2.5, 0};
@@ -1026,18 +1044,7 @@ static void test_volume_io_nrrd_detached(void)
     nrrd_header(&b, "int32", "big", "raw", "data file: sqffd_test_nhdr.raw\nline skip: 2\nbyte skip: 3\n");
     bytes_text(&raw, "first line\nsecond line\nxyz");
     put_voxels(&raw, SQFFD_VOXEL_I32, 4, 3, 2, 1, 1);
-    if (!write_file("sqffd_test_nhdr.nhdr", b.data, b.size) || !write_file("sqffd_test_nhdr.raw", raw.data, raw.size)) {
-        printf("    (skipped: cannot write files in the working directory)\n");
-        bytes_free(&b);
-        bytes_free(&raw);
-        return;
-    }
-    CHECK_MSG(sqffd_image_read_file("sqffd_test_nhdr.nhdr", &im, err, sizeof err) == 0, "%s", err);
-    CHECK(count_wrong_voxels(&im, SQFFD_VOXEL_I32) == 0 && im.big_endian == 1);
-    CHECK_AFFINE(&im, permuted_affine, 0);
-    sqffd_image_free(&im);
-    CHECK_FAILS(sqffd_image_read_memory(b.data, b.size, "h.nhdr", &im, err, sizeof err), &im, err, "h.nhdr",
-                "the voxels are in the data file 'sqffd_test_nhdr.raw'");
+    if (!check_detached(&b, &raw, "sqffd_test_nhdr", "nhdr", SQFFD_VOXEL_I32)) return;
     bytes_free(&b);
     /* byte skip -1: the data are the file's last bytes */
     nrrd_header(&b, "int32", "big", "raw", "data file: ./sqffd_test_nhdr.raw\nbyte skip: -1\n");
@@ -1116,17 +1123,7 @@ static void test_volume_io_nrrd_broken(void)
         {"NRRD0004\nthis line has no colon\n\n", "line 2: expected \"field: value\""},
     };
     size_t c;
-    for (c = 0; c < sizeof cases / sizeof cases[0]; c++) {
-        bytes b = {NULL, 0, 0};
-        sqffd_image im;
-        char err[256] = "";
-        bytes_text(&b, "%s", cases[c].header);
-        if (strstr(cases[c].header, "\n\n"))
-            bytes_put(&b, "0123456789", 10); /* data too short for any case that gets that far */
-        CHECK_FAILS(sqffd_image_read_memory(b.data, b.size, "b.nrrd", &im, err, sizeof err), &im, err, "b.nrrd",
-                    cases[c].part);
-        bytes_free(&b);
-    }
+    for (c = 0; c < sizeof cases / sizeof cases[0]; c++) check_broken(cases[c].header, "\n\n", "b.nrrd", cases[c].part);
     {   /* ascii: out of the type's range, and too few values */
         bytes b = {NULL, 0, 0};
         sqffd_image im;
