@@ -621,6 +621,25 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         free(sub);
     }
 
+    /* a label map's surface: the voxels that equal one voxel's value; any count, finite points */
+    {
+        sqffd_iso_options lab = opt;
+        size_t n_lab = 0, i;
+        double *at;
+        lab.labelled = 1;
+        lab.label = bf.value[(size_t)misc_byte % bf.voxels];
+        if (!isfinite(lab.label)) {
+            if (sqffd_iso_points(v, &lab, NULL, NULL, 0, &n_lab, block, ws_size) != SQFFD_ERROR_INVALID_ARGUMENT) abort();
+        } else {
+            if (sqffd_iso_points(v, &lab, NULL, NULL, 0, &n_lab, block, ws_size) != SQFFD_OK) abort();
+            at = (double *)malloc(3 * (n_lab ? n_lab : 1) * sizeof(double));
+            if (!at || sqffd_iso_points(v, &lab, at, NULL, n_lab, &n_lab, block, ws_size) != SQFFD_OK) abort();
+            for (i = 0; i < 3 * n_lab; i++)
+                if (!isfinite(at[i])) abort();
+            free(at);
+        }
+    }
+
 done:
     free(points);
     free(normals);

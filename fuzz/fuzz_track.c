@@ -236,6 +236,28 @@ static void run_motion(const sqffd_model *models, size_t frames, unsigned mb, in
         abort(); /* (INVALID_ARGUMENT: a given direction along the axis) */
     }
     if (sqffd_motion(models, 0, &mo, &out, &rep, ws, ws_size) != SQFFD_ERROR_INVALID_ARGUMENT) abort();
+    { /* volumes between slices: three planes across each model's superquadric along its third axis */
+        sqffd_motion_options ms = sqffd_motion_options_default();
+        sqffd_stack st[MAX_FRAMES];
+        for (t = 0; t < frames; t++) {
+            const sqffd_superquadric *q = &models[0].sq;
+            double c = 0.0;
+            for (k = 0; k < 3; k++) {
+                st[t].axis[k] = q->rotation[3 * k + 2];
+                c += st[t].axis[k] * q->center[k];
+            }
+            st[t].planes = 3;
+            st[t].spacing = 0.5 * q->size[2];
+            for (k = 0; k < 3; k++) st[t].level[k] = c + (double)(k - 1) * st[t].spacing;
+        }
+        ms.stacks = st;
+        res = sqffd_motion(models, frames, &ms, NULL, &rep, ws, ws_size);
+        if (res == SQFFD_OK ? !isfinite(rep.edv) || !isfinite(rep.ejection_fraction)
+                            : res != SQFFD_ERROR_NON_FINITE && res != SQFFD_ERROR_DEGENERATE && res != SQFFD_ERROR_INVALID_ARGUMENT)
+            abort();
+        st[0].planes = 2; /* too few: refused */
+        if (sqffd_motion(models, frames, &ms, NULL, &rep, ws, ws_size) != SQFFD_ERROR_INVALID_ARGUMENT) abort();
+    }
     free(ws);
     free(out.volumes);
     free(out.trajectories);
@@ -304,6 +326,17 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         if (!points[t]) abort();
         counts[t] = make_frame(&r, axes, rot, shrink, t, points[t], &bad[t], &alike[t]);
         frame_ptrs[t] = points[t];
+        { /* a frame is a short-axis stack or not; if it is, a well-formed one */
+            sqffd_stack st;
+            int found = 0;
+            size_t k;
+            sqffd_result sr = sqffd_points_stack(sqffd_points_packed(points[t], counts[t]), &st, &found);
+            if (sr != SQFFD_OK && sr != SQFFD_ERROR_NON_FINITE) abort();
+            if (found && (st.planes < 3 || st.planes > SQFFD_STACK_PLANES || !(st.spacing > 0.0) || !isfinite(st.spacing)))
+                abort();
+            for (k = 1; found && k < st.planes; k++)
+                if (!(st.level[k] > st.level[k - 1])) abort();
+        }
     }
 
     res = sqffd_track_workspace_size(counts, frames, &o, &ws_size);

@@ -194,7 +194,8 @@ class _TrackOptions(ctypes.Structure):
 
 class _MotionOptions(ctypes.Structure):
     _fields_ = [("ed_frame", _size), ("low_motion_fraction", _double), ("hypokinetic_share", _double),
-                ("apex_fraction", _double), ("apex_direction", _double * 3), ("septum_direction", _double * 3)]
+                ("apex_fraction", _double), ("apex_direction", _double * 3), ("septum_direction", _double * 3),
+                ("stacks", _pointer)]
 
 
 class _MotionOutputs(ctypes.Structure):

@@ -121,6 +121,7 @@ int main(void)
     FIELD(sqffd_motion_options, apex_fraction);
     FIELD(sqffd_motion_options, apex_direction);
     FIELD(sqffd_motion_options, septum_direction);
+    FIELD(sqffd_motion_options, stacks);
 
     STRUCT(sqffd_motion_outputs);
     FIELD(sqffd_motion_outputs, volumes);
