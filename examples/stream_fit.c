@@ -7,8 +7,9 @@
    from the previous frame's control points against a system prepared once
    (sqffd_ffd_system_init, then sqffd_track_frame per frame): what
    sqffd_track makes of a sequence, to the bit, with its default options
-   (100 iterations for the first fit, 10 for each later frame), but one
-   frame at a time, as they arrive, instead of over a sequence held in memory.
+   (100 iterations for the first fit, up to 100 for each later frame, to the
+   tolerance), but one frame at a time, as they arrive, instead of over a
+   sequence held in memory.
 
    MEMORY: everything the library needs comes out of ONE static block,
    carved once at start-up:
@@ -202,7 +203,7 @@ static int usage(FILE *f)
 int main(int argc, char **argv)
 {
     sqffd_track_options track = sqffd_track_options_default(); /* sqffd_track's defaults: 100 iterations
-                                                                  for the first fit, 10 for each later frame */
+                                                                  for the first fit, up to 100 a later frame */
     stream_memory mem;
     char err[512];
     size_t capacity = STREAM_DEFAULT_MAX_POINTS, frames = 0, fitted = 0, failed = 0, timed = 0;

@@ -27,7 +27,7 @@ awk -F, 'NR > 1 { printf "%s %.10f %s\n", $1, 100 * $4, $5 }' "$TMP/track/volume
 # check_frames OUT EXPECT: OUT is stream_fit's output, EXPECT one line per
 # frame given: "fit PHANTOM_FRAME POINTS SUBSAMPLED_FROM|- MAX_ITERATIONS" or
 # "fail KEPT_FRAME|none TEXT...". Every frame line is checked: its index, and
-# for a fit its points, iterations (1 .. the cap: 100 first, 10 later, as
+# for a fit its points, iterations (1 .. the cap: 100 first and later, as
 # sqffd_track) and error. A frame streamed whole after the frames before it
 # (no subsample, no bad frame between) is sqffd_track's to the bit
 # (sqffd_track_frame), so its error must print as track's and its
@@ -81,7 +81,7 @@ status=$?
 [ $status -eq 0 ] && ok || bad "clean sequence: exit $status, expected 0: $(head -c 300 "$TMP/err1")"
 {
     echo "fit 0 3000 - 100"
-    for t in 1 2 3 4 5; do echo "fit $t 3000 - 10"; done
+    for t in 1 2 3 4 5; do echo "fit $t 3000 - 100"; done
 } >"$TMP/want1"
 check_frames "$TMP/out1" "$TMP/want1" >"$TMP/check1" && ok || bad "clean sequence: $(cat "$TMP/check1")"
 grep -q "^summary: 6 frames, 6 fitted, 0 failed; first fit (frame 0) [0-9.]* ms; tracked frames median [0-9.]* ms (5); buffer [0-9]* bytes" \
@@ -108,15 +108,15 @@ status=$?
 [ $status -eq 1 ] && ok || bad "bad frames: exit $status, expected 1: $(head -c 300 "$TMP/err2")"
 cat >"$TMP/want2" <<EOF
 fit 0 2500 3000 100
-fit 1 2500 3000 10
+fit 1 2500 3000 100
 fail 1 truncated.ply: header says 3000 vertices
-fit 2 2500 3000 10
+fit 2 2500 3000 100
 fail 3 nan.xyz: line 2: 'nan' is not a finite number
-fit 3 2500 3000 10
+fit 3 2500 3000 100
 fail 5 huge.xyz: input contains NaN, infinity or a value too large
-fit 4 2500 3000 10
+fit 4 2500 3000 100
 fail 7 few.xyz: too few points
-fit 5 2500 3000 10
+fit 5 2500 3000 100
 EOF
 check_frames "$TMP/out2" "$TMP/want2" >"$TMP/check2" && ok || bad "bad frames: $(cat "$TMP/check2")"
 grep -q "^summary: 10 frames, 6 fitted, 4 failed;" "$TMP/out2" && ok || bad "bad frames: summary: $(grep summary "$TMP/out2")"
@@ -125,7 +125,7 @@ grep -q "^summary: 10 frames, 6 fitted, 4 failed;" "$TMP/out2" && ok || bad "bad
 "$STREAM" "$TMP/few.xyz" "${P}_00.ply" "${P}_01.ply" >"$TMP/out3" 2>"$TMP/err3"
 status=$?
 [ $status -eq 1 ] && ok || bad "bad first frame: exit $status, expected 1"
-printf 'fail none few.xyz: too few points\nfit 0 3000 - 100\nfit 1 3000 - 10\n' >"$TMP/want3"
+printf 'fail none few.xyz: too few points\nfit 0 3000 - 100\nfit 1 3000 - 100\n' >"$TMP/want3"
 check_frames "$TMP/out3" "$TMP/want3" >"$TMP/check3" && ok || bad "bad first frame: $(cat "$TMP/check3")"
 grep -q "first fit (frame 1)" "$TMP/out3" && ok || bad "bad first frame: summary: $(grep summary "$TMP/out3")"
 
