@@ -123,17 +123,7 @@ static int label_map_frames(double *const stacks[2], const size_t counts[2], dou
         points[k] = NULL;
         if (!labels) return -1;
         synth_rasterise_stack(stacks[k], counts[k], origin, LABEL_PIXEL, spacing, dims, 3, 2, LABEL_RING, labels);
-        memset(&v, 0, sizeof v);
-        v.data = labels;
-        v.type = SQFFD_VOXEL_U8;
-        memcpy(v.dims, dims, sizeof v.dims);
-        v.strides[0] = 1;
-        v.strides[1] = (ptrdiff_t)dims[0];
-        v.strides[2] = (ptrdiff_t)(dims[0] * dims[1]);
-        v.affine[0] = LABEL_PIXEL; v.affine[3] = origin[0];
-        v.affine[5] = LABEL_PIXEL; v.affine[7] = origin[1];
-        v.affine[10] = spacing; v.affine[11] = origin[2];
-        v.affine[15] = 1.0;
+        v = synth_label_volume(labels, dims, origin, LABEL_PIXEL, spacing);
         o.labelled = 1;
         o.label = 3.0;
         o.largest_component = 1;

@@ -390,4 +390,24 @@ static inline void synth_rasterise_stack(const double *points, size_t n, const d
     }
 }
 
+/* The u8 volume view of such a label map: voxel (i, j, k) at origin + (i
+   pixel, j pixel, k spacing). */
+static inline sqffd_volume synth_label_volume(const unsigned char *labels, const size_t dims[3], const double origin[3],
+                                              double pixel, double spacing)
+{
+    sqffd_volume v;
+    memset(&v, 0, sizeof v);
+    v.data = labels;
+    v.type = SQFFD_VOXEL_U8;
+    memcpy(v.dims, dims, sizeof v.dims);
+    v.strides[0] = 1;
+    v.strides[1] = (ptrdiff_t)dims[0];
+    v.strides[2] = (ptrdiff_t)(dims[0] * dims[1]);
+    v.affine[0] = pixel; v.affine[3] = origin[0];
+    v.affine[5] = pixel; v.affine[7] = origin[1];
+    v.affine[10] = spacing; v.affine[11] = origin[2];
+    v.affine[15] = 1.0;
+    return v;
+}
+
 #endif /* SQFFD_SYNTH_H */

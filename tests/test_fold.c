@@ -207,17 +207,7 @@ static size_t label_map_points(const double *stack_points, size_t n, double firs
     size_t size, count = 0;
     void *ws;
     synth_rasterise_stack(stack_points, n, origin, 1.0, 7.0, dims, 3, 2, 3, labels);
-    memset(&v, 0, sizeof v);
-    v.data = labels;
-    v.type = SQFFD_VOXEL_U8;
-    memcpy(v.dims, dims, sizeof v.dims);
-    v.strides[0] = 1;
-    v.strides[1] = (ptrdiff_t)dims[0];
-    v.strides[2] = (ptrdiff_t)(dims[0] * dims[1]);
-    v.affine[0] = 1.0; v.affine[3] = origin[0];
-    v.affine[5] = 1.0; v.affine[7] = origin[1];
-    v.affine[10] = 7.0; v.affine[11] = origin[2];
-    v.affine[15] = 1.0;
+    v = synth_label_volume(labels, dims, origin, 1.0, 7.0);
     o.labelled = 1;
     o.label = 3.0;
     o.largest_component = 1;
