@@ -867,12 +867,15 @@ SQFFD_DEF sqffd_result sqffd_fit_workspace_size(size_t n, const sqffd_fit_option
             + tether / M sum_v |x_v(P) - x_v(P0)|^2 + model_to_data / H sum_h |x_h - nearest data point|^2
    (h over every other model point in each grid direction and the poles),
    d_i the error of point i, rho(d) = d^2 or in robust mode (options->sq.robust)
-   Welsch's nu^2 (1 - exp(-d^2 / nu^2)). Each iteration: (1) each data point's
+   Welsch's nu^2 (1 - exp(-d^2 / nu^2)), over the lattices whose Jacobian
+   bound (sqffd_ffd_jacobian_bound) stays at or above options->min_jacobian:
+   the model cannot fold. Each iteration: (1) each data point's
    closest point on the model mesh (exact in the first and last pass, a
    local answer in between); its displacement, shared among that
    triangle's corners by barycentric weight, gives a weighted least-squares
    bound of E; (2) the control points minimising that bound (it cannot raise
-   E); the steps are over-relaxed (adaptively), and one that raised E
+   E), under the Jacobian floor (the fold-free steps in the implementation);
+   the steps are over-relaxed (adaptively), and one that raised E
    is replaced by the plain step: report->energy_history never rises.
    From the superquadric, the first options->coarse_iterations of the
    iterations run on a coarse grid (half the rows and columns) and an even
