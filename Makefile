@@ -49,9 +49,9 @@ SUBMAKE = $(MAKE) --no-print-directory $(if $(filter -j%,$(MAKEFLAGS)),,-j$(JOBS
 PARTS = rm -f $(BUILD)/O2/unit.log; $(SUBMAKE) unit-build && $(SUBMAKE) $(1); s=$$?; \
   tail -n 1 $(BUILD)/O2/unit.log 2>/dev/null; exit $$s
 test:
-	@$(call PARTS,$(TEST_PARTS))
+	+@$(call PARTS,$(TEST_PARTS))
 check:
-	@$(call PARTS,$(CHECK_PARTS))
+	+@$(call PARTS,$(CHECK_PARTS))
 unit-build: $(BUILD)/O2/sqffd_tests
 	@:
 
