@@ -1478,13 +1478,16 @@ static inline int sqffd_io_read_pcd(const void *data, size_t size, const char *n
    signature at byte 0: MINC 2, .h5), a zip archive ("PK\3\4"), Analyze 7.5
    (a 348-byte header, either byte order, without NIfTI-1's magic at byte
    344), STL (binary: an 80-byte header and a triangle count that gives the
-   size exactly; ASCII: "solid" as the first word). None of these can be a
-   supported file: the supported formats' content starts otherwise, and a
-   text file's bytes 80-83 give a count far beyond the size limit. */
+   size exactly, at least one; ASCII: "solid" as the first word). None of
+   these can be a supported file: the supported formats' content starts
+   otherwise, and a text file's bytes 80-83 give a count far beyond the size
+   limit. A gzip stream is none of them (NULL): its content is told once
+   inflated. */
 static inline const char *sqffd_io_foreign_format(const void *data, size_t size)
 {
     const unsigned char *b = (const unsigned char *)data;
     size_t i = 0;
+    if (size >= 2 && b[0] == 0x1f && b[1] == 0x8b) return NULL;
     if (size >= 132 && memcmp(b + 128, "DICM", 4) == 0)
         return "DICOM is not read by sqffd; convert it to NIfTI (e.g. with dcm2niix)";
     if (size >= 13 && memcmp(b, "#INRIMAGE-4#{", 13) == 0)
@@ -1498,7 +1501,7 @@ static inline const char *sqffd_io_foreign_format(const void *data, size_t size)
         return "Analyze 7.5 (a .hdr without the NIfTI-1 magic) is not read by sqffd; convert it to NIfTI (e.g. with "
                "nibabel or fslchfiletype)";
     while (i < size && sqffd_io__is_space((char)b[i])) i++;
-    if ((size >= 84 && (uint64_t)sqffd_gz__load32_le(b + 80) * 50 + 84 == size) ||
+    if ((size >= 134 && (uint64_t)sqffd_gz__load32_le(b + 80) * 50 + 84 == size) ||
         (size - i >= 5 && memcmp(b + i, "solid", 5) == 0 && (size - i == 5 || sqffd_io__is_space((char)b[i + 5]))))
         return "STL is not read by sqffd; convert it to PLY, OFF or OBJ (e.g. with MeshLab or meshio)";
     return NULL;

@@ -489,6 +489,10 @@ static void test_io_foreign_formats(void)
     memcpy(b, "binary", 6);
     expect_error(b, 184, "cube.stl", stl_message, __FILE__, __LINE__);
     expect_error(b, 183, "cube.stl", "not a text point file", __FILE__, __LINE__); /* the count does not fit */
+    b[80] = 0; /* no triangle: no STL */
+    expect_error(b, 84, "cube.stl", "not a text point file", __FILE__, __LINE__);
+    b[0] = 0x1f; b[1] = 0x8b; b[80] = 2; /* a gzip stream sized like an STL: inflated, not named STL (fuzz_io) */
+    expect_error(b, 184, "cube.stl", "gzip-compressed data", __FILE__, __LINE__);
 
     memset(b, 0, sizeof b);
     b[0] = 0x5C; b[1] = 1; /* sizeof_hdr 348, little-endian */
