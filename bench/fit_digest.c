@@ -44,8 +44,8 @@ static int progress(void *user, int stage, int it, double err)
 static uint64_t model_hash(const sqffd_model *m)
 {
     unsigned char buf[1 << 16];
-    size_t n = sqffd_model_save_size(m);
-    if (!n || n > sizeof buf || sqffd_model_save(m, buf, sizeof buf) != SQFFD_OK) return 0;
+    size_t n = 0;
+    if (sqffd_model_save_size(m, &n) != SQFFD_OK || n > sizeof buf || sqffd_model_save(m, buf, sizeof buf) != SQFFD_OK) return 0;
     return fnv(FNV0, buf, n);
 }
 
@@ -159,7 +159,7 @@ static void track_case(const char *name, size_t frames, sqffd_track_options o)
             sqffd_fit_report rep;
             p.h = FNV0; p.calls = 0;
             memset(&rep, 0, sizeof rep);
-            r = sqffd_track_frame(&sys, sqffd_points_packed(pts[t], 6000), &o, &m, &rep, ws, size);
+            r = sqffd_track_frame(&sys, pts[t], 6000, &o, &m, &rep, ws, size);
             snprintf(label, sizeof label, "track_frame %s frame %zu", name, t);
             print_report(label, r, &m, &rep, &p);
         }
