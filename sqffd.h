@@ -6752,6 +6752,21 @@ static int sqffd__fit_spring(const int d[3], size_t p, int axis, size_t *other)
     return 0;
 }
 
+/* matrix (L x L, lower triangle) += weight x the lattice's graph Laplacian:
+   the springs' part of a normal matrix. */
+static void sqffd__fit_add_springs(const int dims[3], size_t l, double weight, double *matrix)
+{
+    size_t p, q;
+    int axis;
+    for (p = 0; p < l; ++p)
+        for (axis = 0; axis < 3; ++axis)
+            if (sqffd__fit_spring(dims, p, axis, &q)) {
+                matrix[p * l + p] += weight;
+                matrix[q * l + q] += weight;
+                matrix[q * l + p] -= weight; /* q > p: lower triangle */
+            }
+}
+
 /* Whether a step may meet a singular normal matrix (then it is solved by SVD). */
 static int sqffd__fit_needs_svd(const sqffd_fit_options *o)
 {
@@ -6989,19 +7004,16 @@ static sqffd_result sqffd__fit_prepare(const sqffd_model *model, double alpha, d
                 if (q < p) s->rhs0[c * l + q] += h * s->rest_control[3 * p + c];
             }
         }
-    for (p = 0; p < l; ++p)
-        for (axis = 0; axis < 3; ++axis)
-            if (sqffd__fit_spring(s->dims, p, axis, &q)) {
-                s->fixed[p * l + p] += s->spring;
-                s->fixed[q * l + q] += s->spring;
-                s->fixed[q * l + p] -= s->spring; /* q > p: lower triangle */
-                if (regularization == SQFFD_REG_DISPLACEMENT)
+    sqffd__fit_add_springs(s->dims, l, s->spring, s->fixed);
+    if (regularization == SQFFD_REG_DISPLACEMENT)
+        for (p = 0; p < l; ++p)
+            for (axis = 0; axis < 3; ++axis)
+                if (sqffd__fit_spring(s->dims, p, axis, &q))
                     for (c = 0; c < 3; ++c) {
                         double d = s->spring * (s->rest_control[3 * p + c] - s->rest_control[3 * q + c]);
                         s->rhs0[c * l + p] += d;
                         s->rhs0[c * l + q] -= d;
                     }
-            }
     return SQFFD_OK;
 }
 
@@ -7212,9 +7224,9 @@ static void sqffd__fit_fold_free(const sqffd__fit_system *s, sqffd__fit_work *w,
                                  const double inverse[9], int direct, double *bmove)
 {
     sqffd__fit_fold *f = w->fold;
-    size_t l = s->lattice, size = 3 * l, p, q;
+    size_t l = s->lattice, size = 3 * l, p;
     double *scratch = w->cg, tau = 1.0, unit = 0.0;
-    int k, axis, tries;
+    int k, tries;
     sqffd__fit_planar(w->rhs, l, f->free);
     if (!sqffd__fit_fold_broken(s, f, control, f->free, 1.0, inverse, scratch)) return;
     memcpy(f->move, f->free, size * sizeof(double));
@@ -7229,15 +7241,8 @@ static void sqffd__fit_fold_free(const sqffd__fit_system *s, sqffd__fit_work *w,
         unit = s->spring > 0.0 ? s->spring : 1e-6 * unit / (double)l; /* (alpha 0: a millionth of A's diagonal) */
         for (tries = w->factored ? 0 : 1; tries < SQFFD__FIT_FOLD_TRIES; ++tries) {
             if (tries > 0) { /* the step's problem with mu = 10^tries springs' weights */
-                double mu = unit * pow(10.0, (double)tries);
                 memcpy(w->matrix, f->normal, l * l * sizeof(double));
-                for (p = 0; p < l; ++p)
-                    for (axis = 0; axis < 3; ++axis)
-                        if (sqffd__fit_spring(s->dims, p, axis, &q)) {
-                            w->matrix[p * l + p] += mu;
-                            w->matrix[q * l + q] += mu;
-                            w->matrix[q * l + p] -= mu;
-                        }
+                sqffd__fit_add_springs(s->dims, l, unit * pow(10.0, (double)tries), w->matrix);
                 if (sqffd_cholesky_factor(w->matrix, l) != SQFFD_OK) continue;
                 memcpy(f->free, f->r, size * sizeof(double));
                 for (k = 0; k < 3; ++k) sqffd_cholesky_solve(w->matrix, l, f->free + (size_t)k * l);
@@ -8376,7 +8381,6 @@ static double sqffd__fit_volume(const int grid[2], const double *x)
 SQFFD_DEF sqffd_result sqffd_points_stack(sqffd_points points, sqffd_stack *stack, int *found)
 {
     double cov[9] = {0}, values[3], vectors[9], prev[3], p[3], mean = 0.0, diagonal, gaps[SQFFD_STACK_PLANES];
-    double lo[3], hi[3];
     sqffd_stack s;
     size_t n = points.count, i, k;
     int a, b;
@@ -8385,13 +8389,9 @@ SQFFD_DEF sqffd_result sqffd_points_stack(sqffd_points points, sqffd_stack *stac
     *found = 0;
     if ((r = sqffd__points_check(&points)) != SQFFD_OK) return r;
     if (n < 8) return SQFFD_OK;
-    for (i = 0; i < n; ++i) { /* the steps' mean square, and the box */
+    if ((r = sqffd__fit_diagonal(&points, &diagonal)) != SQFFD_OK) return r;
+    for (i = 0; i < n; ++i) { /* the steps' mean square */
         sqffd__points_get(&points, i, p);
-        if (!sqffd__finite3(p)) return SQFFD_ERROR_NON_FINITE;
-        for (a = 0; a < 3; ++a) {
-            lo[a] = i ? (p[a] < lo[a] ? p[a] : lo[a]) : p[a];
-            hi[a] = i ? (p[a] > hi[a] ? p[a] : hi[a]) : p[a];
-        }
         if (i) mean += sqffd__dist2_3(p, prev) / (double)(n - 1);
         memcpy(prev, p, sizeof p);
     }
@@ -8407,7 +8407,6 @@ SQFFD_DEF sqffd_result sqffd_points_stack(sqffd_points points, sqffd_stack *stac
     sqffd_sym3_eigen(cov, values, vectors);
     if (!(values[0] <= 1e-9 * values[1])) return SQFFD_OK; /* the steps are not planar */
     for (a = 0; a < 3; ++a) s.axis[a] = vectors[3 * a];
-    diagonal = sqrt(sqffd__dist2_3(lo, hi));
     s.planes = 0;
     for (i = 0; i < n; ++i) { /* the planes: the points' positions along the axis, within the tolerance */
         double at;
