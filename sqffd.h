@@ -162,6 +162,8 @@
        sqffd_track_frame(_view, _workspace_size)
                                        a stream: one later frame at a time, as sqffd_track
        sqffd_points_stack              a short-axis stack's planes (contours on slices)
+       sqffd_stack_shifts, sqffd_slice_shifts_apply
+                                       breath-hold misregistration: one in-plane shift a slice
        sqffd_motion(_workspace_size), sqffd_motion_options_default
                                        volumes (closed or between slices), EF, motion,
                                        low-motion zones, 17 segments
@@ -1113,6 +1115,44 @@ typedef struct sqffd_stack {
    untouched). INVALID_ARGUMENT (NULL stack or found, a bad view),
    NON_FINITE. */
 SQFFD_DEF sqffd_result sqffd_points_stack(sqffd_points points, sqffd_stack *stack, int *found);
+
+/* Breath-hold misregistration. Each slice of a cine stack is acquired in a
+   breath-hold of its own, the same for every frame of the cycle; a breath
+   held differently moves the whole slice in-plane by a few millimetres.
+   One shift a slice, from frame_count frames' stacks (their planes
+   parallel; each frame listed slice by slice, each contour in drawing
+   order, as sqffd_points_stack wants them):
+   - in each frame, the area centroid of each plane's contour (its points
+     within a quarter spacing of the plane, consecutive points forming
+     closed runs; a run that encloses nothing counts by its points' mean);
+   - the frame's centreline: the least-squares quadratic in the level
+     through those centroids (a line with 3 planes). A left ventricle's
+     centreline bends smoothly, and a tilt or offset of the whole stack is
+     the model's to follow: what the centreline explains is anatomy, the
+     jumps between neighbouring slices that it cannot are misregistration;
+   - a plane's shift: the centreline less its centroid, averaged over the
+     frames that hold a plane at that level (within a quarter spacing).
+   A stack of 3 planes gets zeros (nothing tells a jump from a bend); the
+   shifts of a slice along a straight or quadratic path are not seen.
+   Add shifts->shift[k] to the points of slice k (sqffd_slice_shifts_apply)
+   and fit again. INVALID_ARGUMENT (NULL arguments, frame_count 0, a bad
+   stack or view, planes not parallel, more than SQFFD_STACK_PLANES
+   distinct levels), NON_FINITE. */
+typedef struct sqffd_slice_shifts {
+    double axis[3];                        /* the planes' unit normal (the first frame's stack's) */
+    size_t slices;                         /* distinct levels over the frames */
+    double level[SQFFD_STACK_PLANES];      /* ascending */
+    double shift[SQFFD_STACK_PLANES][3];   /* world, across the axis: what moves slice k onto the centreline */
+    double tolerance;                      /* a point within it of a level is that slice's: a quarter spacing */
+} sqffd_slice_shifts;
+
+SQFFD_DEF sqffd_result sqffd_stack_shifts(const sqffd_points *frames, const sqffd_stack *stacks, size_t frame_count,
+                                          sqffd_slice_shifts *shifts);
+/* Adds slice k's shift to each of the n packed points (3n doubles) within
+   shifts->tolerance of its level; other points stay. *moved (may be NULL):
+   how many moved. INVALID_ARGUMENT (NULL shifts or points with n > 0), NON_FINITE. */
+SQFFD_DEF sqffd_result sqffd_slice_shifts_apply(const sqffd_slice_shifts *shifts, double *points, size_t n,
+                                                size_t *moved);
 
 /* Motion and function of a tracked left ventricle, from the frames' models
    (sqffd_track's; all with the same superquadric, lattice and grid). Per
@@ -8507,6 +8547,173 @@ static int sqffd__stack_valid(const sqffd_stack *s)
     for (k = 0; k < s->planes; ++k)
         if (!isfinite(s->level[k]) || (k && !(s->level[k] > s->level[k - 1]))) return 0;
     return 1;
+}
+
+/* Plane k's contour centroid in the in-plane basis (e0, e1): the area
+   centroid of its closed runs of consecutive points, each run's area taken
+   positive whatever its drawing direction; their points' mean where they
+   enclose nothing. 0 if the plane holds no point, -1 at a point not finite. */
+static int sqffd__stack_centroid(const sqffd_points *points, const double axis[3], const double e[2][3], double level,
+                                 double tolerance, double centroid[2])
+{
+    double run_area = 0.0, run_moment[2] = {0.0, 0.0}, area = 0.0, moment[2] = {0.0, 0.0}, sum[2] = {0.0, 0.0};
+    double first[2] = {0.0, 0.0}, prev[2] = {0.0, 0.0}, p[3], q[2];
+    size_t i, run = 0, count = 0;
+    int c;
+    for (i = 0; i <= points->count; ++i) {
+        int on = 0;
+        if (i < points->count) {
+            sqffd__points_get(points, i, p);
+            if (!sqffd__finite3(p)) return -1;
+            on = fabs(sqffd__dot3(p, axis) - level) <= tolerance;
+        }
+        if (on) {
+            for (c = 0; c < 2; ++c) q[c] = sqffd__dot3(p, e[c]);
+            for (c = 0; c < 2; ++c) sum[c] += q[c];
+            ++count;
+        }
+        if (run && !on) { /* the run ends: close it back to its first point */
+            double t = 0.5 * (prev[0] * first[1] - prev[1] * first[0]);
+            run_area += t;
+            for (c = 0; c < 2; ++c) run_moment[c] += t * (prev[c] + first[c]) / 3.0;
+            if (run_area < 0.0) {
+                run_area = -run_area;
+                run_moment[0] = -run_moment[0];
+                run_moment[1] = -run_moment[1];
+            }
+            area += run_area;
+            for (c = 0; c < 2; ++c) moment[c] += run_moment[c];
+            run_area = run_moment[0] = run_moment[1] = 0.0;
+            run = 0;
+        }
+        if (!on) continue;
+        if (run) {
+            double t = 0.5 * (prev[0] * q[1] - prev[1] * q[0]);
+            run_area += t;
+            for (c = 0; c < 2; ++c) run_moment[c] += t * (prev[c] + q[c]) / 3.0;
+        } else {
+            first[0] = q[0];
+            first[1] = q[1];
+        }
+        prev[0] = q[0];
+        prev[1] = q[1];
+        ++run;
+    }
+    if (count == 0) return 0;
+    for (c = 0; c < 2; ++c) centroid[c] = area > 0.0 ? moment[c] / area : sum[c] / (double)count;
+    return 1;
+}
+
+SQFFD_DEF sqffd_result sqffd_stack_shifts(const sqffd_points *frames, const sqffd_stack *stacks, size_t frame_count,
+                                          sqffd_slice_shifts *shifts)
+{
+    double e[2][3], spacing = HUGE_VAL, length, counts[SQFFD_STACK_PLANES];
+    sqffd_slice_shifts s;
+    size_t t, k, j;
+    sqffd_result r;
+    int c;
+    if (!frames || !stacks || !shifts || frame_count == 0) return SQFFD_ERROR_INVALID_ARGUMENT;
+    memset(&s, 0, sizeof s);
+    memcpy(s.axis, stacks[0].axis, sizeof s.axis);
+    for (t = 0; t < frame_count; ++t) {
+        if (!sqffd__stack_valid(stacks + t) || !(fabs(sqffd__dot3(stacks[t].axis, s.axis)) >= 1.0 - 1e-6))
+            return SQFFD_ERROR_INVALID_ARGUMENT;
+        if ((r = sqffd__points_check(frames + t)) != SQFFD_OK) return r;
+        if (stacks[t].spacing < spacing) spacing = stacks[t].spacing;
+    }
+    s.tolerance = 0.25 * spacing;
+    c = fabs(s.axis[0]) <= fabs(s.axis[1]) && fabs(s.axis[0]) <= fabs(s.axis[2]) ? 0 : fabs(s.axis[1]) <= fabs(s.axis[2]) ? 1 : 2;
+    e[1][0] = e[1][1] = e[1][2] = 0.0;
+    e[1][c] = 1.0; /* the coordinate axis most across the planes' normal: e0 = axis x it, e1 = axis x e0 */
+    sqffd__cross3(s.axis, e[1], e[0]);
+    length = sqrt(sqffd__dot3(e[0], e[0])); /* at least sqrt(2/3): the axis is a unit vector */
+    for (c = 0; c < 3; ++c) e[0][c] /= length;
+    sqffd__cross3(s.axis, e[0], e[1]);
+    for (t = 0; t < frame_count; ++t) { /* the distinct levels, ascending */
+        const sqffd_stack *st = stacks + t;
+        double sign = sqffd__dot3(st->axis, s.axis) > 0.0 ? 1.0 : -1.0;
+        for (k = 0; k < st->planes; ++k) {
+            double level = sign * st->level[k];
+            for (j = 0; j < s.slices && !(fabs(level - s.level[j]) <= s.tolerance); ++j) {}
+            if (j < s.slices) continue;
+            if (s.slices == SQFFD_STACK_PLANES) return SQFFD_ERROR_INVALID_ARGUMENT;
+            for (j = s.slices++; j > 0 && s.level[j - 1] > level; --j) s.level[j] = s.level[j - 1];
+            s.level[j] = level;
+        }
+    }
+    memset(counts, 0, sizeof counts);
+    for (t = 0; t < frame_count; ++t) {
+        const sqffd_stack *st = stacks + t;
+        double centroid[SQFFD_STACK_PLANES][2], x[SQFFD_STACK_PLANES], normal[9], rhs[2][3], mid, half;
+        unsigned char held[SQFFD_STACK_PLANES];
+        double sign = sqffd__dot3(st->axis, s.axis) > 0.0 ? 1.0 : -1.0;
+        size_t used = 0;
+        int degree, a, b;
+        mid = 0.5 * (st->level[0] + st->level[st->planes - 1]) * sign;
+        half = 0.5 * (st->level[st->planes - 1] - st->level[0]);
+        memset(normal, 0, sizeof normal);
+        memset(rhs, 0, sizeof rhs);
+        for (k = 0; k < st->planes; ++k) { /* the centroids, in the level scaled to [-1, 1] */
+            int got = sqffd__stack_centroid(frames + t, st->axis, (const double(*)[3])e, st->level[k], s.tolerance,
+                                            centroid[k]);
+            if (got < 0) return SQFFD_ERROR_NON_FINITE;
+            held[k] = (unsigned char)got;
+            x[k] = (sign * st->level[k] - mid) / half;
+            used += held[k];
+        }
+        degree = used >= 4 ? 2 : used >= 2 ? (int)used - 1 : 0;
+        for (k = 0; k < st->planes; ++k) {
+            double power[3];
+            if (!held[k]) continue;
+            power[0] = 1.0;
+            power[1] = x[k];
+            power[2] = x[k] * x[k];
+            for (a = 0; a <= degree; ++a) {
+                for (b = 0; b <= degree; ++b) normal[(degree + 1) * a + b] += power[a] * power[b];
+                for (c = 0; c < 2; ++c) rhs[c][a] += power[a] * centroid[k][c];
+            }
+        }
+        if (used == 0) continue;
+        if ((r = sqffd_cholesky_factor(normal, (size_t)degree + 1)) != SQFFD_OK) return SQFFD_ERROR_NON_FINITE;
+        for (c = 0; c < 2; ++c) sqffd_cholesky_solve(normal, (size_t)degree + 1, rhs[c]);
+        for (k = 0; k < st->planes; ++k) { /* the centreline less the centroid, into its slice's sum */
+            double level = sign * st->level[k], power = 1.0, line[2] = {0.0, 0.0};
+            if (!held[k]) continue;
+            for (a = 0; a <= degree; ++a, power *= x[k])
+                for (c = 0; c < 2; ++c) line[c] += rhs[c][a] * power;
+            for (j = 0; !(fabs(level - s.level[j]) <= s.tolerance); ++j) {}
+            for (c = 0; c < 3; ++c)
+                s.shift[j][c] += (line[0] - centroid[k][0]) * e[0][c] + (line[1] - centroid[k][1]) * e[1][c];
+            counts[j] += 1.0;
+        }
+    }
+    for (j = 0; j < s.slices; ++j)
+        for (c = 0; c < 3; ++c) {
+            if (counts[j] > 0.0) s.shift[j][c] /= counts[j];
+            if (!isfinite(s.shift[j][c])) return SQFFD_ERROR_NON_FINITE;
+        }
+    *shifts = s;
+    return SQFFD_OK;
+}
+
+SQFFD_DEF sqffd_result sqffd_slice_shifts_apply(const sqffd_slice_shifts *shifts, double *points, size_t n,
+                                                size_t *moved)
+{
+    size_t i, j, count = 0;
+    int c;
+    if (moved) *moved = 0;
+    if (!shifts || (!points && n > 0) || shifts->slices > SQFFD_STACK_PLANES) return SQFFD_ERROR_INVALID_ARGUMENT;
+    for (i = 0; i < n; ++i) {
+        double *p = points + 3 * i, level;
+        if (!sqffd__finite3(p)) return SQFFD_ERROR_NON_FINITE;
+        level = sqffd__dot3(p, shifts->axis);
+        for (j = 0; j < shifts->slices && !(fabs(level - shifts->level[j]) <= shifts->tolerance); ++j) {}
+        if (j == shifts->slices) continue;
+        for (c = 0; c < 3; ++c) p[c] += shifts->shift[j][c];
+        ++count;
+    }
+    if (moved) *moved = count;
+    return SQFFD_OK;
 }
 
 typedef struct sqffd__motion_work {

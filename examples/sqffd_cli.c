@@ -49,7 +49,7 @@ static int cmd_help(int argc, char **argv);
 
 static const cli_command commands[] = {
     {"fit", "fit a superquadric + free-form deformation model to a point file",
-     "sqffd fit INPUT -o OUT.ply [--iso V|auto|--label N] [--sample N] [--lattice N|LxMxN] [--alpha A] [--model-to-data W] "
+     "sqffd fit INPUT -o OUT.ply [--iso V|auto|--label N] [--sample N] [--slice-shifts] [--lattice N|LxMxN] [--alpha A] [--model-to-data W] "
      "[--min-jacobian J|none] "
      "[--iterations K] [--coarse-iterations K] [--robust] [--no-taper] [--vtk] [--json FILE] [--svg FILE] [--quiet]",
      fit_details,
@@ -311,6 +311,7 @@ typedef struct input_args {
     size_t sample;        /* at most this many points (0: all); volumes default to VOLUME_SAMPLE */
     int sample_set;
     int all_components;   /* keep the specks: every component of the iso-surface */
+    int slice_shifts;     /* short-axis stacks: each slice moved onto the stack's centreline first */
 } input_args;
 
 #define VOLUME_SAMPLE 6000 /* points a volume gives by default: about what the paper fitted */
@@ -338,9 +339,10 @@ static int scan_input_option(arg_scan *s, const cli_command *c, input_args *in, 
     const char *v;
     long n;
     *status = 0;
-    if (strcmp(s->name, "--all-components") == 0) {
+    if (strcmp(s->name, "--all-components") == 0 || strcmp(s->name, "--slice-shifts") == 0) {
         *status = scan_flag(s, c);
-        in->all_components = 1;
+        if (strcmp(s->name, "--all-components") == 0) in->all_components = 1;
+        else in->slice_shifts = 1;
         return 1;
     }
     if (strcmp(s->name, "--iso") != 0 && strcmp(s->name, "--label") != 0 && strcmp(s->name, "--sample") != 0) return 0;
@@ -378,8 +380,64 @@ static void input_option_details(FILE *f)
             "                         (crossings at the voxel edges' midpoints), instead of --iso\n"
             "  --sample N             keep N points evenly spread (volumes: default %d; point files: all)\n"
             "  --all-components       volumes: keep every piece of the iso-surface (default: the\n"
-            "                         largest connected one, so specks and noise are dropped)\n",
+            "                         largest connected one, so specks and noise are dropped)\n"
+            "  --slice-shifts         short-axis stacks (contours listed slice by slice): correct\n"
+            "                         breath-hold misregistration first, each slice moved in-plane\n"
+            "                         onto the stack's smooth centreline (one shift a slice, the same\n"
+            "                         in every frame), and report the shifts\n",
             VOLUME_SAMPLE);
+}
+
+/* --slice-shifts: the frames' stacks, one shift a slice (sqffd_stack_shifts),
+   each frame's points moved; 0, or 1 with a message in err. */
+static int correct_slices(const char *const *names, double *const *frames, const size_t *counts, size_t frame_count,
+                          sqffd_slice_shifts *shifts, char *err, size_t err_size)
+{
+    sqffd_points *views = (sqffd_points *)calloc(frame_count, sizeof *views);
+    sqffd_stack *stacks = (sqffd_stack *)calloc(frame_count, sizeof *stacks);
+    sqffd_result r = SQFFD_OK;
+    size_t t;
+    int found = 1, status = 1;
+    if (!views || !stacks) {
+        snprintf(err, err_size, "sqffd: out of memory");
+        goto done;
+    }
+    for (t = 0; t < frame_count && found && r == SQFFD_OK; t++) {
+        views[t] = sqffd_points_packed(frames[t], counts[t]);
+        r = sqffd_points_stack(views[t], &stacks[t], &found);
+    }
+    if (r != SQFFD_OK) {
+        snprintf(err, err_size, "%s: --slice-shifts: %s", names[t - 1], sqffd_result_string(r));
+        goto done;
+    }
+    if (!found) {
+        snprintf(err, err_size, "%s: --slice-shifts: not a short-axis stack (points on 3 to %d parallel planes, listed "
+                 "slice by slice)", names[t - 1], SQFFD_STACK_PLANES);
+        goto done;
+    }
+    r = sqffd_stack_shifts(views, stacks, frame_count, shifts);
+    for (t = 0; t < frame_count && r == SQFFD_OK; t++) r = sqffd_slice_shifts_apply(shifts, frames[t], counts[t], NULL);
+    if (r != SQFFD_OK) snprintf(err, err_size, "%s: --slice-shifts: %s%s", names[0], sqffd_result_string(r),
+                                r == SQFFD_ERROR_INVALID_ARGUMENT ? " (the frames' planes differ, or too many levels)" : "");
+    else status = 0;
+done:
+    free(views);
+    free(stacks);
+    return status;
+}
+
+/* The shifts --slice-shifts applied, one line a slice. */
+static void print_slice_shifts(const sqffd_slice_shifts *s)
+{
+    size_t k;
+    double sum2 = 0.0;
+    for (k = 0; k < s->slices; k++)
+        sum2 += s->shift[k][0] * s->shift[k][0] + s->shift[k][1] * s->shift[k][1] + s->shift[k][2] * s->shift[k][2];
+    printf("  slice shifts     %lu slices along %.4g %.4g %.4g, RMS %.4g (added to each slice's points)\n",
+           (unsigned long)s->slices, s->axis[0], s->axis[1], s->axis[2], sqrt(sum2 / (double)s->slices));
+    for (k = 0; k < s->slices; k++)
+        printf("    level %10.4g  shift %10.4g %10.4g %10.4g\n", s->level[k], s->shift[k][0], s->shift[k][1],
+               s->shift[k][2]);
 }
 
 /* Whether path is a volume (by its first bytes, then its name). */
@@ -742,6 +800,7 @@ static int cmd_fit(int argc, char **argv)
     char err[512];
     int help, status = EXIT_BAD_INPUT;
     sqffd_io_scalar scalar;
+    sqffd_slice_shifts shifts;
 
     status = fit_parse(argc, argv, &a, &help);
     if (status) return status;
@@ -757,6 +816,10 @@ static int cmd_fit(int argc, char **argv)
     }
     points = frames[0];
     n = counts[0];
+    if (a.in.slice_shifts && correct_slices(&a.input, frames, counts, 1, &shifts, err, sizeof err)) {
+        fprintf(stderr, "%s\n", err);
+        goto done;
+    }
     t[1] = seconds_now();
 
     r = sqffd_fit_workspace_size(n, &a.options, &work_size);
@@ -844,6 +907,7 @@ static int cmd_fit(int argc, char **argv)
     }
     t[3] = seconds_now();
     if (!a.quiet) fit_report(&a, &input, n, &model, &report, nv, nt, &mesh_stats, t);
+    if (!a.quiet && a.in.slice_shifts) print_slice_shifts(&shifts);
     status = 0;
 done:
     free_frames(frames, counts, frame_count);
@@ -876,6 +940,7 @@ typedef struct track_args {
     sqffd_motion_options motion;
     int volume;                  /* VOLUME_AUTO, VOLUME_CLOSED or VOLUME_SLICES */
     sqffd_stack *stacks;         /* the frames' short-axis stacks, when the volumes are the slices' */
+    sqffd_slice_shifts shifts;   /* --slice-shifts: what was applied */
     int ascii, quiet;
     size_t dropped_nan, dropped_frames; /* PCD points dropped for NaN coordinates, and the frames that had some */
 } track_args;
@@ -1017,6 +1082,7 @@ static void track_report(const track_args *a, const size_t *counts, const sqffd_
     if (a->motion.stacks)
         printf("  volumes          between each frame's outer short-axis slices +- half the spacing (%.4g)\n",
                a->motion.stacks[m->ed_frame].spacing);
+    if (a->in.slice_shifts) print_slice_shifts(&a->shifts);
     printf("  end-diastolic volume   %.6g (frame %lu)\n", m->edv, (unsigned long)m->ed_frame);
     printf("  end-systolic volume    %.6g (frame %lu)\n", m->esv, (unsigned long)m->es_frame);
     printf("  ejection fraction  %.1f %%\n", 100.0 * m->ejection_fraction);
@@ -1281,6 +1347,10 @@ static int cmd_track(int argc, char **argv)
     if (a.motion.ed_frame >= a.frame_count) {
         status = usage_error(find_command("track"), "track: --ed %lu: there are %lu frames",
                              (unsigned long)a.motion.ed_frame, (unsigned long)a.frame_count);
+        goto done;
+    }
+    if (a.in.slice_shifts && correct_slices(a.frames, points, counts, a.frame_count, &a.shifts, err, sizeof err)) {
+        fprintf(stderr, "%s\n", err);
         goto done;
     }
     status = track_run(&a, points, counts, &res);

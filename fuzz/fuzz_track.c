@@ -336,6 +336,40 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                 abort();
             for (k = 1; found && k < st.planes; k++)
                 if (!(st.level[k] > st.level[k - 1])) abort();
+            if (!found && counts[t] > 0) { /* else three planes across the points' z range */
+                double lo = points[t][2], hi = lo;
+                for (k = 1; k < counts[t]; k++) {
+                    double z = points[t][3 * k + 2];
+                    lo = z < lo ? z : lo;
+                    hi = z > hi ? z : hi;
+                }
+                st.axis[0] = st.axis[1] = 0.0;
+                st.axis[2] = 1.0;
+                st.planes = 3;
+                st.spacing = 0.5 * (hi - lo);
+                for (k = 0; k < 3; k++) st.level[k] = lo + (double)k * st.spacing;
+                found = st.spacing > 0.0 && isfinite(st.spacing) && st.level[1] > lo && st.level[2] > st.level[1];
+            }
+            if (found) { /* its slice shifts: finite, across the axis, and applying them moves slice points only */
+                sqffd_points view = sqffd_points_packed(points[t], counts[t]);
+                sqffd_slice_shifts sh;
+                sr = sqffd_stack_shifts(&view, &st, 1, &sh);
+                if (sr == SQFFD_OK) {
+                    double *copy = (double *)malloc(3 * counts[t] * sizeof(double) + 1);
+                    size_t moved = 0;
+                    if (!copy) abort();
+                    if (sh.slices != st.planes) abort();
+                    for (k = 0; k < sh.slices; k++)
+                        if (!isfinite(sh.shift[k][0]) || !isfinite(sh.shift[k][1]) ||
+                            !(fabs(sh.shift[k][2] * st.axis[2]) <= 1e-6 * (fabs(sh.shift[k][0]) + fabs(sh.shift[k][1]) + 1e-300)))
+                            abort();
+                    memcpy(copy, points[t], 3 * counts[t] * sizeof(double));
+                    if (sqffd_slice_shifts_apply(&sh, copy, counts[t], &moved) != SQFFD_OK || moved > counts[t]) abort();
+                    free(copy);
+                } else if (sr != SQFFD_ERROR_NON_FINITE && sr != SQFFD_ERROR_INVALID_ARGUMENT) {
+                    abort();
+                }
+            }
         }
     }
 

@@ -241,6 +241,16 @@ expect 1 "$TMP/bad.nii: " info "$TMP/bad.nii"
 # track from one 4-D volume
 expect 0 "ejection fraction" track tests/data/example4d.nii.gz -o "$TMP/t4" --frame-iterations 2 --iterations 5
 grep -q '^ *1 *6000 ' "$TMP/out" && ok || bad "the 4-D volume's frame 1 was not tracked"
+# --slice-shifts: six circles along a bent centreline, their x jumped by the discrete cubic -5 7 4 -4 -7 5 (no
+# quadratic in the slice index explains it) times 0.5: each slice's reported shift is minus its jump
+awk 'BEGIN { split("-5 7 4 -4 -7 5", j, " "); for (k = 0; k < 6; k++) for (i = 0; i < 48; i++) {
+    a = 6.283185307179586 * i / 48; printf "%.12g %.12g %d\n", 3 + 0.1 * k * k + 0.5 * j[k + 1] + (20 + k) * cos(a), -1 + 0.3 * k + (20 + k) * sin(a), 10 * k } }' >"$TMP/stack.xyz"
+expect 0 "slice shifts     6 slices along 0 0 1" fit "$TMP/stack.xyz" -o "$TMP/stack.ply" --slice-shifts --iterations 2
+awk 'BEGIN { split("2.5 -3.5 -2 2 3.5 -2.5", w, " ") } $1 == "level" { k++; if ($4 - w[k] > 1e-6 || w[k] - $4 > 1e-6 || $5 > 1e-6 || $5 < -1e-6) bad = 1 }
+    END { exit bad || k != 6 }' "$TMP/out" && ok || bad "fit --slice-shifts: shifts not minus the jumps: $(grep level "$TMP/out")"
+expect 0 "slice shifts     6 slices" track "$TMP/stack.xyz" "$TMP/stack.xyz" -o "$TMP/ts" --slice-shifts --frame-iterations 1 --iterations 2
+expect 1 "--slice-shifts: not a short-axis stack" fit "$DATA" -o "$TMP/x.ply" --slice-shifts
+expect 2 "option '--slice-shifts' takes no value" fit "$TMP/stack.xyz" -o "$TMP/x.ply" --slice-shifts=1
 # the demo: everything it lists exists and reads back
 expect 0 "written to $TMP/demo/" demo -o "$TMP/demo"
 for f in frame_00.ply frame_15.ply motion.ply segments.csv volumes.csv model.json fig3_error.svg table1_alpha.svg volumes.svg bullseye.svg; do
