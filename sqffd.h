@@ -1137,7 +1137,7 @@ SQFFD_DEF sqffd_result sqffd_points_stack(sqffd_points points, sqffd_stack *stac
    Add shifts->shift[k] to the points of slice k (sqffd_slice_shifts_apply)
    and fit again. INVALID_ARGUMENT (NULL arguments, frame_count 0, a bad
    stack or view, planes not parallel, more than SQFFD_STACK_PLANES
-   distinct levels), NON_FINITE. */
+   distinct levels), NON_FINITE; on an error *shifts is zeroed. */
 typedef struct sqffd_slice_shifts {
     double axis[3];                        /* the planes' unit normal (the first frame's stack's) */
     size_t slices;                         /* distinct levels over the frames */
@@ -8604,96 +8604,103 @@ static int sqffd__stack_centroid(const sqffd_points *points, const double axis[3
     return 1;
 }
 
+/* Frame t's part of sqffd_stack_shifts: its centroids against its quadratic
+   centreline, each difference added into its slice's sum in s->shift and
+   counted in count. */
+static sqffd_result sqffd__stack_frame_shifts(const sqffd_points *points, const sqffd_stack *st, const double e[2][3],
+                                              sqffd_slice_shifts *s, uint32_t *count)
+{
+    double centroid[SQFFD_STACK_PLANES][2], normal[9], line[2][3], sign = sqffd__dot3(st->axis, s->axis) > 0.0 ? 1.0 : -1.0;
+    double mid = 0.5 * (st->level[0] + st->level[st->planes - 1]), half = 0.5 * (st->level[st->planes - 1] - st->level[0]);
+    unsigned char held[SQFFD_STACK_PLANES];
+    size_t used = 0, k, j;
+    int degree, a, b, c;
+    memset(normal, 0, sizeof normal);
+    memset(line, 0, sizeof line);
+    for (k = 0; k < st->planes; ++k) {
+        int got = sqffd__stack_centroid(points, st->axis, e, st->level[k], s->tolerance, centroid[k]);
+        if (got < 0) return SQFFD_ERROR_NON_FINITE;
+        held[k] = (unsigned char)got;
+        used += held[k];
+    }
+    if (used == 0) return SQFFD_OK;
+    degree = used >= 4 ? 2 : (int)used - 1;
+    for (k = 0; k < st->planes; ++k) { /* the normal equations, in the level scaled to [-1, 1] */
+        double x = (st->level[k] - mid) / half, power[3];
+        if (!held[k]) continue;
+        power[0] = 1.0;
+        power[1] = x;
+        power[2] = x * x;
+        for (a = 0; a <= degree; ++a) {
+            for (b = 0; b <= degree; ++b) normal[(degree + 1) * a + b] += power[a] * power[b];
+            for (c = 0; c < 2; ++c) line[c][a] += power[a] * centroid[k][c];
+        }
+    }
+    if (sqffd_cholesky_factor(normal, (size_t)degree + 1) != SQFFD_OK) return SQFFD_ERROR_NON_FINITE;
+    for (c = 0; c < 2; ++c) sqffd_cholesky_solve(normal, (size_t)degree + 1, line[c]);
+    for (k = 0; k < st->planes; ++k) { /* the centreline less the centroid, into its slice's sum */
+        double x = (st->level[k] - mid) / half, power = 1.0, at[2] = {0.0, 0.0};
+        if (!held[k]) continue;
+        for (a = 0; a <= degree; ++a, power *= x)
+            for (c = 0; c < 2; ++c) at[c] += line[c][a] * power;
+        for (j = 0; !(fabs(sign * st->level[k] - s->level[j]) <= s->tolerance); ++j) {}
+        for (c = 0; c < 3; ++c) s->shift[j][c] += (at[0] - centroid[k][0]) * e[0][c] + (at[1] - centroid[k][1]) * e[1][c];
+        ++count[j];
+    }
+    return SQFFD_OK;
+}
+
 SQFFD_DEF sqffd_result sqffd_stack_shifts(const sqffd_points *frames, const sqffd_stack *stacks, size_t frame_count,
                                           sqffd_slice_shifts *shifts)
 {
-    double e[2][3], spacing = HUGE_VAL, length, counts[SQFFD_STACK_PLANES];
-    sqffd_slice_shifts s;
+    double e[2][3], spacing = HUGE_VAL, length;
+    uint32_t count[SQFFD_STACK_PLANES];
+    sqffd_slice_shifts *s = shifts;
     size_t t, k, j;
-    sqffd_result r;
+    sqffd_result r = SQFFD_OK;
     int c;
     if (!frames || !stacks || !shifts || frame_count == 0) return SQFFD_ERROR_INVALID_ARGUMENT;
-    memset(&s, 0, sizeof s);
-    memcpy(s.axis, stacks[0].axis, sizeof s.axis);
+    memset(s, 0, sizeof *s);
     for (t = 0; t < frame_count; ++t) {
-        if (!sqffd__stack_valid(stacks + t) || !(fabs(sqffd__dot3(stacks[t].axis, s.axis)) >= 1.0 - 1e-6))
+        if (!sqffd__stack_valid(stacks + t) || !(fabs(sqffd__dot3(stacks[t].axis, stacks[0].axis)) >= 1.0 - 1e-6))
             return SQFFD_ERROR_INVALID_ARGUMENT;
         if ((r = sqffd__points_check(frames + t)) != SQFFD_OK) return r;
         if (stacks[t].spacing < spacing) spacing = stacks[t].spacing;
     }
-    s.tolerance = 0.25 * spacing;
-    c = fabs(s.axis[0]) <= fabs(s.axis[1]) && fabs(s.axis[0]) <= fabs(s.axis[2]) ? 0 : fabs(s.axis[1]) <= fabs(s.axis[2]) ? 1 : 2;
+    memcpy(s->axis, stacks[0].axis, sizeof s->axis);
+    s->tolerance = 0.25 * spacing;
+    c = fabs(s->axis[0]) <= fabs(s->axis[1]) && fabs(s->axis[0]) <= fabs(s->axis[2]) ? 0 : fabs(s->axis[1]) <= fabs(s->axis[2]) ? 1 : 2;
     e[1][0] = e[1][1] = e[1][2] = 0.0;
     e[1][c] = 1.0; /* the coordinate axis most across the planes' normal: e0 = axis x it, e1 = axis x e0 */
-    sqffd__cross3(s.axis, e[1], e[0]);
+    sqffd__cross3(s->axis, e[1], e[0]);
     length = sqrt(sqffd__dot3(e[0], e[0])); /* at least sqrt(2/3): the axis is a unit vector */
     for (c = 0; c < 3; ++c) e[0][c] /= length;
-    sqffd__cross3(s.axis, e[0], e[1]);
+    sqffd__cross3(s->axis, e[0], e[1]);
     for (t = 0; t < frame_count; ++t) { /* the distinct levels, ascending */
         const sqffd_stack *st = stacks + t;
-        double sign = sqffd__dot3(st->axis, s.axis) > 0.0 ? 1.0 : -1.0;
+        double sign = sqffd__dot3(st->axis, s->axis) > 0.0 ? 1.0 : -1.0;
         for (k = 0; k < st->planes; ++k) {
             double level = sign * st->level[k];
-            for (j = 0; j < s.slices && !(fabs(level - s.level[j]) <= s.tolerance); ++j) {}
-            if (j < s.slices) continue;
-            if (s.slices == SQFFD_STACK_PLANES) return SQFFD_ERROR_INVALID_ARGUMENT;
-            for (j = s.slices++; j > 0 && s.level[j - 1] > level; --j) s.level[j] = s.level[j - 1];
-            s.level[j] = level;
-        }
-    }
-    memset(counts, 0, sizeof counts);
-    for (t = 0; t < frame_count; ++t) {
-        const sqffd_stack *st = stacks + t;
-        double centroid[SQFFD_STACK_PLANES][2], x[SQFFD_STACK_PLANES], normal[9], rhs[2][3], mid, half;
-        unsigned char held[SQFFD_STACK_PLANES];
-        double sign = sqffd__dot3(st->axis, s.axis) > 0.0 ? 1.0 : -1.0;
-        size_t used = 0;
-        int degree, a, b;
-        mid = 0.5 * (st->level[0] + st->level[st->planes - 1]) * sign;
-        half = 0.5 * (st->level[st->planes - 1] - st->level[0]);
-        memset(normal, 0, sizeof normal);
-        memset(rhs, 0, sizeof rhs);
-        for (k = 0; k < st->planes; ++k) { /* the centroids, in the level scaled to [-1, 1] */
-            int got = sqffd__stack_centroid(frames + t, st->axis, (const double(*)[3])e, st->level[k], s.tolerance,
-                                            centroid[k]);
-            if (got < 0) return SQFFD_ERROR_NON_FINITE;
-            held[k] = (unsigned char)got;
-            x[k] = (sign * st->level[k] - mid) / half;
-            used += held[k];
-        }
-        degree = used >= 4 ? 2 : used >= 2 ? (int)used - 1 : 0;
-        for (k = 0; k < st->planes; ++k) {
-            double power[3];
-            if (!held[k]) continue;
-            power[0] = 1.0;
-            power[1] = x[k];
-            power[2] = x[k] * x[k];
-            for (a = 0; a <= degree; ++a) {
-                for (b = 0; b <= degree; ++b) normal[(degree + 1) * a + b] += power[a] * power[b];
-                for (c = 0; c < 2; ++c) rhs[c][a] += power[a] * centroid[k][c];
+            for (j = 0; j < s->slices && !(fabs(level - s->level[j]) <= s->tolerance); ++j) {}
+            if (j < s->slices) continue;
+            if (s->slices == SQFFD_STACK_PLANES) {
+                memset(s, 0, sizeof *s);
+                return SQFFD_ERROR_INVALID_ARGUMENT;
             }
-        }
-        if (used == 0) continue;
-        if ((r = sqffd_cholesky_factor(normal, (size_t)degree + 1)) != SQFFD_OK) return SQFFD_ERROR_NON_FINITE;
-        for (c = 0; c < 2; ++c) sqffd_cholesky_solve(normal, (size_t)degree + 1, rhs[c]);
-        for (k = 0; k < st->planes; ++k) { /* the centreline less the centroid, into its slice's sum */
-            double level = sign * st->level[k], power = 1.0, line[2] = {0.0, 0.0};
-            if (!held[k]) continue;
-            for (a = 0; a <= degree; ++a, power *= x[k])
-                for (c = 0; c < 2; ++c) line[c] += rhs[c][a] * power;
-            for (j = 0; !(fabs(level - s.level[j]) <= s.tolerance); ++j) {}
-            for (c = 0; c < 3; ++c)
-                s.shift[j][c] += (line[0] - centroid[k][0]) * e[0][c] + (line[1] - centroid[k][1]) * e[1][c];
-            counts[j] += 1.0;
+            for (j = s->slices++; j > 0 && s->level[j - 1] > level; --j) s->level[j] = s->level[j - 1];
+            s->level[j] = level;
         }
     }
-    for (j = 0; j < s.slices; ++j)
+    memset(count, 0, sizeof count);
+    for (t = 0; t < frame_count && r == SQFFD_OK; ++t)
+        r = sqffd__stack_frame_shifts(frames + t, stacks + t, (const double(*)[3])e, s, count);
+    for (j = 0; j < s->slices && r == SQFFD_OK; ++j)
         for (c = 0; c < 3; ++c) {
-            if (counts[j] > 0.0) s.shift[j][c] /= counts[j];
-            if (!isfinite(s.shift[j][c])) return SQFFD_ERROR_NON_FINITE;
+            if (count[j]) s->shift[j][c] /= (double)count[j];
+            if (!isfinite(s->shift[j][c])) r = SQFFD_ERROR_NON_FINITE;
         }
-    *shifts = s;
-    return SQFFD_OK;
+    if (r != SQFFD_OK) memset(s, 0, sizeof *s);
+    return r;
 }
 
 SQFFD_DEF sqffd_result sqffd_slice_shifts_apply(const sqffd_slice_shifts *shifts, double *points, size_t n,
