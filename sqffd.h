@@ -5173,6 +5173,32 @@ static double sqffd__ffd_jacobian_coefficients(const int dims[3], const sqffd__j
     return best;
 }
 
+/* J's coefficient `index` (w->coef's order) alone, from Ds and Dt x Du:
+   the same sum in the same order as sqffd__ffd_jacobian_coefficients, so
+   the same number to the bit. */
+static double sqffd__ffd_jacobian_coefficient(const int dims[3], const sqffd__jacobian_work *w, size_t index)
+{
+    int es[3], ec[3], ej[3], i, j, k, I, J, K, i0, j0, k0;
+    double sum = 0.0;
+    sqffd__jacobian_extent(dims, 0, es);
+    sqffd__jacobian_cross_extent(dims, 0, ec);
+    sqffd__jacobian_extent(dims, 3, ej);
+    K = (int)(index % (size_t)ej[2]);
+    J = (int)(index / (size_t)ej[2] % (size_t)ej[1]);
+    I = (int)(index / ((size_t)ej[2] * (size_t)ej[1]));
+    i0 = I - ec[0] + 1 > 0 ? I - ec[0] + 1 : 0;
+    j0 = J - ec[1] + 1 > 0 ? J - ec[1] + 1 : 0;
+    k0 = K - ec[2] + 1 > 0 ? K - ec[2] + 1 : 0;
+    for (i = i0; i < es[0] && i <= I; ++i)
+        for (j = j0; j < es[1] && j <= J; ++j)
+            for (k = k0; k < es[2] && k <= K; ++k) {
+                const double *d = w->d[0] + 3 * ((i * es[1] + j) * es[2] + k);
+                const double *x = w->cross[0] + 3 * (((I - i) * ec[1] + J - j) * ec[2] + K - k);
+                sum += d[0] * x[0] + d[1] * x[1] + d[2] * x[2];
+            }
+    return sum / (sqffd__binomial(ej[0] - 1, I) * sqffd__binomial(ej[1] - 1, J) * sqffd__binomial(ej[2] - 1, K));
+}
+
 /* The smallest of J's coefficients for control points in sqffd_ffd's
    layout, or the near-regular bound when that is at least `enough`
    (HUGE_VAL: always the coefficients, then in w->coef). */
@@ -6611,6 +6637,11 @@ typedef struct sqffd__fit_fold {
     double *lambda, *need;     /* SQFFD__FIT_FOLD_ACTIVE: multipliers; g_c . free step - (keep_c - c(P)) */
     uint32_t *active;          /* SQFFD__FIT_FOLD_ACTIVE: the coefficients (w->coef's order) */
     double *move, *free;       /* 3L, planar: the step, and the unconstrained one at this mu */
+    uint32_t watch[SQFFD__FIT_FOLD_ACTIVE + 1]; /* coefficients the last full count found broken: a check that
+                                                   needs only to know whether more than a few break looks first
+                                                   at these (sqffd__fit_fold_broken) */
+    size_t watching;
+    int normal_ready;          /* normal holds this step's A (sqffd__fit_solve kept it before factoring) */
 } sqffd__fit_fold;
 
 static void sqffd__fit_fold_layout(sqffd__arena *a, const int dims[3], sqffd__fit_fold *f)
@@ -6635,18 +6666,38 @@ static void sqffd__fit_fold_layout(sqffd__arena *a, const int dims[3], sqffd__fi
 }
 
 /* How many of J's coefficients control + tau move (planar) leaves below the
-   floor (in f->at.coef); scratch: out (3L). */
+   floor (in f->at.coef); scratch: out (3L). A caller that needs only to
+   know whether more than `limit` break gets limit + 1 as soon as that many
+   of the watched coefficients (the last full count's broken ones) break,
+   and f->at.coef is then incomplete; else (and with limit SIZE_MAX) the
+   full count. Either way the same answer to "more than limit?": the
+   coefficients are the same numbers, computed alone or all together. */
 static size_t sqffd__fit_fold_broken(const sqffd__fit_system *s, sqffd__fit_fold *f, const double *control,
-                                     const double *move, double tau, const double inverse[9], double *out)
+                                     const double *move, double tau, const double inverse[9], double *out,
+                                     size_t limit)
 {
     size_t l = s->lattice, p, count = 0, n;
     int c, ej[3];
+    double eps;
     for (p = 0; p < l; ++p)
         for (c = 0; c < 3; ++c) out[3 * p + (size_t)c] = control[3 * p + (size_t)c] + tau * move[(size_t)c * l + p];
-    if (sqffd__ffd_jacobian_min(s->dims, out, inverse, &f->at, f->floor) >= f->floor) return 0;
+    eps = sqffd__ffd_jacobian_derivatives(s->dims, out, inverse, &f->at); /* (sqffd__ffd_jacobian_min's steps) */
+    if (2.0 - (1.0 + eps) * (1.0 + eps) * (1.0 + eps) >= f->floor) return 0;
+    sqffd__ffd_jacobian_products(s->dims, 1, &f->at);
+    if (limit < f->watching) {
+        for (p = 0; p < f->watching; ++p)
+            if (sqffd__ffd_jacobian_coefficient(s->dims, &f->at, f->watch[p]) < f->floor && ++count > limit) return count;
+        count = 0;
+    }
+    if (sqffd__ffd_jacobian_coefficients(s->dims, &f->at) >= f->floor) return 0;
     sqffd__jacobian_extent(s->dims, 3, ej);
     n = sqffd__jacobian_count(ej);
-    for (p = 0; p < n; ++p) count += f->at.coef[p] < f->floor;
+    for (p = 0; p < n; ++p)
+        if (f->at.coef[p] < f->floor) {
+            if (count <= SQFFD__FIT_FOLD_ACTIVE) f->watch[count] = (uint32_t)p;
+            ++count;
+        }
+    f->watching = count <= SQFFD__FIT_FOLD_ACTIVE ? count : SQFFD__FIT_FOLD_ACTIVE + 1;
     return count;
 }
 
@@ -7070,6 +7121,10 @@ static sqffd_result sqffd__fit_solve(const sqffd__fit_system *s, sqffd__fit_work
     sqffd_result res = SQFFD_ERROR_NOT_POSITIVE_DEFINITE;
     memcpy(w->matrix, s->fixed, l * l * sizeof(double));
     sqffd__fit_gram(s, w->weights, 1.0, w->pairs, w->block, w->matrix);
+    if (w->fold && w->fold->floor > -HUGE_VAL) { /* the fold-free step starts from A (sqffd__fit_fold_free) */
+        memcpy(w->fold->normal, w->matrix, l * l * sizeof(double));
+        w->fold->normal_ready = 1;
+    }
     if (w->solver == SQFFD_SOLVER_CHOLESKY) res = sqffd_cholesky_factor(w->matrix, l);
     w->factored = res == SQFFD_OK;
     if (res == SQFFD_OK) {
@@ -7224,16 +7279,19 @@ static sqffd_result sqffd__fit_step(const sqffd__fit_system *s, sqffd__fit_work 
 
 /* ---- the iteration --------------------------------------------------------- */
 /* The constrained step at the stiffening whose factor w->matrix holds
-   (f->free its unconstrained step), into f->move. */
-static void sqffd__fit_fold_constrained(const sqffd__fit_system *s, sqffd__fit_work *w, const double *control,
-                                        const double inverse[9])
+   (f->free its unconstrained step, which breaks `broken` coefficients, all
+   of them counted into f->at.coef), into f->move. Returns 1 when f->move is
+   known to keep the floor (the last round's check found nothing broken). */
+static int sqffd__fit_fold_constrained(const sqffd__fit_system *s, sqffd__fit_work *w, const double *control,
+                                       const double inverse[9], size_t broken)
 {
     sqffd__fit_fold *f = w->fold;
     size_t l = s->lattice, size = 3 * l, count = 0, done = 0, i, j, p;
     int round, k;
     memcpy(f->move, f->free, size * sizeof(double));
     for (round = 0; round < SQFFD__FIT_FOLD_ROUNDS; ++round) {
-        if (!sqffd__fit_fold_broken(s, f, control, f->move, 1.0, inverse, w->cg)) break;
+        if (round > 0) broken = sqffd__fit_fold_broken(s, f, control, f->move, 1.0, inverse, w->cg, (size_t)-1);
+        if (!broken) return 1;
         for (i = 0; i < count; ++i) /* the linearised step's shortfalls: raised by them */
             if (f->at.coef[f->active[i]] < f->floor) f->need[i] -= f->floor - f->at.coef[f->active[i]];
         count = sqffd__fit_fold_activate(s, f, count);
@@ -7256,6 +7314,7 @@ static void sqffd__fit_fold_constrained(const sqffd__fit_system *s, sqffd__fit_w
         for (k = 0; k < 3; ++k) sqffd__la_backward(w->matrix, l, f->move + (size_t)k * l);
         for (p = 0; p < size; ++p) f->move[p] += f->free[p];
     }
+    return 0;
 }
 
 /* The step w->rhs = G(P) - P (and w->plain, and bmove = B (G(P) - P)) made
@@ -7264,15 +7323,20 @@ static void sqffd__fit_fold_free(const sqffd__fit_system *s, sqffd__fit_work *w,
                                  const double inverse[9], int direct, double *bmove)
 {
     sqffd__fit_fold *f = w->fold;
-    size_t l = s->lattice, size = 3 * l, p;
+    size_t l = s->lattice, size = 3 * l, p, broken;
     double *scratch = w->cg, tau = 1.0, unit = 0.0;
-    int k, tries;
+    int k, tries, known = -1; /* f->move at tau 1: -1 broken, 1 keeps the floor, 0 not known */
+    int normal_ready = f->normal_ready;
+    f->normal_ready = 0;
     sqffd__fit_planar(w->rhs, l, f->free);
-    if (!sqffd__fit_fold_broken(s, f, control, f->free, 1.0, inverse, scratch)) return;
+    broken = sqffd__fit_fold_broken(s, f, control, f->free, 1.0, inverse, scratch, SQFFD__FIT_FOLD_ACTIVE);
+    if (!broken) return;
     memcpy(f->move, f->free, size * sizeof(double));
     if (direct) {
-        memcpy(f->normal, s->fixed, l * l * sizeof(double)); /* A; r = A (G(P) - P) */
-        sqffd__fit_gram(s, w->weights, 1.0, w->pairs, w->block, f->normal);
+        if (!normal_ready) { /* A; r = A (G(P) - P) */
+            memcpy(f->normal, s->fixed, l * l * sizeof(double));
+            sqffd__fit_gram(s, w->weights, 1.0, w->pairs, w->block, f->normal);
+        }
         for (k = 0; k < 3; ++k) sqffd__fit_symmetric_times(f->normal, l, f->free + (size_t)k * l, f->r + (size_t)k * l);
         sqffd__ffd_jacobian_derivatives(s->dims, control, inverse, &f->from);
         sqffd__ffd_jacobian_products(s->dims, 3, &f->from);
@@ -7286,15 +7350,20 @@ static void sqffd__fit_fold_free(const sqffd__fit_system *s, sqffd__fit_work *w,
                 if (sqffd_cholesky_factor(w->matrix, l) != SQFFD_OK) continue;
                 memcpy(f->free, f->r, size * sizeof(double));
                 for (k = 0; k < 3; ++k) sqffd_cholesky_solve(w->matrix, l, f->free + (size_t)k * l);
-            }
-            if (sqffd__fit_fold_broken(s, f, control, f->free, 1.0, inverse, scratch) <= SQFFD__FIT_FOLD_ACTIVE) {
-                sqffd__fit_fold_constrained(s, w, control, inverse);
+                broken = sqffd__fit_fold_broken(s, f, control, f->free, 1.0, inverse, scratch, SQFFD__FIT_FOLD_ACTIVE);
+            } /* (tries 0: the free step, counted above) */
+            if (broken <= SQFFD__FIT_FOLD_ACTIVE) {
+                known = sqffd__fit_fold_constrained(s, w, control, inverse, broken) ? 1 : 0;
                 break;
             }
         }
     }
     w->factored = 0;
-    for (k = 0; tau > 0.0 && sqffd__fit_fold_broken(s, f, control, f->move, tau, inverse, scratch); ++k)
+    /* the step shortened by halves: only whether it breaks anything is asked, and
+       the first check is skipped where its answer is known */
+    for (k = 0; tau > 0.0 && (k == 0 && known ? known < 0
+                                             : sqffd__fit_fold_broken(s, f, control, f->move, tau, inverse, scratch, 0) > 0);
+         ++k)
         tau = k < SQFFD__FIT_FOLD_HALVINGS ? 0.5 * tau : 0.0;
     for (p = 0; p < size; ++p) f->move[p] *= tau;
     sqffd__fit_interleave(f->move, l, w->rhs);
@@ -7308,7 +7377,7 @@ static int sqffd__fit_fold_relaxed(const sqffd__fit_system *s, sqffd__fit_work *
 {
     if (w->fold->floor == -HUGE_VAL) return 1;
     sqffd__fit_planar(w->rhs, s->lattice, w->fold->move);
-    return !sqffd__fit_fold_broken(s, w->fold, control, w->fold->move, omega, inverse, w->cg);
+    return !sqffd__fit_fold_broken(s, w->fold, control, w->fold->move, omega, inverse, w->cg, 0);
 }
 
 
@@ -7482,6 +7551,8 @@ static void sqffd__fit_begin(sqffd__fit_iteration *it, const sqffd_points *point
         for (v = 0; v < s->count; ++v) w->data_near[SQFFD__FIT_DATA_KNN * v] = UINT32_MAX;
     w->factored = 0;
     w->fold->floor = o->min_jacobian; /* (a start below it may not fold more) */
+    w->fold->watching = 0;
+    w->fold->normal_ready = 0;
     if (o->min_jacobian > -HUGE_VAL) {
         double start = sqffd__ffd_jacobian_min(s->dims, &model->ffd.control[0][0], model->ffd.inverse, &w->fold->at,
                                                o->min_jacobian);
