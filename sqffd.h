@@ -1042,7 +1042,8 @@ typedef struct sqffd_track_options {
                                     alpha 1e-3, stiffer than a lone fit's, and model_to_data 0: the parts a frame's
                                     data do not reach follow the reached ones instead of being pulled onto the data */
     int frame_iterations;        /* FFD iterations of frames 1, 2, ... at most (default 100: a frame runs to the
-                                    tolerance; ED to ES in one frame takes 50-100 under the Jacobian floor) */
+                                    tolerance or this cap; ED to ES in one frame under the Jacobian floor takes 50
+                                    to a few hundred) */
     sqffd_progress_fn progress;  /* frames (SQFFD_STAGE_FRAME) and, within each, the stages' iterations */
     void *progress_user;
 } sqffd_track_options;
