@@ -821,7 +821,9 @@ typedef struct sqffd_fit_options {
     int coarse_iterations;       /* sqffd_fit only: how many of them (never all) run first on a half-resolution grid
                                     and at most SQFFD_FIT_COARSE_POINTS points: most of the moving at about half the
                                     cost (default 25; 0: none; skipped below 4 model points a control point) */
-    double tolerance;            /* stop when the plain step moves the model points by at most this (RMS / diagonal; default 1e-4; 0 = always max_iterations) */
+    double tolerance;            /* stop when the plain step moves the model points by at most this (RMS / diagonal; default 1e-4; 0 = always max_iterations);
+                                    under min_jacobian, a step the floor damped (stiffened or shortened) that moves less stops
+                                    it too, but not as converged: the floor stalled it */
     double min_jacobian;         /* fold-free steps: none leaves the lattice's Jacobian bound (sqffd_ffd_jacobian_bound)
                                     below this (default 0.02; -HUGE_VAL: no bound) */
     double model_to_data;        /* weight >= 0 of the model -> data term (THE ENERGY below): holds the parts of the model no
@@ -848,7 +850,7 @@ typedef struct sqffd_fit_report {
     sqffd_distance_stats error;    /* data -> final model ("the error") */
     int coarse_iterations;         /* two-step iterations done on the coarse grid (sqffd_fit's; before those below) */
     int iterations;                /* two-step iterations done on the model's grid */
-    int converged;                 /* the tolerance was reached */
+    int converged;                 /* the tolerance was reached (0 where the Jacobian floor stalled the iteration) */
     double step;                   /* RMS move of the model points by the last plain step (before over-relaxing) / diagonal */
     int history_count;
     double history[SQFFD_FIT_HISTORY]; /* relative RMS error after grid iteration 1, 2, ... (over the FFD subsample;
@@ -7318,20 +7320,38 @@ static int sqffd__fit_fold_constrained(const sqffd__fit_system *s, sqffd__fit_wo
     return 0;
 }
 
+/* The share tau of f->move that keeps the floor: 1, or halved until it
+   does (0 after SQFFD__FIT_FOLD_HALVINGS). Only whether a check breaks
+   anything is asked; broken_at_one: tau 1 is known to break. */
+static double sqffd__fit_fold_shorten(const sqffd__fit_system *s, sqffd__fit_fold *f, const double *control,
+                                      const double inverse[9], double *scratch, int broken_at_one)
+{
+    double tau = 1.0;
+    int k;
+    for (k = 0; tau > 0.0 && ((k == 0 && broken_at_one) ||
+                              sqffd__fit_fold_broken(s, f, control, f->move, tau, inverse, scratch, 0) > 0);
+         ++k)
+        tau = k < SQFFD__FIT_FOLD_HALVINGS ? 0.5 * tau : 0.0;
+    return tau;
+}
+
 /* The step w->rhs = G(P) - P (and w->plain, and bmove = B (G(P) - P)) made
-   fold-free, as above. direct: w->matrix holds the factor of its A. */
-static void sqffd__fit_fold_free(const sqffd__fit_system *s, sqffd__fit_work *w, const double *control,
-                                 const double inverse[9], int direct, double *bmove)
+   fold-free, as above. direct: w->matrix holds the factor of its A.
+   Returns 1 when the step taken is the plain one under the constraints,
+   0 when stiffening or halving made it shorter: a step the floor damped is
+   no sign of convergence. */
+static int sqffd__fit_fold_free(const sqffd__fit_system *s, sqffd__fit_work *w, const double *control,
+                                const double inverse[9], int direct, double *bmove)
 {
     sqffd__fit_fold *f = w->fold;
     size_t l = s->lattice, size = 3 * l, p, broken;
     double *scratch = w->cg, tau = 1.0, unit = 0.0;
-    int k, tries, known = -1; /* f->move at tau 1: -1 broken, 1 keeps the floor, 0 not known */
+    int k, tries = 0, found = 0; /* found: f->move x tau keeps the floor */
     int normal_ready = f->normal_ready;
     f->normal_ready = 0;
     sqffd__fit_planar(w->rhs, l, f->free);
     broken = sqffd__fit_fold_broken(s, f, control, f->free, 1.0, inverse, scratch, SQFFD__FIT_FOLD_ACTIVE);
-    if (!broken) return;
+    if (!broken) return 1;
     memcpy(f->move, f->free, size * sizeof(double));
     if (direct) {
         if (!normal_ready) { /* A; r = A (G(P) - P) */
@@ -7353,23 +7373,24 @@ static void sqffd__fit_fold_free(const sqffd__fit_system *s, sqffd__fit_work *w,
                 for (k = 0; k < 3; ++k) sqffd_cholesky_solve(w->matrix, l, f->free + (size_t)k * l);
                 broken = sqffd__fit_fold_broken(s, f, control, f->free, 1.0, inverse, scratch, SQFFD__FIT_FOLD_ACTIVE);
             } /* (tries 0: the free step, counted above) */
-            if (broken <= SQFFD__FIT_FOLD_ACTIVE) {
-                known = sqffd__fit_fold_constrained(s, w, control, inverse, broken) ? 1 : 0;
+            if (broken > SQFFD__FIT_FOLD_ACTIVE) continue;
+            if (sqffd__fit_fold_constrained(s, w, control, inverse, broken) ||
+                (tau = sqffd__fit_fold_shorten(s, f, control, inverse, scratch, 0)) > 0.0) {
+                found = 1;
                 break;
             }
+            tau = 1.0; /* no share of it keeps the floor (a coefficient on the floor that the linearised step
+                          leaves there, and the cubic's curvature takes below): a stiffer step, whose
+                          curvature shrinks with its square */
         }
     }
     w->factored = 0;
-    /* the step shortened by halves: only whether it breaks anything is asked, and
-       the first check is skipped where its answer is known */
-    for (k = 0; tau > 0.0 && (k == 0 && known ? known < 0
-                                             : sqffd__fit_fold_broken(s, f, control, f->move, tau, inverse, scratch, 0) > 0);
-         ++k)
-        tau = k < SQFFD__FIT_FOLD_HALVINGS ? 0.5 * tau : 0.0;
+    if (!found) tau = sqffd__fit_fold_shorten(s, f, control, inverse, scratch, 1); /* (f->move breaks it: tried above) */
     for (p = 0; p < size; ++p) f->move[p] *= tau;
     sqffd__fit_interleave(f->move, l, w->rhs);
     for (p = 0; p < size; ++p) w->plain[p] = control[p] + w->rhs[p];
     sqffd__fit_evaluate(s, (const double (*)[3])w->rhs, (double (*)[4])w->block, bmove);
+    return tau == 1.0 && tries == 0;
 }
 
 /* Whether the over-relaxed control + omega w->rhs keeps the floor. */
@@ -7495,6 +7516,7 @@ typedef struct sqffd__fit_iteration {
     sqffd__fit_origin origin;
     double accepted;               /* the energy of w->accepted */
     double omega;                  /* the over-relaxation of the last extrapolation */
+    int stalled;                   /* the last step, damped by the Jacobian floor, moved less than the tolerance */
 } sqffd__fit_iteration;
 
 /* The control points changed: their model points into it->x, and the
@@ -7536,6 +7558,7 @@ static void sqffd__fit_begin(sqffd__fit_iteration *it, const sqffd_points *point
     it->rep = rep;
     it->mode = mode;
     it->diagonal = diagonal;
+    it->stalled = 0;
     it->holding = sqffd__fit_holding(s);
     it->x = w->x;
     it->next = w->next;
@@ -7707,22 +7730,23 @@ static sqffd_result sqffd__fit_advance(sqffd__fit_iteration *it)
     size_t m = s->count, size = 3 * s->lattice, i;
     double *control = &it->model->ffd.control[0][0];
     double length; /* of the step along G(P) - P */
-    int direct, extrapolate;
+    int direct, extrapolate, plain = 1; /* plain: the step is not one the floor damped */
     sqffd_result res;
     sqffd__fit_targets(it);
     res = sqffd__fit_step(s, w, control, it->x, w->target, it->next, &direct); /* (B (G(P) - P) into it->next,
                                                                                  read by the targets before) */
     if (res != SQFFD_OK) return res;
-    if (w->fold->floor > -HUGE_VAL) sqffd__fit_fold_free(s, w, control, it->model->ffd.inverse, direct, it->next);
+    if (w->fold->floor > -HUGE_VAL) plain = sqffd__fit_fold_free(s, w, control, it->model->ffd.inverse, direct, it->next);
     rep->step = sqrt(sqffd__la_dot(it->next, it->next, 3 * m) / (double)m) / it->diagonal;
     ++rep->iterations;
-    rep->converged = rep->step <= it->o->tolerance && direct;
+    rep->converged = rep->step <= it->o->tolerance && direct && plain;
+    it->stalled = rep->step <= it->o->tolerance && direct && !plain;
     if (rep->step <= it->o->tolerance && !direct) w->factored = 0;
     it->omega = it->origin == SQFFD__FIT_FROM_EXTRAPOLATION
                     ? (it->omega * SQFFD__FIT_RELAX_GROW < SQFFD__FIT_RELAX_MAX ? it->omega * SQFFD__FIT_RELAX_GROW
                                                                                : SQFFD__FIT_RELAX_MAX)
                     : SQFFD__FIT_RELAX;
-    extrapolate = !rep->converged && sqffd__fit_fold_relaxed(s, w, control, it->omega, it->model->ffd.inverse);
+    extrapolate = !rep->converged && !it->stalled && sqffd__fit_fold_relaxed(s, w, control, it->omega, it->model->ffd.inverse);
     length = extrapolate ? it->omega : 1.0;
     for (i = 0; i < size; ++i) control[i] += length * w->rhs[i];
     it->origin = extrapolate ? SQFFD__FIT_FROM_EXTRAPOLATION : SQFFD__FIT_FROM_PLAIN;
@@ -7744,7 +7768,8 @@ static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagon
     for (;;) {
         double energy;
         sqffd_distance_stats stats;
-        int last = rep->iterations == o->max_iterations || rep->converged || it.origin == SQFFD__FIT_FROM_ACCEPTED;
+        int last = rep->iterations == o->max_iterations || rep->converged || it.stalled ||
+                   it.origin == SQFFD__FIT_FROM_ACCEPTED;
         res = sqffd__fit_measure(&it, last, &energy, &stats);
         if (res != SQFFD_OK) return res;
         if (!sqffd__fit_accept_or_roll_back(&it, energy)) continue; /* rolled back: measure the replacement */
