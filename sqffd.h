@@ -164,6 +164,7 @@
        sqffd_points_stack              a short-axis stack's planes (contours on slices)
        sqffd_stack_shifts, sqffd_slice_shifts_apply
                                        breath-hold misregistration: one in-plane shift a slice
+       sqffd_stack_lids                a stack's ends closed as Simpson's method closes them
        sqffd_motion(_workspace_size), sqffd_motion_options_default
                                        volumes (closed or between slices), EF, motion,
                                        low-motion zones, 17 segments
@@ -822,8 +823,8 @@ typedef struct sqffd_fit_options {
                                     and at most SQFFD_FIT_COARSE_POINTS points: most of the moving at about half the
                                     cost (default 25; 0: none; skipped below 4 model points a control point) */
     double tolerance;            /* stop when the plain step moves the model points by at most this (RMS / diagonal; default 1e-4; 0 = always max_iterations);
-                                    under min_jacobian, a step the floor damped (stiffened or shortened) that moves less stops
-                                    it too, but not as converged: the floor stalled it */
+                                    under min_jacobian, not a step the floor damped (stiffened or shortened): a short one may
+                                    follow a long one */
     double min_jacobian;         /* fold-free steps: none leaves the lattice's Jacobian bound (sqffd_ffd_jacobian_bound)
                                     below this (default 0.02; -HUGE_VAL: no bound) */
     double model_to_data;        /* weight >= 0 of the model -> data term (THE ENERGY below): holds the parts of the model no
@@ -850,7 +851,7 @@ typedef struct sqffd_fit_report {
     sqffd_distance_stats error;    /* data -> final model ("the error") */
     int coarse_iterations;         /* two-step iterations done on the coarse grid (sqffd_fit's; before those below) */
     int iterations;                /* two-step iterations done on the model's grid */
-    int converged;                 /* the tolerance was reached (0 where the Jacobian floor stalled the iteration) */
+    int converged;                 /* the tolerance was reached */
     double step;                   /* RMS move of the model points by the last plain step (before over-relaxing) / diagonal */
     int history_count;
     double history[SQFFD_FIT_HISTORY]; /* relative RMS error after grid iteration 1, 2, ... (over the FFD subsample;
@@ -1156,6 +1157,25 @@ SQFFD_DEF sqffd_result sqffd_stack_shifts(const sqffd_points *frames, const sqff
    how many moved. INVALID_ARGUMENT (NULL shifts or points with n > 0), NON_FINITE. */
 SQFFD_DEF sqffd_result sqffd_slice_shifts_apply(const sqffd_slice_shifts *shifts, double *points, size_t n,
                                                 size_t *moved);
+
+/* A stack closed where Simpson's method closes it: the lids, points on
+   the planes half a spacing beyond each outer slice, filling its contour
+   (the slab faces a thick-slice label map has there). A contour stack is
+   open at its ends, and a closed model fitted to it falls short of its
+   outer slices (their sections a fraction of the contours' areas); with
+   the lids added to the points, the model closes at the extent of
+   Simpson's discs. Each lid: the outer slice's points (within a quarter
+   spacing of its plane) moved along the axis, then SQFFD_STACK_LID_RINGS
+   rings toward the contour's area centroid, ring r at (r + 1) /
+   (rings + 1) of the way and every (r + 2)-th point: about 2.1 points a
+   contour point. The fill is right for contours star-shaped about their
+   centroid (a left ventricle's cavity). out: room for capacity points (3
+   doubles each); *count: the points a full out gets (out NULL: only
+   counted). INVALID_ARGUMENT (NULL stack or count, a bad stack or view,
+   out too small), NON_FINITE. */
+#define SQFFD_STACK_LID_RINGS 3
+SQFFD_DEF sqffd_result sqffd_stack_lids(sqffd_points points, const sqffd_stack *stack, double *out, size_t capacity,
+                                        size_t *count);
 
 /* Motion and function of a tracked left ventricle, from the frames' models
    (sqffd_track's; all with the same superquadric, lattice and grid). Per
@@ -7516,7 +7536,6 @@ typedef struct sqffd__fit_iteration {
     sqffd__fit_origin origin;
     double accepted;               /* the energy of w->accepted */
     double omega;                  /* the over-relaxation of the last extrapolation */
-    int stalled;                   /* the last step, damped by the Jacobian floor, moved less than the tolerance */
 } sqffd__fit_iteration;
 
 /* The control points changed: their model points into it->x, and the
@@ -7558,7 +7577,6 @@ static void sqffd__fit_begin(sqffd__fit_iteration *it, const sqffd_points *point
     it->rep = rep;
     it->mode = mode;
     it->diagonal = diagonal;
-    it->stalled = 0;
     it->holding = sqffd__fit_holding(s);
     it->x = w->x;
     it->next = w->next;
@@ -7740,13 +7758,12 @@ static sqffd_result sqffd__fit_advance(sqffd__fit_iteration *it)
     rep->step = sqrt(sqffd__la_dot(it->next, it->next, 3 * m) / (double)m) / it->diagonal;
     ++rep->iterations;
     rep->converged = rep->step <= it->o->tolerance && direct && plain;
-    it->stalled = rep->step <= it->o->tolerance && direct && !plain;
     if (rep->step <= it->o->tolerance && !direct) w->factored = 0;
     it->omega = it->origin == SQFFD__FIT_FROM_EXTRAPOLATION
                     ? (it->omega * SQFFD__FIT_RELAX_GROW < SQFFD__FIT_RELAX_MAX ? it->omega * SQFFD__FIT_RELAX_GROW
                                                                                : SQFFD__FIT_RELAX_MAX)
                     : SQFFD__FIT_RELAX;
-    extrapolate = !rep->converged && !it->stalled && sqffd__fit_fold_relaxed(s, w, control, it->omega, it->model->ffd.inverse);
+    extrapolate = !rep->converged && sqffd__fit_fold_relaxed(s, w, control, it->omega, it->model->ffd.inverse);
     length = extrapolate ? it->omega : 1.0;
     for (i = 0; i < size; ++i) control[i] += length * w->rhs[i];
     it->origin = extrapolate ? SQFFD__FIT_FROM_EXTRAPOLATION : SQFFD__FIT_FROM_PLAIN;
@@ -7768,8 +7785,7 @@ static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagon
     for (;;) {
         double energy;
         sqffd_distance_stats stats;
-        int last = rep->iterations == o->max_iterations || rep->converged || it.stalled ||
-                   it.origin == SQFFD__FIT_FROM_ACCEPTED;
+        int last = rep->iterations == o->max_iterations || rep->converged || it.origin == SQFFD__FIT_FROM_ACCEPTED;
         res = sqffd__fit_measure(&it, last, &energy, &stats);
         if (res != SQFFD_OK) return res;
         if (!sqffd__fit_accept_or_roll_back(&it, energy)) continue; /* rolled back: measure the replacement */
@@ -8646,6 +8662,19 @@ static int sqffd__stack_valid(const sqffd_stack *s)
     return 1;
 }
 
+/* Two unit vectors across a unit axis, and across each other. */
+static void sqffd__stack_basis(const double axis[3], double e[2][3])
+{
+    double length;
+    int c = fabs(axis[0]) <= fabs(axis[1]) && fabs(axis[0]) <= fabs(axis[2]) ? 0 : fabs(axis[1]) <= fabs(axis[2]) ? 1 : 2;
+    e[1][0] = e[1][1] = e[1][2] = 0.0;
+    e[1][c] = 1.0; /* the coordinate axis most across the axis: e0 = axis x it, e1 = axis x e0 */
+    sqffd__cross3(axis, e[1], e[0]);
+    length = sqrt(sqffd__dot3(e[0], e[0])); /* at least sqrt(2/3) */
+    for (c = 0; c < 3; ++c) e[0][c] /= length;
+    sqffd__cross3(axis, e[0], e[1]);
+}
+
 /* Plane k's contour centroid in the in-plane basis (e0, e1): the area
    centroid of its closed runs of consecutive points, each run's area taken
    positive whatever its drawing direction; their points' mean where they
@@ -8750,7 +8779,7 @@ static sqffd_result sqffd__stack_frame_shifts(const sqffd_points *points, const 
 SQFFD_DEF sqffd_result sqffd_stack_shifts(const sqffd_points *frames, const sqffd_stack *stacks, size_t frame_count,
                                           sqffd_slice_shifts *shifts)
 {
-    double e[2][3], spacing = HUGE_VAL, length;
+    double e[2][3], spacing = HUGE_VAL;
     uint32_t count[SQFFD_STACK_PLANES];
     sqffd_slice_shifts *s = shifts;
     size_t t, k, j;
@@ -8766,13 +8795,7 @@ SQFFD_DEF sqffd_result sqffd_stack_shifts(const sqffd_points *frames, const sqff
     }
     memcpy(s->axis, stacks[0].axis, sizeof s->axis);
     s->tolerance = 0.25 * spacing;
-    c = fabs(s->axis[0]) <= fabs(s->axis[1]) && fabs(s->axis[0]) <= fabs(s->axis[2]) ? 0 : fabs(s->axis[1]) <= fabs(s->axis[2]) ? 1 : 2;
-    e[1][0] = e[1][1] = e[1][2] = 0.0;
-    e[1][c] = 1.0; /* the coordinate axis most across the planes' normal: e0 = axis x it, e1 = axis x e0 */
-    sqffd__cross3(s->axis, e[1], e[0]);
-    length = sqrt(sqffd__dot3(e[0], e[0])); /* at least sqrt(2/3): the axis is a unit vector */
-    for (c = 0; c < 3; ++c) e[0][c] /= length;
-    sqffd__cross3(s->axis, e[0], e[1]);
+    sqffd__stack_basis(s->axis, e);
     for (t = 0; t < frame_count; ++t) { /* the distinct levels, ascending */
         const sqffd_stack *st = stacks + t;
         double sign = sqffd__dot3(st->axis, s->axis) > 0.0 ? 1.0 : -1.0;
@@ -8817,6 +8840,47 @@ SQFFD_DEF sqffd_result sqffd_slice_shifts_apply(const sqffd_slice_shifts *shifts
         ++count;
     }
     if (moved) *moved = count;
+    return SQFFD_OK;
+}
+
+SQFFD_DEF sqffd_result sqffd_stack_lids(sqffd_points points, const sqffd_stack *stack, double *out, size_t capacity,
+                                        size_t *count)
+{
+    double e[2][3];
+    size_t total = 0, i, j;
+    sqffd_result r;
+    int end, ring, c;
+    if (!count) return SQFFD_ERROR_INVALID_ARGUMENT;
+    *count = 0;
+    if (!stack || !sqffd__stack_valid(stack)) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if ((r = sqffd__points_check(&points)) != SQFFD_OK) return r;
+    sqffd__stack_basis(stack->axis, e);
+    for (end = 0; end < 2; ++end) {
+        double level = stack->level[end ? stack->planes - 1 : 0], centre[2], p[3], tolerance = 0.25 * stack->spacing;
+        double lid = level + (end ? 0.5 : -0.5) * stack->spacing;
+        int got = sqffd__stack_centroid(&points, stack->axis, (const double(*)[3])e, level, tolerance, centre);
+        if (got < 0) return SQFFD_ERROR_NON_FINITE;
+        if (!got) continue;
+        for (i = 0, j = 0; i < points.count; ++i) {
+            sqffd__points_get(&points, i, p);
+            if (!(fabs(sqffd__dot3(p, stack->axis) - level) <= tolerance)) continue;
+            for (ring = -1; ring < SQFFD_STACK_LID_RINGS; ++ring) {
+                double t = (double)(ring + 1) / (SQFFD_STACK_LID_RINGS + 1), q[3]; /* of the way to the centre */
+                if (ring >= 0 && j % (size_t)(ring + 2)) continue;
+                for (c = 0; c < 3; ++c)
+                    q[c] = lid * stack->axis[c] +
+                           (1.0 - t) * (sqffd__dot3(p, e[0]) * e[0][c] + sqffd__dot3(p, e[1]) * e[1][c]) +
+                           t * (centre[0] * e[0][c] + centre[1] * e[1][c]);
+                if (out) {
+                    if (total == capacity) return SQFFD_ERROR_INVALID_ARGUMENT;
+                    memcpy(out + 3 * total, q, sizeof q);
+                }
+                ++total;
+            }
+            ++j; /* (the contour's points so far) */
+        }
+    }
+    *count = total;
     return SQFFD_OK;
 }
 

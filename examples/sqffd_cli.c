@@ -312,6 +312,7 @@ typedef struct input_args {
     int sample_set;
     int all_components;   /* keep the specks: every component of the iso-surface */
     int slice_shifts;     /* short-axis stacks: each slice moved onto the stack's centreline first */
+    int no_lids;          /* short-axis stacks: not closed by lids beyond their outer slices */
 } input_args;
 
 #define VOLUME_SAMPLE 6000 /* points a volume gives by default: about what the paper fitted */
@@ -339,10 +340,12 @@ static int scan_input_option(arg_scan *s, const cli_command *c, input_args *in, 
     const char *v;
     long n;
     *status = 0;
-    if (strcmp(s->name, "--all-components") == 0 || strcmp(s->name, "--slice-shifts") == 0) {
+    if (strcmp(s->name, "--all-components") == 0 || strcmp(s->name, "--slice-shifts") == 0 ||
+        strcmp(s->name, "--no-lids") == 0) {
         *status = scan_flag(s, c);
         if (strcmp(s->name, "--all-components") == 0) in->all_components = 1;
-        else in->slice_shifts = 1;
+        else if (strcmp(s->name, "--slice-shifts") == 0) in->slice_shifts = 1;
+        else in->no_lids = 1;
         return 1;
     }
     if (strcmp(s->name, "--iso") != 0 && strcmp(s->name, "--label") != 0 && strcmp(s->name, "--sample") != 0) return 0;
@@ -384,8 +387,53 @@ static void input_option_details(FILE *f)
             "  --slice-shifts         short-axis stacks (contours listed slice by slice): correct\n"
             "                         breath-hold misregistration first, each slice moved in-plane\n"
             "                         onto the stack's smooth centreline (one shift a slice, the same\n"
-            "                         in every frame), and report the shifts\n",
+            "                         in every frame), and report the shifts\n"
+            "  --no-lids              short-axis stacks: leave their ends open (default: each frame's\n"
+            "                         outer contours filled in half a spacing beyond its outer\n"
+            "                         slices, where Simpson's method ends, so the model closes there)\n",
             VOLUME_SAMPLE);
+}
+
+/* Whether every frame is a short-axis stack, all with parallel planes:
+   1 and their stacks in stacks (frame_count of them), else 0. */
+static int find_stacks(double *const *frames, const size_t *counts, size_t frame_count, sqffd_stack *stacks)
+{
+    size_t t;
+    int found = 1;
+    for (t = 0; t < frame_count && found; t++) {
+        const double *axis = stacks[0].axis, *here = stacks[t].axis;
+        if (sqffd_points_stack(sqffd_points_packed(frames[t], counts[t]), &stacks[t], &found) != SQFFD_OK ||
+            (found && fabs(axis[0] * here[0] + axis[1] * here[1] + axis[2] * here[2]) < 0.999))
+            found = 0;
+    }
+    return found;
+}
+
+/* Each frame's stack closed by its lids (sqffd_stack_lids), appended to its
+   points; *added: how many in all. 0, or 1 with a message in err. */
+static int add_lids(double **frames, size_t *counts, size_t frame_count, const sqffd_stack *stacks, size_t *added,
+                    char *err, size_t err_size)
+{
+    size_t t, n;
+    *added = 0;
+    for (t = 0; t < frame_count; t++) {
+        sqffd_points view = sqffd_points_packed(frames[t], counts[t]);
+        double *grown;
+        sqffd_result r = sqffd_stack_lids(view, &stacks[t], NULL, 0, &n);
+        grown = r == SQFFD_OK ? (double *)realloc(frames[t], 3 * (counts[t] + n) * sizeof(double)) : NULL;
+        if (grown) {
+            frames[t] = grown;
+            view = sqffd_points_packed(frames[t], counts[t]);
+            r = sqffd_stack_lids(view, &stacks[t], frames[t] + 3 * counts[t], n, &n);
+        }
+        if (r != SQFFD_OK || !grown) {
+            snprintf(err, err_size, "sqffd: the stack's lids: %s", grown ? sqffd_result_string(r) : "out of memory");
+            return 1;
+        }
+        counts[t] += n;
+        *added += n;
+    }
+    return 0;
 }
 
 /* --slice-shifts: the frames' stacks, one shift a slice (sqffd_stack_shifts),
@@ -753,10 +801,7 @@ static void fit_report(const fit_args *a, const input_summary *in, size_t n, con
     printf("    jacobian       %.4f   (the lattice's smallest Bernstein bound: > 0, no fold)\n", r->min_jacobian);
     if (r->coarse_iterations > 0) printf("  iterations       %d coarse + %d", r->coarse_iterations, r->iterations);
     else printf("  iterations       %d", r->iterations);
-    printf("%s\n", r->iterations == 0                                             ? " (the superquadric alone)"
-                   : r->converged                                                 ? " (converged)"
-                   : r->coarse_iterations + r->iterations >= a->options.max_iterations ? " (iteration cap)"
-                                                                                  : " (stalled: the Jacobian floor held the last step under the tolerance)");
+    printf("%s\n", r->iterations == 0 ? " (the superquadric alone)" : r->converged ? " (converged)" : " (iteration cap)");
     printf("  model mesh       %s: %lu vertices, %lu triangles; model-to-data RMS %.4f %%, max %.4f %%\n",
            a->output, (unsigned long)mesh_vertices, (unsigned long)mesh_triangles,
            100.0 * model_to_data->rms_relative, 100.0 * model_to_data->max_relative);
@@ -804,6 +849,8 @@ static int cmd_fit(int argc, char **argv)
     int help, status = EXIT_BAD_INPUT;
     sqffd_io_scalar scalar;
     sqffd_slice_shifts shifts;
+    sqffd_stack stack;
+    size_t lids = 0;
 
     status = fit_parse(argc, argv, &a, &help);
     if (status) return status;
@@ -823,6 +870,12 @@ static int cmd_fit(int argc, char **argv)
         fprintf(stderr, "%s\n", err);
         goto done;
     }
+    if (!a.in.no_lids && find_stacks(frames, counts, 1, &stack) && add_lids(frames, counts, 1, &stack, &lids, err, sizeof err)) {
+        fprintf(stderr, "%s\n", err);
+        goto done;
+    }
+    points = frames[0];
+    n = counts[0];
     t[1] = seconds_now();
 
     r = sqffd_fit_workspace_size(n, &a.options, &work_size);
@@ -910,6 +963,9 @@ static int cmd_fit(int argc, char **argv)
     }
     t[3] = seconds_now();
     if (!a.quiet) fit_report(&a, &input, n, &model, &report, nv, nt, &mesh_stats, t);
+    if (!a.quiet && lids)
+        printf("  lids             %lu of the points close the stack half a spacing beyond its outer slices (--no-lids: "
+               "none)\n", (unsigned long)lids);
     if (!a.quiet && a.in.slice_shifts) print_slice_shifts(&shifts);
     status = 0;
 done:
@@ -944,6 +1000,7 @@ typedef struct track_args {
     int volume;                  /* VOLUME_AUTO, VOLUME_CLOSED or VOLUME_SLICES */
     sqffd_stack *stacks;         /* the frames' short-axis stacks, when the volumes are the slices' */
     sqffd_slice_shifts shifts;   /* --slice-shifts: what was applied */
+    size_t lids;                 /* points the stacks' lids added, over all frames */
     int ascii, quiet;
     size_t dropped_nan, dropped_frames; /* PCD points dropped for NaN coordinates, and the frames that had some */
 } track_args;
@@ -1086,6 +1143,9 @@ static void track_report(const track_args *a, const size_t *counts, const sqffd_
         printf("  volumes          between each frame's outer short-axis slices +- half the spacing (%.4g)\n",
                a->motion.stacks[m->ed_frame].spacing);
     if (a->in.slice_shifts) print_slice_shifts(&a->shifts);
+    if (a->lids)
+        printf("  lids             %lu points close each frame's stack half a spacing beyond its outer slices "
+               "(--no-lids: none)\n", (unsigned long)a->lids);
     printf("  end-diastolic volume   %.6g (frame %lu)\n", m->edv, (unsigned long)m->ed_frame);
     printf("  end-systolic volume    %.6g (frame %lu)\n", m->esv, (unsigned long)m->es_frame);
     printf("  ejection fraction  %.1f %%\n", 100.0 * m->ejection_fraction);
@@ -1193,30 +1253,33 @@ static void track_result_free(track_result *r)
 
 /* Tracks the frames, measures the motion and writes the outputs into
    a->output; 0, or an exit status after a message. */
-/* The frames' short-axis stacks (sqffd_points_stack) into a->stacks and
-   a->motion.stacks, when every frame is one and their planes are parallel;
-   else 1, with a message under --volume slices. */
-static int track_stacks(track_args *a, const double *const *points, const size_t *counts, size_t frames)
+/* The frames as short-axis stacks, before the tracking: a->stacks when
+   every frame is one (their planes parallel), the volumes between their
+   slices unless --volume closed, and the lids unless --no-lids; 0, or an
+   exit status after a message (--volume slices on frames that are no
+   stacks). */
+static int track_stacks(track_args *a, double **points, size_t *counts)
 {
-    size_t t;
-    int found = 0;
-    a->stacks = (sqffd_stack *)malloc(frames * sizeof *a->stacks);
-    for (t = 0; a->stacks && t < frames; t++) {
-        const double *axis = a->stacks[0].axis, *here = a->stacks[t].axis;
-        if (sqffd_points_stack(sqffd_points_packed(points[t], counts[t]), &a->stacks[t], &found) != SQFFD_OK || !found ||
-            fabs(axis[0] * here[0] + axis[1] * here[1] + axis[2] * here[2]) < 0.999)
-            break;
+    char err[512];
+    a->stacks = (sqffd_stack *)calloc(a->frame_count, sizeof *a->stacks);
+    if (!a->stacks) {
+        fprintf(stderr, "sqffd track: out of memory\n");
+        return EXIT_BAD_INPUT;
     }
-    if (a->stacks && t == frames) {
-        a->motion.stacks = a->stacks;
-        return 0;
+    if (!find_stacks(points, counts, a->frame_count, a->stacks)) {
+        free(a->stacks);
+        a->stacks = NULL;
+        if (a->volume != VOLUME_SLICES) return 0;
+        fprintf(stderr, "sqffd track: --volume slices: the frames are not short-axis stacks (points on 3 or more "
+                        "parallel planes, slice by slice) with the same planes' normal\n");
+        return EXIT_BAD_INPUT;
     }
-    if (a->volume == VOLUME_SLICES)
-        fprintf(stderr, "%s: --volume slices: not a short-axis stack (points on 3 or more parallel planes, slice by "
-                        "slice), or its planes are not the other frames'\n", a->stacks ? a->frames[t] : "sqffd track");
-    free(a->stacks);
-    a->stacks = NULL;
-    return 1;
+    if (a->volume != VOLUME_CLOSED) a->motion.stacks = a->stacks;
+    if (!a->in.no_lids && add_lids(points, counts, a->frame_count, a->stacks, &a->lids, err, sizeof err)) {
+        fprintf(stderr, "%s\n", err);
+        return EXIT_BAD_INPUT;
+    }
+    return 0;
 }
 
 static int track_run(track_args *a, double **points, size_t *counts, track_result *res)
@@ -1280,8 +1343,6 @@ static int track_run(track_args *a, double **points, size_t *counts, track_resul
         fprintf(stderr, "sqffd track: out of memory\n");
         goto done;
     }
-    if (a->volume != VOLUME_CLOSED && track_stacks(a, (const double *const *)points, counts, frames) && a->volume == VOLUME_SLICES)
-        goto done;
     r = sqffd_motion(res->models, frames, &a->motion, &res->out, &res->motion, work, work_size);
     if (r != SQFFD_OK) {
         fprintf(stderr, "sqffd track: the motion analysis failed: %s\n", sqffd_result_string(r));
@@ -1356,6 +1417,7 @@ static int cmd_track(int argc, char **argv)
         fprintf(stderr, "%s\n", err);
         goto done;
     }
+    if ((status = track_stacks(&a, points, counts)) != 0) goto done;
     status = track_run(&a, points, counts, &res);
     if (status == 0 && !a.quiet) track_report(&a, counts, res.reports, res.out.volumes, &res.motion, res.seconds);
 done:

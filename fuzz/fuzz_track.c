@@ -350,6 +350,26 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                 for (k = 0; k < 3; k++) st.level[k] = lo + (double)k * st.spacing;
                 found = st.spacing > 0.0 && isfinite(st.spacing) && st.level[1] > lo && st.level[2] > st.level[1];
             }
+            if (found) { /* its lids: counted as written, each on a plane half a spacing beyond an outer one */
+                size_t need = 0, got = 0, k2;
+                sr = sqffd_stack_lids(sqffd_points_packed(points[t], counts[t]), &st, NULL, 0, &need);
+                if (sr == SQFFD_OK && need > 0) {
+                    double *lid = (double *)malloc(3 * need * sizeof(double));
+                    if (!lid) abort();
+                    if (sqffd_stack_lids(sqffd_points_packed(points[t], counts[t]), &st, lid, need, &got) != SQFFD_OK ||
+                        got != need)
+                        abort();
+                    for (k2 = 0; k2 < got; k2++) {
+                        double at = st.axis[0] * lid[3 * k2] + st.axis[1] * lid[3 * k2 + 1] + st.axis[2] * lid[3 * k2 + 2];
+                        double lo = st.level[0] - 0.5 * st.spacing, hi = st.level[st.planes - 1] + 0.5 * st.spacing;
+                        if (!(fabs(at - lo) <= 1e-6 * (fabs(lo) + st.spacing) || fabs(at - hi) <= 1e-6 * (fabs(hi) + st.spacing)))
+                            abort();
+                    }
+                    free(lid);
+                } else if (sr != SQFFD_OK && sr != SQFFD_ERROR_NON_FINITE) {
+                    abort();
+                }
+            }
             if (found) { /* its slice shifts: finite, across the axis, and applying them moves slice points only */
                 sqffd_points view = sqffd_points_packed(points[t], counts[t]);
                 sqffd_slice_shifts sh;

@@ -249,6 +249,9 @@ expect 0 "slice shifts     6 slices along 0 0 1" fit "$TMP/stack.xyz" -o "$TMP/s
 awk 'BEGIN { split("2.5 -3.5 -2 2 3.5 -2.5", w, " ") } $1 == "level" { k++; if ($4 - w[k] > 1e-6 || w[k] - $4 > 1e-6 || $5 > 1e-6 || $5 < -1e-6) bad = 1 }
     END { exit bad || k != 6 }' "$TMP/out" && ok || bad "fit --slice-shifts: shifts not minus the jumps: $(grep level "$TMP/out")"
 expect 0 "slice shifts     6 slices" track "$TMP/stack.xyz" "$TMP/stack.xyz" -o "$TMP/ts" --slice-shifts --frame-iterations 1 --iterations 2
+grep -q "lids             $((2 * 2 * (48 + 24 + 16 + 12))) points close each frame's stack" "$TMP/out" && ok || bad "track of stacks: lids not 2 x 200: $(grep lids "$TMP/out")"
+expect 0 "after FFD" fit "$TMP/stack.xyz" -o "$TMP/stack.ply" --no-lids --iterations 2
+grep -q "lids " "$TMP/out" && bad "fit --no-lids: lids added" || ok
 expect 1 "--slice-shifts: not a short-axis stack" fit "$DATA" -o "$TMP/x.ply" --slice-shifts
 expect 2 "option '--slice-shifts' takes no value" fit "$TMP/stack.xyz" -o "$TMP/x.ply" --slice-shifts=1
 # the demo: everything it lists exists and reads back

@@ -223,14 +223,15 @@ static size_t label_map_points(const double *stack_points, size_t n, double firs
 
 /* ED to ES in one step on stacks, the ES one a slice shorter at the base
    (it descends below the top plane): both models fold-free, their meshes fold
-   nowhere, and the ejection fraction is the phantom's within 2 points;
+   nowhere, and the ejection fraction is the phantom's within 2 points, and
+   so with the stacks closed by their lids;
    the same stacks as label maps (--label 3) give it within 2 points of
    the stacks' as points. */
 static void test_track_stack_ejection(void)
 {
     enum { ROOM = 60000 };
     phantom_lv p = phantom_lv_default();
-    double *frames[2], *labelled[2], truth = phantom_lv_ejection_fraction(&p, 2), ef, ef_labels;
+    double *frames[2], *labelled[2], truth = phantom_lv_ejection_fraction(&p, 2), ef, ef_labels, ef_lids;
     size_t counts[2], label_counts[2];
     sqffd_fit_report reports[2];
     sqffd_stack stacks[2];
@@ -249,6 +250,20 @@ static void test_track_stack_ejection(void)
     printf("    stack: EF %.2f%% (the phantom's %.2f%%), errors %.3f%% / %.3f%%\n", 100.0 * ef, 100.0 * truth,
            100.0 * reports[0].error.rms_relative, 100.0 * reports[1].error.rms_relative);
     CHECK_MSG(fabs(ef - truth) <= 0.02, "EF %g, the phantom's %g", ef, truth);
+    for (k = 0; k < 2; k++) { /* closed by their lids (as sqffd track does) */
+        size_t n = 0;
+        CHECK_RESULT(sqffd_stack_lids(sqffd_points_packed(frames[k], counts[k]), &stacks[k], NULL, 0, &n), SQFFD_OK);
+        CHECK(counts[k] + n <= ROOM);
+        if (counts[k] + n > ROOM) break;
+        memcpy(labelled[k], frames[k], 3 * counts[k] * sizeof(double));
+        CHECK_RESULT(sqffd_stack_lids(sqffd_points_packed(frames[k], counts[k]), &stacks[k], labelled[k] + 3 * counts[k],
+                                      n, &n), SQFFD_OK);
+        label_counts[k] = counts[k] + n;
+    }
+    ef_lids = track_ejection(labelled, label_counts, stacks, reports);
+    printf("    with lids: EF %.2f%%, errors %.3f%% / %.3f%%\n", 100.0 * ef_lids, 100.0 * reports[0].error.rms_relative,
+           100.0 * reports[1].error.rms_relative);
+    CHECK_MSG(fabs(ef_lids - truth) <= 0.02, "EF %g with lids, the phantom's %g", ef_lids, truth);
     label_counts[0] = label_map_points(frames[0], counts[0], -p.height + 3.0, 8, labelled[0], ROOM);
     label_counts[1] = label_map_points(frames[1], counts[1], -p.height + 3.0, 8, labelled[1], ROOM);
     ef_labels = track_ejection(labelled, label_counts, NULL, reports);
@@ -406,6 +421,57 @@ static void test_stack_shifts_exact(void)
     for (t = 0; t < 2; t++) free(frames[t]);
 }
 
+/* The lids of a rotated stack of circles (radii growing along the stack):
+   on the planes half a spacing beyond the outer slices, the outer circle's
+   points there and rings of every 2nd, 3rd and 4th of them at 3/4, 1/2 and
+   1/4 of its radius about its centre (the area centroid of a regular
+   polygon); counted alone the same; bad input: result codes. */
+static void test_stack_lids(void)
+{
+    double *pts = (double *)test_malloc(6 * 64 * 3 * sizeof(double)), *lids, rot[9], centre[2] = {3.0, -4.0};
+    size_t n = 0, count = 0, need = 0, i, at[2][4] = {{0}};
+    sqffd_stack s;
+    synth_rng rng = synth_rng_seed(31);
+    int k, c, found;
+    synth_rotation(&rng, rot);
+    for (k = 0; k < 6; k++) n += circle_slice(pts + 3 * n, centre, 10.0 + k, 8.0 * k, 0);
+    for (i = 0; i < n; i++) {
+        double q[3], *p = pts + 3 * i;
+        for (c = 0; c < 3; c++) q[c] = rot[3 * c] * p[0] + rot[3 * c + 1] * p[1] + rot[3 * c + 2] * p[2];
+        memcpy(p, q, sizeof q);
+    }
+    CHECK_RESULT(sqffd_points_stack(sqffd_points_packed(pts, n), &s, &found), SQFFD_OK);
+    CHECK(found && s.planes == 6);
+    CHECK_RESULT(sqffd_stack_lids(sqffd_points_packed(pts, n), &s, NULL, 0, &need), SQFFD_OK);
+    CHECK(need == 2 * (64 + 32 + 22 + 16)); /* every point, every 2nd, 3rd (0, 3, .., 63: 22) and 4th */
+    lids = (double *)test_malloc(3 * need * sizeof(double));
+    CHECK_RESULT(sqffd_stack_lids(sqffd_points_packed(pts, n), &s, lids, need, &count), SQFFD_OK);
+    CHECK(count == need);
+    for (i = 0; i < count; i++) {
+        double local[3], r;
+        int end, ring;
+        for (c = 0; c < 3; c++) local[c] = rot[c] * lids[3 * i] + rot[3 + c] * lids[3 * i + 1] + rot[6 + c] * lids[3 * i + 2];
+        end = fabs(local[2] - 44.0) < 1e-9 ? 1 : fabs(local[2] + 4.0) < 1e-9 ? 0 : -1; /* 40 + 4, 0 - 4 */
+        CHECK_MSG(end >= 0, "lid point %lu at %g along the stack", (unsigned long)i, local[2]);
+        r = hypot(local[0] - centre[0], local[1] - centre[1]) / (end ? 15.0 : 10.0);
+        ring = (int)floor(4.0 * (1.0 - r) + 0.5);
+        CHECK_MSG(ring >= 0 && ring < 4 && fabs(r - (1.0 - ring / 4.0)) < 1e-9, "lid point %lu at %g of the radius",
+                  (unsigned long)i, r);
+        if (end >= 0 && ring >= 0 && ring < 4) at[end][ring]++;
+    }
+    for (k = 0; k < 2; k++) CHECK(at[k][0] == 64 && at[k][1] == 32 && at[k][2] == 22 && at[k][3] == 16);
+    CHECK_RESULT(sqffd_stack_lids(sqffd_points_packed(pts, n), &s, lids, need - 1, &count), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(sqffd_stack_lids(sqffd_points_packed(pts, n), &s, lids, need, NULL), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(sqffd_stack_lids(sqffd_points_packed(pts, n), NULL, lids, need, &count), SQFFD_ERROR_INVALID_ARGUMENT);
+    s.spacing = -1.0;
+    CHECK_RESULT(sqffd_stack_lids(sqffd_points_packed(pts, n), &s, lids, need, &count), SQFFD_ERROR_INVALID_ARGUMENT);
+    s.spacing = 8.0;
+    pts[4] = NAN;
+    CHECK_RESULT(sqffd_stack_lids(sqffd_points_packed(pts, n), &s, lids, need, &count), SQFFD_ERROR_NON_FINITE);
+    free(lids);
+    free(pts);
+}
+
 /* The phantom's ED and ES stacks (a plain cup; ES a slice shorter at the base), each
    slice moved in-plane by the same random shift in both frames (one
    breath-hold a slice, up to 2 mm): the shifts found are the truth's jumps
@@ -479,4 +545,5 @@ void suite_fold(void)
     RUN_TEST(test_track_stack_ejection);
     RUN_TEST(test_stack_shifts_exact);
     RUN_TEST(test_stack_shifts_phantom);
+    RUN_TEST(test_stack_lids);
 }
