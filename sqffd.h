@@ -6623,7 +6623,8 @@ typedef struct sqffd__fit_system {
    Jacobian coefficients the step breaks, linearised at P with gradients
    g_c, each keeping SQFFD__FIT_FOLD_KEEP of its slack at P (the cubic's
    curvature then rarely carries it past the floor; what is left is
-   shortened by halves). The constraints come in rounds, each adding what
+   shortened by halves, and a step no share of which keeps the floor gives
+   way to the next stiffer one). The constraints come in rounds, each adding what
    the last solution breaks, at most SQFFD__FIT_FOLD_ACTIVE in all; the
    multipliers lambda >= 0 minimise 1/2 lambda^T H lambda + need^T lambda,
    H_ij = g_i^T (A + mu K)^-1 g_j (the problem's dual), by Lawson and
