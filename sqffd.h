@@ -1154,7 +1154,8 @@ SQFFD_DEF sqffd_result sqffd_stack_shifts(const sqffd_points *frames, const sqff
                                           sqffd_slice_shifts *shifts);
 /* Adds slice k's shift to each of the n packed points (3n doubles) within
    shifts->tolerance of its level; other points stay. *moved (may be NULL):
-   how many moved. INVALID_ARGUMENT (NULL shifts or points with n > 0), NON_FINITE. */
+   how many moved. INVALID_ARGUMENT (NULL shifts or points with n > 0),
+   NON_FINITE (a point, or a moved one, not finite: then none moves). */
 SQFFD_DEF sqffd_result sqffd_slice_shifts_apply(const sqffd_slice_shifts *shifts, double *points, size_t n,
                                                 size_t *moved);
 
@@ -1172,7 +1173,8 @@ SQFFD_DEF sqffd_result sqffd_slice_shifts_apply(const sqffd_slice_shifts *shifts
    centroid (a left ventricle's cavity). out: room for capacity points (3
    doubles each); *count: the points a full out gets (out NULL: only
    counted). INVALID_ARGUMENT (NULL stack or count, a bad stack or view,
-   out too small), NON_FINITE. */
+   out too small), NON_FINITE (also coordinates too large to compute
+   with). */
 #define SQFFD_STACK_LID_RINGS 3
 SQFFD_DEF sqffd_result sqffd_stack_lids(sqffd_points points, const sqffd_stack *stack, double *out, size_t capacity,
                                         size_t *count);
@@ -8828,18 +8830,21 @@ SQFFD_DEF sqffd_result sqffd_slice_shifts_apply(const sqffd_slice_shifts *shifts
                                                 size_t *moved)
 {
     size_t i, j, count = 0;
-    int c;
+    int c, pass;
     if (moved) *moved = 0;
     if (!shifts || (!points && n > 0) || shifts->slices > SQFFD_STACK_PLANES) return SQFFD_ERROR_INVALID_ARGUMENT;
-    for (i = 0; i < n; ++i) {
-        double *p = points + 3 * i, level;
-        if (!sqffd__finite3(p)) return SQFFD_ERROR_NON_FINITE;
-        level = sqffd__dot3(p, shifts->axis);
-        for (j = 0; j < shifts->slices && !(fabs(level - shifts->level[j]) <= shifts->tolerance); ++j) {}
-        if (j == shifts->slices) continue;
-        for (c = 0; c < 3; ++c) p[c] += shifts->shift[j][c];
-        ++count;
-    }
+    for (pass = 0; pass < 2; ++pass) /* every point checked before any moves */
+        for (i = 0; i < n; ++i) {
+            double *p = points + 3 * i, level, q[3];
+            if (!sqffd__finite3(p)) return SQFFD_ERROR_NON_FINITE;
+            level = sqffd__dot3(p, shifts->axis);
+            for (j = 0; j < shifts->slices && !(fabs(level - shifts->level[j]) <= shifts->tolerance); ++j) {}
+            if (j == shifts->slices) continue;
+            for (c = 0; c < 3; ++c) q[c] = p[c] + shifts->shift[j][c];
+            if (!sqffd__finite3(q)) return SQFFD_ERROR_NON_FINITE;
+            if (pass) memcpy(p, q, sizeof q);
+            count += (size_t)pass;
+        }
     if (moved) *moved = count;
     return SQFFD_OK;
 }
@@ -8872,6 +8877,7 @@ SQFFD_DEF sqffd_result sqffd_stack_lids(sqffd_points points, const sqffd_stack *
                     q[c] = lid * stack->axis[c] +
                            (1.0 - t) * (sqffd__dot3(p, e[0]) * e[0][c] + sqffd__dot3(p, e[1]) * e[1][c]) +
                            t * (centre[0] * e[0][c] + centre[1] * e[1][c]);
+                if (!sqffd__finite3(q)) return SQFFD_ERROR_NON_FINITE; /* (coordinates too large to compute with) */
                 if (out) {
                     if (total == capacity) return SQFFD_ERROR_INVALID_ARGUMENT;
                     memcpy(out + 3 * total, q, sizeof q);

@@ -413,6 +413,17 @@ static void test_stack_shifts_exact(void)
     stacks[1] = stacks[0];
     stacks[1].level[1] = stacks[1].level[0]; /* levels not ascending */
     CHECK_RESULT(sqffd_stack_shifts(views, stacks, 2, &s), SQFFD_ERROR_INVALID_ARGUMENT);
+    {
+        double two[6] = {0.0, 0.0, 0.0, 1e308, 0.0, 0.0}; /* the second moved past DBL_MAX: neither moves */
+        sqffd_slice_shifts big;
+        memset(&big, 0, sizeof big);
+        big.axis[2] = 1.0;
+        big.slices = 1;
+        big.tolerance = 1.0;
+        big.shift[0][0] = 1.5e308;
+        CHECK_RESULT(sqffd_slice_shifts_apply(&big, two, 2, &moved), SQFFD_ERROR_NON_FINITE);
+        CHECK(moved == 0 && two[0] == 0.0 && two[3] == 1e308);
+    }
     frames[0][5] = NAN;
     CHECK_RESULT(sqffd_stack_shifts(views, stacks, 1, &s), SQFFD_ERROR_NON_FINITE);
     CHECK_RESULT(sqffd_slice_shifts_apply(&s, frames[0], 4, &moved), SQFFD_ERROR_NON_FINITE);
@@ -466,6 +477,14 @@ static void test_stack_lids(void)
     s.spacing = -1.0;
     CHECK_RESULT(sqffd_stack_lids(sqffd_points_packed(pts, n), &s, lids, need, &count), SQFFD_ERROR_INVALID_ARGUMENT);
     s.spacing = 8.0;
+    for (i = 0; i < 3 * n; i++) pts[i] *= 1e300; /* areas past DBL_MAX: refused or finite, never NaN written */
+    s.spacing *= 1e300;
+    for (k = 0; k < 6; k++) s.level[k] *= 1e300;
+    {
+        sqffd_result r = sqffd_stack_lids(sqffd_points_packed(pts, n), &s, lids, need, &count);
+        CHECK(r == SQFFD_OK || r == SQFFD_ERROR_NON_FINITE);
+        for (i = 0; r == SQFFD_OK && i < 3 * count; i++) CHECK_MSG(isfinite(lids[i]), "lid coordinate %lu: %g", (unsigned long)i, lids[i]);
+    }
     pts[4] = NAN;
     CHECK_RESULT(sqffd_stack_lids(sqffd_points_packed(pts, n), &s, lids, need, &count), SQFFD_ERROR_NON_FINITE);
     free(lids);
