@@ -6673,6 +6673,9 @@ typedef struct sqffd__fit_fold {
 static void sqffd__fit_fold_layout(sqffd__arena *a, const int dims[3], sqffd__fit_fold *f)
 {
     size_t l = (size_t)dims[0] * (size_t)dims[1] * (size_t)dims[2], k = SQFFD__FIT_FOLD_ACTIVE;
+    f->floor = -HUGE_VAL; /* (no floor until a run sets its own; nothing kept nor watched yet) */
+    f->normal_ready = 0;
+    f->watching = 0;
     sqffd__ffd_jacobian_layout(a, dims, 1, &f->at);
     sqffd__ffd_jacobian_layout(a, dims, 3, &f->from);
     f->normal = (double *)sqffd__arena_take(a, l * l, sizeof(double));
