@@ -6653,7 +6653,7 @@ typedef struct sqffd__fit_fold {
     sqffd__jacobian_work at;   /* at the candidate steps */
     sqffd__jacobian_work from; /* at P, with the gradients' products */
     double floor;              /* the run's */
-    double *normal;            /* L x L: A, lower triangle */
+    double *normal;            /* L x L: A, lower triangle (sqffd__fit_solve keeps it there before factoring) */
     double *r;                 /* 3L, planar: A (G(P) - P) */
     double *grad;              /* 3L, planar: a constraint's gradient g_c */
     double *solved;            /* SQFFD__FIT_FOLD_ACTIVE x 3L, planar: y_c = L^-1 g_c, L (A + mu K)'s factor */
@@ -6667,14 +6667,12 @@ typedef struct sqffd__fit_fold {
                                                    needs only to know whether more than a few break looks first
                                                    at these (sqffd__fit_fold_broken) */
     size_t watching;
-    int normal_ready;          /* normal holds this step's A (sqffd__fit_solve kept it before factoring) */
 } sqffd__fit_fold;
 
 static void sqffd__fit_fold_layout(sqffd__arena *a, const int dims[3], sqffd__fit_fold *f)
 {
     size_t l = (size_t)dims[0] * (size_t)dims[1] * (size_t)dims[2], k = SQFFD__FIT_FOLD_ACTIVE;
-    f->floor = -HUGE_VAL; /* (no floor until a run sets its own; nothing kept nor watched yet) */
-    f->normal_ready = 0;
+    f->floor = -HUGE_VAL; /* (no floor until a run sets its own; nothing watched yet) */
     f->watching = 0;
     sqffd__ffd_jacobian_layout(a, dims, 1, &f->at);
     sqffd__ffd_jacobian_layout(a, dims, 3, &f->from);
@@ -7150,10 +7148,8 @@ static sqffd_result sqffd__fit_solve(const sqffd__fit_system *s, sqffd__fit_work
     sqffd_result res = SQFFD_ERROR_NOT_POSITIVE_DEFINITE;
     memcpy(w->matrix, s->fixed, l * l * sizeof(double));
     sqffd__fit_gram(s, w->weights, 1.0, w->pairs, w->block, w->matrix);
-    if (w->fold && w->fold->floor > -HUGE_VAL) { /* the fold-free step starts from A (sqffd__fit_fold_free) */
+    if (w->fold && w->fold->floor > -HUGE_VAL) /* the fold-free step starts from A (sqffd__fit_fold_free) */
         memcpy(w->fold->normal, w->matrix, l * l * sizeof(double));
-        w->fold->normal_ready = 1;
-    }
     if (w->solver == SQFFD_SOLVER_CHOLESKY) res = sqffd_cholesky_factor(w->matrix, l);
     w->factored = res == SQFFD_OK;
     if (res == SQFFD_OK) {
@@ -7373,17 +7369,11 @@ static int sqffd__fit_fold_free(const sqffd__fit_system *s, sqffd__fit_work *w, 
     size_t l = s->lattice, size = 3 * l, p, broken;
     double *scratch = w->cg, tau = 1.0, unit = 0.0;
     int k, tries = 0, found = 0; /* found: f->move x tau keeps the floor */
-    int normal_ready = f->normal_ready;
-    f->normal_ready = 0;
     sqffd__fit_planar(w->rhs, l, f->free);
     broken = sqffd__fit_fold_broken(s, f, control, f->free, 1.0, inverse, scratch, SQFFD__FIT_FOLD_ACTIVE);
     if (!broken) return 1;
     memcpy(f->move, f->free, size * sizeof(double));
-    if (direct) {
-        if (!normal_ready) { /* A; r = A (G(P) - P) */
-            memcpy(f->normal, s->fixed, l * l * sizeof(double));
-            sqffd__fit_gram(s, w->weights, 1.0, w->pairs, w->block, f->normal);
-        }
+    if (direct) { /* (a direct step's sqffd__fit_solve kept A in f->normal); r = A (G(P) - P) */
         for (k = 0; k < 3; ++k) sqffd__fit_symmetric_times(f->normal, l, f->free + (size_t)k * l, f->r + (size_t)k * l);
         sqffd__ffd_jacobian_derivatives(s->dims, control, inverse, &f->from);
         sqffd__ffd_jacobian_products(s->dims, 3, &f->from);
@@ -7600,7 +7590,6 @@ static void sqffd__fit_begin(sqffd__fit_iteration *it, const sqffd_points *point
     w->factored = 0;
     w->fold->floor = o->min_jacobian; /* (a start below it may not fold more) */
     w->fold->watching = 0;
-    w->fold->normal_ready = 0;
     if (o->min_jacobian > -HUGE_VAL) {
         double start = sqffd__ffd_jacobian_min(s->dims, &model->ffd.control[0][0], model->ffd.inverse, &w->fold->at,
                                                o->min_jacobian);
