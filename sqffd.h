@@ -5169,10 +5169,30 @@ static void sqffd__ffd_jacobian_products(const int dims[3], int products, const 
         sqffd__jacobian_convolve(w->d[(a + 1) % 3], ext[(a + 1) % 3], w->d[(a + 2) % 3], ext[(a + 2) % 3], w->cross[a]);
 }
 
+/* J's coefficient (I, J, K) scaled by its binomials: the convolution of
+   Ds (extents es) with Dt x Du (ec) there. One sum in one order, so a
+   coefficient computed alone is the same number to the bit (inlined: the
+   whole pass calls it for every coefficient). */
+SQFFD__INLINE double sqffd__jacobian_scaled(const sqffd__jacobian_work *w, const int es[3], const int ec[3], int I,
+                                            int J, int K)
+{
+    double sum = 0.0;
+    int i, j, k, i0 = I - ec[0] + 1 > 0 ? I - ec[0] + 1 : 0, j0 = J - ec[1] + 1 > 0 ? J - ec[1] + 1 : 0;
+    int k0 = K - ec[2] + 1 > 0 ? K - ec[2] + 1 : 0;
+    for (i = i0; i < es[0] && i <= I; ++i)
+        for (j = j0; j < es[1] && j <= J; ++j)
+            for (k = k0; k < es[2] && k <= K; ++k) {
+                const double *s = w->d[0] + 3 * ((i * es[1] + j) * es[2] + k);
+                const double *x = w->cross[0] + 3 * (((I - i) * ec[1] + J - j) * ec[2] + K - k);
+                sum += s[0] * x[0] + s[1] * x[1] + s[2] * x[2];
+            }
+    return sum;
+}
+
 /* J's coefficients into w->coef, from Ds and Dt x Du; returns the smallest. */
 static double sqffd__ffd_jacobian_coefficients(const int dims[3], const sqffd__jacobian_work *w)
 {
-    int es[3], ec[3], ej[3], i, j, k, I, J, K;
+    int es[3], ec[3], ej[3], i, I, J, K;
     double best = HUGE_VAL, *coef = w->coef, bin[3][3 * SQFFD_MAX_LATTICE];
     sqffd__jacobian_extent(dims, 0, es);
     sqffd__jacobian_cross_extent(dims, 0, ec);
@@ -5181,47 +5201,26 @@ static double sqffd__ffd_jacobian_coefficients(const int dims[3], const sqffd__j
     for (I = 0; I < ej[0]; ++I)
         for (J = 0; J < ej[1]; ++J)
             for (K = 0; K < ej[2]; ++K) {
-                double sum = 0.0;
-                int i0 = I - ec[0] + 1 > 0 ? I - ec[0] + 1 : 0, j0 = J - ec[1] + 1 > 0 ? J - ec[1] + 1 : 0;
-                int k0 = K - ec[2] + 1 > 0 ? K - ec[2] + 1 : 0;
-                for (i = i0; i < es[0] && i <= I; ++i)
-                    for (j = j0; j < es[1] && j <= J; ++j)
-                        for (k = k0; k < es[2] && k <= K; ++k) {
-                            const double *s = w->d[0] + 3 * ((i * es[1] + j) * es[2] + k);
-                            const double *x = w->cross[0] + 3 * (((I - i) * ec[1] + J - j) * ec[2] + K - k);
-                            sum += s[0] * x[0] + s[1] * x[1] + s[2] * x[2];
-                        }
-                sum /= bin[0][I] * bin[1][J] * bin[2][K];
-                if (sum < best) best = sum;
-                *coef++ = sum;
+                double c = sqffd__jacobian_scaled(w, es, ec, I, J, K) / (bin[0][I] * bin[1][J] * bin[2][K]);
+                if (c < best) best = c;
+                *coef++ = c;
             }
     return best;
 }
 
-/* J's coefficient `index` (w->coef's order) alone, from Ds and Dt x Du:
-   the same sum in the same order as sqffd__ffd_jacobian_coefficients, so
-   the same number to the bit. */
+/* J's coefficient `index` (w->coef's order) alone: the same number as
+   sqffd__ffd_jacobian_coefficients gives it (the binomials are exact). */
 static double sqffd__ffd_jacobian_coefficient(const int dims[3], const sqffd__jacobian_work *w, size_t index)
 {
-    int es[3], ec[3], ej[3], i, j, k, I, J, K, i0, j0, k0;
-    double sum = 0.0;
+    int es[3], ec[3], ej[3], I, J, K;
     sqffd__jacobian_extent(dims, 0, es);
     sqffd__jacobian_cross_extent(dims, 0, ec);
     sqffd__jacobian_extent(dims, 3, ej);
     K = (int)(index % (size_t)ej[2]);
     J = (int)(index / (size_t)ej[2] % (size_t)ej[1]);
     I = (int)(index / ((size_t)ej[2] * (size_t)ej[1]));
-    i0 = I - ec[0] + 1 > 0 ? I - ec[0] + 1 : 0;
-    j0 = J - ec[1] + 1 > 0 ? J - ec[1] + 1 : 0;
-    k0 = K - ec[2] + 1 > 0 ? K - ec[2] + 1 : 0;
-    for (i = i0; i < es[0] && i <= I; ++i)
-        for (j = j0; j < es[1] && j <= J; ++j)
-            for (k = k0; k < es[2] && k <= K; ++k) {
-                const double *d = w->d[0] + 3 * ((i * es[1] + j) * es[2] + k);
-                const double *x = w->cross[0] + 3 * (((I - i) * ec[1] + J - j) * ec[2] + K - k);
-                sum += d[0] * x[0] + d[1] * x[1] + d[2] * x[2];
-            }
-    return sum / (sqffd__binomial(ej[0] - 1, I) * sqffd__binomial(ej[1] - 1, J) * sqffd__binomial(ej[2] - 1, K));
+    return sqffd__jacobian_scaled(w, es, ec, I, J, K) /
+           (sqffd__binomial(ej[0] - 1, I) * sqffd__binomial(ej[1] - 1, J) * sqffd__binomial(ej[2] - 1, K));
 }
 
 /* The smallest of J's coefficients for control points in sqffd_ffd's
