@@ -8524,6 +8524,19 @@ static double sqffd__fit_volume(const int grid[2], const double *x)
 
 #define SQFFD__STACK_TOLERANCE 1e-6 /* of the points' diagonal: a point off its plane by more is no stack's */
 #define SQFFD__MOTION_SECTIONS 64   /* intervals of a slab volume's Simpson's rule */
+#define SQFFD__STACK_SLICE 0.25     /* of the spacing: a point within it of a plane is that slice's */
+
+/* v ascending (insertion: at most SQFFD_STACK_PLANES values). */
+static void sqffd__stack_sort(double *v, size_t n)
+{
+    size_t i, k;
+    for (i = 1; i < n; ++i)
+        for (k = i; k > 0 && v[k] < v[k - 1]; --k) {
+            double t = v[k];
+            v[k] = v[k - 1];
+            v[k - 1] = t;
+        }
+}
 
 SQFFD_DEF sqffd_result sqffd_points_stack(sqffd_points points, sqffd_stack *stack, int *found)
 {
@@ -8565,20 +8578,9 @@ SQFFD_DEF sqffd_result sqffd_points_stack(sqffd_points points, sqffd_stack *stac
         s.level[s.planes++] = at;
     }
     if (s.planes < 3) return SQFFD_OK;
-    for (i = 1; i < s.planes; ++i) /* ascending (insertion: at most 64) */
-        for (k = i; k > 0 && s.level[k] < s.level[k - 1]; --k) {
-            double t = s.level[k];
-            s.level[k] = s.level[k - 1];
-            s.level[k - 1] = t;
-        }
-    for (i = 1; i < s.planes; ++i) {
-        gaps[i - 1] = s.level[i] - s.level[i - 1];
-        for (k = i - 1; k > 0 && gaps[k] < gaps[k - 1]; --k) {
-            double t = gaps[k];
-            gaps[k] = gaps[k - 1];
-            gaps[k - 1] = t;
-        }
-    }
+    sqffd__stack_sort(s.level, s.planes);
+    for (i = 1; i < s.planes; ++i) gaps[i - 1] = s.level[i] - s.level[i - 1];
+    sqffd__stack_sort(gaps, s.planes - 1);
     s.spacing = gaps[(s.planes - 1) / 2];
     *stack = s;
     *found = 1;
@@ -8669,6 +8671,16 @@ static void sqffd__stack_basis(const double axis[3], double e[2][3])
     sqffd__cross3(axis, e[0], e[1]);
 }
 
+/* A polygon edge a -> b's part of the signed area and of its first
+   moments: the triangle (origin, a, b). */
+static void sqffd__stack_edge(const double a[2], const double b[2], double *area, double moment[2])
+{
+    double t = 0.5 * (a[0] * b[1] - a[1] * b[0]);
+    *area += t;
+    moment[0] += t * (a[0] + b[0]) / 3.0;
+    moment[1] += t * (a[1] + b[1]) / 3.0;
+}
+
 /* Plane k's contour centroid in the in-plane basis (e0, e1): the area
    centroid of its closed runs of consecutive points, each run's area taken
    positive whatever its drawing direction; their points' mean where they
@@ -8693,9 +8705,7 @@ static int sqffd__stack_centroid(const sqffd_points *points, const double axis[3
             ++count;
         }
         if (run && !on) { /* the run ends: close it back to its first point */
-            double t = 0.5 * (prev[0] * first[1] - prev[1] * first[0]);
-            run_area += t;
-            for (c = 0; c < 2; ++c) run_moment[c] += t * (prev[c] + first[c]) / 3.0;
+            sqffd__stack_edge(prev, first, &run_area, run_moment);
             if (run_area < 0.0) {
                 run_area = -run_area;
                 run_moment[0] = -run_moment[0];
@@ -8708,9 +8718,7 @@ static int sqffd__stack_centroid(const sqffd_points *points, const double axis[3
         }
         if (!on) continue;
         if (run) {
-            double t = 0.5 * (prev[0] * q[1] - prev[1] * q[0]);
-            run_area += t;
-            for (c = 0; c < 2; ++c) run_moment[c] += t * (prev[c] + q[c]) / 3.0;
+            sqffd__stack_edge(prev, q, &run_area, run_moment);
         } else {
             first[0] = q[0];
             first[1] = q[1];
@@ -8788,7 +8796,7 @@ SQFFD_DEF sqffd_result sqffd_stack_shifts(const sqffd_points *frames, const sqff
         if (stacks[t].spacing < spacing) spacing = stacks[t].spacing;
     }
     memcpy(s->axis, stacks[0].axis, sizeof s->axis);
-    s->tolerance = 0.25 * spacing;
+    s->tolerance = SQFFD__STACK_SLICE * spacing;
     sqffd__stack_basis(s->axis, e);
     for (t = 0; t < frame_count; ++t) { /* the distinct levels, ascending */
         const sqffd_stack *st = stacks + t;
@@ -8853,7 +8861,7 @@ SQFFD_DEF sqffd_result sqffd_stack_lids(sqffd_points points, const sqffd_stack *
     if ((r = sqffd__points_check(&points)) != SQFFD_OK) return r;
     sqffd__stack_basis(stack->axis, e);
     for (end = 0; end < 2; ++end) {
-        double level = stack->level[end ? stack->planes - 1 : 0], centre[2], p[3], tolerance = 0.25 * stack->spacing;
+        double level = stack->level[end ? stack->planes - 1 : 0], centre[2], p[3], tolerance = SQFFD__STACK_SLICE * stack->spacing;
         double lid = level + (end ? 0.5 : -0.5) * stack->spacing;
         int got = sqffd__stack_centroid(&points, stack->axis, (const double(*)[3])e, level, tolerance, centre);
         if (got < 0) return SQFFD_ERROR_NON_FINITE;
