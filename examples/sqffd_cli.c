@@ -394,19 +394,20 @@ static void input_option_details(FILE *f)
             VOLUME_SAMPLE);
 }
 
-/* Whether every frame is a short-axis stack, all with parallel planes:
-   1 and their stacks in stacks (frame_count of them), else 0. */
-static int find_stacks(double *const *frames, const size_t *counts, size_t frame_count, sqffd_stack *stacks)
+/* How many of the frames, from the first, are short-axis stacks whose
+   planes are parallel to the first's (frame_count: all); their stacks in
+   stacks. */
+static size_t find_stacks(double *const *frames, const size_t *counts, size_t frame_count, sqffd_stack *stacks)
 {
     size_t t;
     int found = 1;
-    for (t = 0; t < frame_count && found; t++) {
+    for (t = 0; t < frame_count; t++) {
         const double *axis = stacks[0].axis, *here = stacks[t].axis;
-        if (sqffd_points_stack(sqffd_points_packed(frames[t], counts[t]), &stacks[t], &found) != SQFFD_OK ||
-            (found && fabs(axis[0] * here[0] + axis[1] * here[1] + axis[2] * here[2]) < 0.999))
-            found = 0;
+        if (sqffd_points_stack(sqffd_points_packed(frames[t], counts[t]), &stacks[t], &found) != SQFFD_OK || !found ||
+            fabs(axis[0] * here[0] + axis[1] * here[1] + axis[2] * here[2]) < 0.999)
+            break;
     }
-    return found;
+    return t;
 }
 
 /* Each frame's stack closed by its lids (sqffd_stack_lids), appended to its
@@ -436,42 +437,44 @@ static int add_lids(double **frames, size_t *counts, size_t frame_count, const s
     return 0;
 }
 
-/* --slice-shifts: the frames' stacks, one shift a slice (sqffd_stack_shifts),
-   each frame's points moved; 0, or 1 with a message in err. */
-static int correct_slices(const char *const *names, double *const *frames, const size_t *counts, size_t frame_count,
-                          sqffd_slice_shifts *shifts, char *err, size_t err_size)
+/* --slice-shifts on the frames' stacks: one shift a slice
+   (sqffd_stack_shifts), each frame's points moved; 0, or 1 with a message
+   in err. */
+static int correct_slices(const char *name, double *const *frames, const size_t *counts, size_t frame_count,
+                          const sqffd_stack *stacks, sqffd_slice_shifts *shifts, char *err, size_t err_size)
 {
     sqffd_points *views = (sqffd_points *)calloc(frame_count, sizeof *views);
-    sqffd_stack *stacks = (sqffd_stack *)calloc(frame_count, sizeof *stacks);
-    sqffd_result r = SQFFD_OK;
+    sqffd_result r = views ? SQFFD_OK : SQFFD_ERROR_TOO_LARGE;
     size_t t;
-    int found = 1, status = 1;
-    if (!views || !stacks) {
-        snprintf(err, err_size, "sqffd: out of memory");
-        goto done;
-    }
-    for (t = 0; t < frame_count && found && r == SQFFD_OK; t++) {
-        views[t] = sqffd_points_packed(frames[t], counts[t]);
-        r = sqffd_points_stack(views[t], &stacks[t], &found);
-    }
-    if (r != SQFFD_OK) {
-        snprintf(err, err_size, "%s: --slice-shifts: %s", names[t - 1], sqffd_result_string(r));
-        goto done;
-    }
-    if (!found) {
-        snprintf(err, err_size, "%s: --slice-shifts: not a short-axis stack (points on 3 to %d parallel planes, listed "
-                 "slice by slice)", names[t - 1], SQFFD_STACK_PLANES);
-        goto done;
-    }
-    r = sqffd_stack_shifts(views, stacks, frame_count, shifts);
+    for (t = 0; views && t < frame_count; t++) views[t] = sqffd_points_packed(frames[t], counts[t]);
+    if (r == SQFFD_OK) r = sqffd_stack_shifts(views, stacks, frame_count, shifts);
     for (t = 0; t < frame_count && r == SQFFD_OK; t++) r = sqffd_slice_shifts_apply(shifts, frames[t], counts[t], NULL);
-    if (r != SQFFD_OK) snprintf(err, err_size, "%s: --slice-shifts: %s%s", names[0], sqffd_result_string(r),
-                                r == SQFFD_ERROR_INVALID_ARGUMENT ? " (the frames' planes differ, or too many levels)" : "");
-    else status = 0;
-done:
     free(views);
-    free(stacks);
-    return status;
+    if (r == SQFFD_OK) return 0;
+    snprintf(err, err_size, "%s: --slice-shifts: %s%s", name, views ? sqffd_result_string(r) : "out of memory",
+             r == SQFFD_ERROR_INVALID_ARGUMENT ? " (more levels over the frames than a stack holds)" : "");
+    return 1;
+}
+
+/* The frames as short-axis stacks, before a fit or a track: *found when
+   every frame is one, their planes parallel (their stacks in stacks); then
+   --slice-shifts (which needs them) moves their slices, and unless
+   --no-lids each frame's lids are appended (*lids: how many). 0, or 1 with
+   a message in err. */
+static int prepare_stacks(const input_args *in, const char *const *names, double **frames, size_t *counts,
+                          size_t frame_count, sqffd_stack *stacks, int *found, sqffd_slice_shifts *shifts,
+                          size_t *lids, char *err, size_t err_size)
+{
+    size_t stacked = find_stacks(frames, counts, frame_count, stacks);
+    *found = stacked == frame_count;
+    *lids = 0;
+    if (in->slice_shifts && !*found) {
+        snprintf(err, err_size, "%s: --slice-shifts: not a short-axis stack (points on 3 to %d parallel planes, listed "
+                 "slice by slice)%s", names[stacked], SQFFD_STACK_PLANES, stacked ? ", or not the first frame's planes" : "");
+        return 1;
+    }
+    if (in->slice_shifts && correct_slices(names[0], frames, counts, frame_count, stacks, shifts, err, err_size)) return 1;
+    return *found && !in->no_lids && add_lids(frames, counts, frame_count, stacks, lids, err, err_size);
 }
 
 /* The shifts --slice-shifts applied, one line a slice. */
@@ -851,6 +854,7 @@ static int cmd_fit(int argc, char **argv)
     sqffd_slice_shifts shifts;
     sqffd_stack stack;
     size_t lids = 0;
+    int is_stack;
 
     status = fit_parse(argc, argv, &a, &help);
     if (status) return status;
@@ -864,13 +868,7 @@ static int cmd_fit(int argc, char **argv)
         fprintf(stderr, "%s\n", err);
         goto done;
     }
-    points = frames[0];
-    n = counts[0];
-    if (a.in.slice_shifts && correct_slices(&a.input, frames, counts, 1, &shifts, err, sizeof err)) {
-        fprintf(stderr, "%s\n", err);
-        goto done;
-    }
-    if (!a.in.no_lids && find_stacks(frames, counts, 1, &stack) && add_lids(frames, counts, 1, &stack, &lids, err, sizeof err)) {
+    if (prepare_stacks(&a.in, &a.input, frames, counts, 1, &stack, &is_stack, &shifts, &lids, err, sizeof err)) {
         fprintf(stderr, "%s\n", err);
         goto done;
     }
@@ -1253,33 +1251,34 @@ static void track_result_free(track_result *r)
 
 /* Tracks the frames, measures the motion and writes the outputs into
    a->output; 0, or an exit status after a message. */
-/* The frames as short-axis stacks, before the tracking: a->stacks when
-   every frame is one (their planes parallel), the volumes between their
-   slices unless --volume closed, and the lids unless --no-lids; 0, or an
-   exit status after a message (--volume slices on frames that are no
-   stacks). */
+/* The frames as short-axis stacks, before the tracking (prepare_stacks):
+   a->stacks when every frame is one, the volumes between their slices
+   unless --volume closed; 0, or an exit status after a message (also
+   --volume slices on frames that are no stacks). */
 static int track_stacks(track_args *a, double **points, size_t *counts)
 {
     char err[512];
+    int found = 0;
     a->stacks = (sqffd_stack *)calloc(a->frame_count, sizeof *a->stacks);
     if (!a->stacks) {
         fprintf(stderr, "sqffd track: out of memory\n");
         return EXIT_BAD_INPUT;
     }
-    if (!find_stacks(points, counts, a->frame_count, a->stacks)) {
-        free(a->stacks);
-        a->stacks = NULL;
-        if (a->volume != VOLUME_SLICES) return 0;
-        fprintf(stderr, "sqffd track: --volume slices: the frames are not short-axis stacks (points on 3 or more "
-                        "parallel planes, slice by slice) with the same planes' normal\n");
-        return EXIT_BAD_INPUT;
-    }
-    if (a->volume != VOLUME_CLOSED) a->motion.stacks = a->stacks;
-    if (!a->in.no_lids && add_lids(points, counts, a->frame_count, a->stacks, &a->lids, err, sizeof err)) {
+    if (prepare_stacks(&a->in, a->frames, points, counts, a->frame_count, a->stacks, &found, &a->shifts, &a->lids, err,
+                       sizeof err)) {
         fprintf(stderr, "%s\n", err);
         return EXIT_BAD_INPUT;
     }
-    return 0;
+    if (found) {
+        if (a->volume != VOLUME_CLOSED) a->motion.stacks = a->stacks;
+        return 0;
+    }
+    free(a->stacks);
+    a->stacks = NULL;
+    if (a->volume != VOLUME_SLICES) return 0;
+    fprintf(stderr, "sqffd track: --volume slices: the frames are not short-axis stacks (points on 3 or more "
+                    "parallel planes, slice by slice) with the same planes' normal\n");
+    return EXIT_BAD_INPUT;
 }
 
 static int track_run(track_args *a, double **points, size_t *counts, track_result *res)
@@ -1411,10 +1410,6 @@ static int cmd_track(int argc, char **argv)
     if (a.motion.ed_frame >= a.frame_count) {
         status = usage_error(find_command("track"), "track: --ed %lu: there are %lu frames",
                              (unsigned long)a.motion.ed_frame, (unsigned long)a.frame_count);
-        goto done;
-    }
-    if (a.in.slice_shifts && correct_slices(a.frames, points, counts, a.frame_count, &a.shifts, err, sizeof err)) {
-        fprintf(stderr, "%s\n", err);
         goto done;
     }
     if ((status = track_stacks(&a, points, counts)) != 0) goto done;
