@@ -212,6 +212,7 @@ typedef struct built {
     unsigned char *buffer;
     size_t span;
     int valid;            /* the view passes the layer's checks (else `expect` is its code) */
+    int borderline;       /* a world reach within rounding of the 1e300 bound: either answer is right */
     sqffd_result expect;
     uint8_t level_bytes[8]; /* the level's parameters */
 } built;
@@ -369,6 +370,7 @@ static void build_view(reader *r, built *out)
             long double reach = fabsl((long double)v->affine[4 * a + 3]);
             int c;
             for (c = 0; c < 3; c++) reach += fabsl((long double)v->affine[4 * a + c]) * (long double)(v->dims[c] - 1);
+            if (fabsl(reach - 1e300L) <= 1e286L) out->borderline = 1;
             if (!(reach <= 1e300L)) out->valid = 0;
         }
         if (!out->valid) out->expect = SQFFD_ERROR_NON_FINITE;
@@ -407,6 +409,11 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     r.at = 0;
     build_view(&r, &b);
     v = &b.v;
+    if (b.borderline) { /* the library sums in double, the check above in long double */
+        free(b.buffer);
+        free(joined);
+        return 0;
+    }
 
     /* every function validates the view the same way */
     range_res = sqffd_volume_range(v, &lo, &hi);
