@@ -33,7 +33,8 @@ from typing import List
 import numpy as np
 
 __all__ = [
-    "fit", "track", "motion", "load", "Model", "SqffdError", "Result", "Stage",
+    "fit", "track", "motion", "load", "stack", "stack_lids", "stack_shifts", "Model", "Stack", "SliceShifts",
+    "SqffdError", "Result", "Stage",
     "SqCost", "SqOptimizer", "Regularization", "Solver",
     "Superquadric", "SuperquadricReport", "DistanceStats", "FitReport", "SegmentMotion", "Motion",
     "fit_options_default", "track_options_default", "motion_options_default",
@@ -129,6 +130,7 @@ class SqffdError(Exception):
 _MAX_LATTICE = 8
 _FIT_HISTORY = 64
 _SEGMENTS = 17
+_STACK_PLANES = 64
 _PROGRESS = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, ctypes.c_int, ctypes.c_int, ctypes.c_double)
 _int, _double, _size, _pointer = ctypes.c_int, ctypes.c_double, ctypes.c_size_t, ctypes.c_void_p
 
@@ -215,6 +217,15 @@ class _MotionReport(ctypes.Structure):
                 ("segments", _SegmentMotion * _SEGMENTS)]
 
 
+class _Stack(ctypes.Structure):
+    _fields_ = [("axis", _double * 3), ("planes", _size), ("level", _double * _STACK_PLANES), ("spacing", _double)]
+
+
+class _SliceShifts(ctypes.Structure):
+    _fields_ = [("axis", _double * 3), ("slices", _size), ("level", _double * _STACK_PLANES),
+                ("shift", (_double * 3) * _STACK_PLANES), ("tolerance", _double)]
+
+
 # The mirrors by their C names (tests/python checks each against the compiler's layout).
 _MIRRORS = {
     "sqffd_points": _Points, "sqffd_sq_fit_options": _SqFitOptions, "sqffd_superquadric": _Superquadric,
@@ -222,7 +233,7 @@ _MIRRORS = {
     "sqffd_fit_options": _FitOptions, "sqffd_distance_stats": _DistanceStats, "sqffd_fit_report": _FitReport,
     "sqffd_track_options": _TrackOptions, "sqffd_motion_options": _MotionOptions,
     "sqffd_motion_outputs": _MotionOutputs, "sqffd_segment_motion": _SegmentMotion,
-    "sqffd_motion_report": _MotionReport,
+    "sqffd_motion_report": _MotionReport, "sqffd_stack": _Stack, "sqffd_slice_shifts": _SliceShifts,
 }
 
 
@@ -252,6 +263,10 @@ _declare("sqffd_track_options_default", _TrackOptions)
 _declare("sqffd_track_view_workspace_size", _int, _P(_Points), _size, _P(_TrackOptions), _P(_size))
 _declare("sqffd_track_view", _int, _P(_Points), _size, _P(_TrackOptions), _P(_Model), _P(_FitReport),
          _P(_size), _pointer, _size)
+_declare("sqffd_points_stack", _int, _Points, _P(_Stack), _P(_int))
+_declare("sqffd_stack_lids", _int, _Points, _P(_Stack), _pointer, _size, _P(_size))
+_declare("sqffd_stack_shifts", _int, _P(_Points), _P(_Stack), _size, _P(_SliceShifts))
+_declare("sqffd_slice_shifts_apply", _int, _P(_SliceShifts), _pointer, _size, _P(_size))
 _declare("sqffd_motion_options_default", _MotionOptions)
 _declare("sqffd_motion_workspace_size", _int, _P(_Model), _size, _P(_size))
 _declare("sqffd_motion", _int, _P(_Model), _size, _P(_MotionOptions), _P(_MotionOutputs), _P(_MotionReport),
@@ -290,7 +305,7 @@ def _points(points, what="points"):
 # ---- options: keyword arguments by the C field names ---------------------------------------------
 
 _ENUM_FIELDS = {"cost": SqCost, "optimizer": SqOptimizer, "regularization": Regularization, "solver": Solver}
-_HIDDEN_FIELDS = ("progress_user",)  # a Python callable carries its own state
+_HIDDEN_FIELDS = ("progress_user", "stacks")  # a Python callable carries its own state; motion(stacks=) sets stacks
 
 
 class _Progress:
@@ -660,6 +675,105 @@ def track(frames, **options):
     return [Model(_Model.from_buffer_copy(models[t]), FitReport._from_c(reports[t])) for t in range(count)]
 
 
+# ---- short-axis stacks ---------------------------------------------------------------------------
+
+class _Planes:
+    """What a Stack and SliceShifts share: the planes' normal and levels (its C count field: _COUNT)."""
+    _COUNT = ""
+
+    def __init__(self, struct):
+        self._struct = struct
+
+    @property
+    def axis(self):
+        """The planes' unit normal (its largest component positive)."""
+        return _array(self._struct.axis)
+
+    @property
+    def levels(self):
+        """The planes' positions along the axis (axis . x), ascending."""
+        return _array(self._struct.level)[:getattr(self._struct, self._COUNT)]
+
+
+class Stack(_Planes):
+    """sqffd_stack: points on parallel planes, as the contours of cine MRI slices lie. Made by stack()."""
+    _COUNT = "planes"
+
+    @property
+    def spacing(self):
+        """The median gap between neighbouring planes."""
+        return self._struct.spacing
+
+    def __repr__(self):
+        return f"<sqffd.Stack {self._struct.planes} planes, spacing {self.spacing:.6g}, axis {self.axis.round(6)}>"
+
+
+class SliceShifts(_Planes):
+    """sqffd_slice_shifts: one in-plane shift a slice (breath-hold misregistration). Made by stack_shifts()."""
+    _COUNT = "slices"
+
+    @property
+    def shifts(self):
+        """(slices, 3), world, across the axis: what moves slice k onto the centreline."""
+        return np.array(self._struct.shift, dtype=np.float64)[:self._struct.slices]
+
+    @property
+    def tolerance(self):
+        """A point within it of a level belongs to that slice (a quarter spacing)."""
+        return self._struct.tolerance
+
+    def apply(self, points):
+        """A float64 copy of points, (N, 3), with each slice's shift added to its points
+        (sqffd_slice_shifts_apply), and how many moved; other points stay."""
+        moved = np.array(_points(points)[0], dtype=np.float64, order="C")
+        count = _size()
+        _check(_lib.sqffd_slice_shifts_apply(self._struct, moved.ctypes.data, len(moved), ctypes.byref(count)),
+               "slice shifts")
+        return moved, count.value
+
+    def __repr__(self):
+        return f"<sqffd.SliceShifts {self._struct.slices} slices, largest {np.abs(self.shifts).max(initial=0):.6g}>"
+
+
+def stack(points):
+    """The short-axis stack the points form (listed slice by slice, each contour in drawing order,
+    as contour exports list them; sqffd_points_stack), or None when they do not lie on 3 to 64
+    parallel planes."""
+    array, view = _points(points)
+    struct, found = _Stack(), _int()
+    _check(_lib.sqffd_points_stack(view, ctypes.byref(struct), ctypes.byref(found)), "stack")
+    return Stack(struct) if found.value else None
+
+
+def stack_lids(points, stack):
+    """The lids that close the stack where Simpson's method closes it (sqffd_stack_lids): (K, 3)
+    points on the planes half a spacing beyond the outer slices, filling their contours. Fit or
+    track np.vstack((points, lids)) for a model that closes there."""
+    array, view = _points(points)
+    count = _size()
+    _check(_lib.sqffd_stack_lids(view, stack._struct, None, 0, ctypes.byref(count)), "stack lids")
+    lids = np.empty((count.value, 3))
+    _check(_lib.sqffd_stack_lids(view, stack._struct, lids.ctypes.data, count.value, ctypes.byref(count)),
+           "stack lids")
+    return lids
+
+
+def stack_shifts(frames, stacks):
+    """One in-plane shift a slice from the frames' stacks (sqffd_stack_shifts): frames, a list of
+    (N_t, 3) contour stacks; stacks, their Stack each. Returns SliceShifts; apply it to every frame
+    and fit or track again."""
+    prepared = [_points(frame, f"frames[{t}]") for t, frame in enumerate(frames)]
+    stacks = list(stacks)
+    if len(stacks) != len(prepared) or not all(isinstance(s, Stack) for s in stacks):
+        raise TypeError("stacks: expected one sqffd.Stack a frame")
+    count = len(prepared)
+    views = (_Points * max(count, 1))(*(view for _, view in prepared))
+    structs = (_Stack * max(count, 1))(*(s._struct for s in stacks))
+    shifts = _SliceShifts()
+    _check(_lib.sqffd_stack_shifts(views, structs, count, ctypes.byref(shifts)), "stack shifts")
+    return SliceShifts(shifts)
+
+
 # ---- motion --------------------------------------------------------------------------------------
 
 @dataclasses.dataclass(eq=False)
@@ -696,11 +810,13 @@ class Motion:
     segments: List[SegmentMotion]
 
 
-def motion(models, **options):
+def motion(models, stacks=None, **options):
     """Volumes, ejection fraction, per-vertex motion, low-motion zones and the AHA 17 segments of a
-    tracked left ventricle (sqffd_motion), from track()'s models. options: sqffd_motion_options
-    fields: ed_frame, low_motion_fraction, hypokinetic_share, apex_fraction, apex_direction=(x, y, z),
-    septum_direction=(x, y, z) (give it for a real heart: the points do not carry it)."""
+    tracked left ventricle (sqffd_motion), from track()'s models. stacks: the frames' Stack each
+    (volumes between each stack's outer planes +- half a spacing, Simpson's extent), or None
+    (closed volumes). options: sqffd_motion_options fields: ed_frame, low_motion_fraction,
+    hypokinetic_share, apex_fraction, apex_direction=(x, y, z), septum_direction=(x, y, z) (give it
+    for a real heart: the points do not carry it)."""
     models = list(models)
     for t, model in enumerate(models):
         if not isinstance(model, Model):
@@ -709,6 +825,12 @@ def motion(models, **options):
     structs = (_Model * max(count, 1))(*(model._struct for model in models))
     struct_options = _lib.sqffd_motion_options_default()
     _set_options(struct_options, options, "", [])
+    if stacks is not None:
+        stacks = list(stacks)
+        if len(stacks) != count or not all(isinstance(s, Stack) for s in stacks):
+            raise TypeError("stacks: expected one sqffd.Stack a model")
+        stack_structs = (_Stack * max(count, 1))(*(s._struct for s in stacks))  # (alive until the call returns)
+        struct_options.stacks = ctypes.cast(stack_structs, _pointer)
     work, work_size = _workspace(_lib.sqffd_motion_workspace_size, "motion", structs, count)
     vertex_count = _size()
     _check(_lib.sqffd_model_mesh_size(structs[0].grid[0], structs[0].grid[1], ctypes.byref(vertex_count), None),

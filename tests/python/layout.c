@@ -152,6 +152,19 @@ int main(void)
     FIELD(sqffd_motion_report, median_excursion);
     FIELD(sqffd_motion_report, segments);
 
+    STRUCT(sqffd_stack);
+    FIELD(sqffd_stack, axis);
+    FIELD(sqffd_stack, planes);
+    FIELD(sqffd_stack, level);
+    FIELD(sqffd_stack, spacing);
+
+    STRUCT(sqffd_slice_shifts);
+    FIELD(sqffd_slice_shifts, axis);
+    FIELD(sqffd_slice_shifts, slices);
+    FIELD(sqffd_slice_shifts, level);
+    FIELD(sqffd_slice_shifts, shift);
+    FIELD(sqffd_slice_shifts, tolerance);
+
     /* sizes of the enums the mirrors hold as C int */
     STRUCT(sqffd_result);
     STRUCT(sqffd_sq_cost);
@@ -163,6 +176,7 @@ int main(void)
     CONST(SQFFD_MAX_LATTICE);
     CONST(SQFFD_FIT_HISTORY);
     CONST(SQFFD_SEGMENTS);
+    CONST(SQFFD_STACK_PLANES);
     CONST(SQFFD_RESULT_COUNT);
 #define PRINT_RESULT(name, text) CONST(name);
     SQFFD_RESULT_LIST(PRINT_RESULT)

@@ -14,6 +14,14 @@
        then sqffd_motion (septum toward -x, as the phantom's) into
        OUT.motion and the arrays OUT.volumes, .trajectories, .displacement,
        .excursion (doubles), .low_motion and .segment (bytes)
+   reference contours DIR
+       the phantom's ED and ES short-axis stacks (8 slices, shifted in-plane
+       by up to 2 mm) into DIR/contours_ed.f64 and DIR/contours_es.f64
+   reference stack OUT FRAME.f64 ...
+       each frame's sqffd_points_stack, sqffd_stack_shifts into OUT.shifts
+       (x y z doubles a slice), applied to every frame, each frame's
+       sqffd_stack_lids into OUT_NN.lids, then `track` of the frames with
+       their lids and sqffd_motion with the stacks
    A .report or .motion file has one "NAME VALUE" line per number of the
    report (%.17g, so it reads back exactly), named by the struct's fields
    (nested with '.', array elements by index). */
@@ -273,28 +281,22 @@ static int cmd_fit(int argc, char **argv)
     return ok ? 0 : 1;
 }
 
-static int cmd_track(int argc, char **argv)
+/* sqffd_track of the frames with the defaults, then sqffd_motion (septum
+   toward -x, stacks: volumes between them, or NULL), written as
+   `reference track` describes. */
+static int track_and_write(const char *out_prefix, const double **points, const size_t *counts, size_t frames,
+                           const sqffd_stack *stacks)
 {
-    size_t frames = argc > 3 ? (size_t)(argc - 3) : 0, t, size = 0, vertices = 0, done = 0;
-    const double **points = NULL;
-    size_t *counts = NULL;
-    sqffd_model *models = NULL;
-    sqffd_fit_report *reports = NULL;
+    size_t t, size = 0, vertices = 0, done = 0;
+    sqffd_model *models = (sqffd_model *)malloc(frames * sizeof *models);
+    sqffd_fit_report *reports = (sqffd_fit_report *)malloc(frames * sizeof *reports);
     sqffd_motion_options mopt = sqffd_motion_options_default();
     sqffd_motion_report motion;
     sqffd_motion_outputs out = {NULL, NULL, NULL, NULL, NULL, NULL};
     void *ws = NULL;
-    sqffd_result r = SQFFD_OK;
+    sqffd_result r = models && reports ? SQFFD_OK : SQFFD_ERROR_TOO_LARGE;
     char path[4096];
     int ok = 0;
-    if (frames == 0) return fail("track", "usage: reference track OUT FRAME.f64 ...");
-    points = (const double **)calloc(frames, sizeof *points);
-    counts = (size_t *)calloc(frames, sizeof *counts);
-    models = (sqffd_model *)malloc(frames * sizeof *models);
-    reports = (sqffd_fit_report *)malloc(frames * sizeof *reports);
-    if (!points || !counts || !models || !reports) r = SQFFD_ERROR_TOO_LARGE;
-    for (t = 0; r == SQFFD_OK && t < frames; t++)
-        if (!(points[t] = read_points(argv[3 + t], &counts[t]))) r = SQFFD_ERROR_INVALID_ARGUMENT;
     if (r == SQFFD_OK) r = sqffd_track_workspace_size(counts, frames, NULL, &size);
     if (r == SQFFD_OK && !(ws = malloc(size))) r = SQFFD_ERROR_TOO_LARGE;
     if (r == SQFFD_OK) r = sqffd_track(points, counts, frames, NULL, models, reports, &done, ws, size);
@@ -315,6 +317,7 @@ static int cmd_track(int argc, char **argv)
             r = SQFFD_ERROR_TOO_LARGE;
     }
     mopt.septum_direction[0] = -1.0;
+    mopt.stacks = stacks;
     if (r == SQFFD_OK) r = sqffd_motion(models, frames, &mopt, &out, &motion, ws, size);
     if (r != SQFFD_OK) {
         fail("track", sqffd_result_string(r));
@@ -323,23 +326,20 @@ static int cmd_track(int argc, char **argv)
         for (t = 0; ok && t < frames; t++) {
             char suffix[32];
             snprintf(suffix, sizeof suffix, "_%02d.model", (int)t);
-            ok = with_suffix(path, sizeof path, argv[2], suffix) && write_model(path, &models[t]);
+            ok = with_suffix(path, sizeof path, out_prefix, suffix) && write_model(path, &models[t]);
             snprintf(suffix, sizeof suffix, "_%02d.report", (int)t);
-            ok = ok && with_suffix(path, sizeof path, argv[2], suffix) && write_report(path, &reports[t]);
+            ok = ok && with_suffix(path, sizeof path, out_prefix, suffix) && write_report(path, &reports[t]);
         }
-        ok = ok && with_suffix(path, sizeof path, argv[2], ".motion") && write_motion_report(path, &motion);
-        ok = ok && with_suffix(path, sizeof path, argv[2], ".volumes") && write_file(path, out.volumes, frames * sizeof(double));
-        ok = ok && with_suffix(path, sizeof path, argv[2], ".trajectories")
+        ok = ok && with_suffix(path, sizeof path, out_prefix, ".motion") && write_motion_report(path, &motion);
+        ok = ok && with_suffix(path, sizeof path, out_prefix, ".volumes") && write_file(path, out.volumes, frames * sizeof(double));
+        ok = ok && with_suffix(path, sizeof path, out_prefix, ".trajectories")
           && write_file(path, out.trajectories, frames * vertices * 3 * sizeof(double));
-        ok = ok && with_suffix(path, sizeof path, argv[2], ".displacement")
+        ok = ok && with_suffix(path, sizeof path, out_prefix, ".displacement")
           && write_file(path, out.displacement, vertices * sizeof(double));
-        ok = ok && with_suffix(path, sizeof path, argv[2], ".excursion") && write_file(path, out.excursion, vertices * sizeof(double));
-        ok = ok && with_suffix(path, sizeof path, argv[2], ".low_motion") && write_file(path, out.low_motion, vertices);
-        ok = ok && with_suffix(path, sizeof path, argv[2], ".segment") && write_file(path, out.segment, vertices);
+        ok = ok && with_suffix(path, sizeof path, out_prefix, ".excursion") && write_file(path, out.excursion, vertices * sizeof(double));
+        ok = ok && with_suffix(path, sizeof path, out_prefix, ".low_motion") && write_file(path, out.low_motion, vertices);
+        ok = ok && with_suffix(path, sizeof path, out_prefix, ".segment") && write_file(path, out.segment, vertices);
     }
-    for (t = 0; points && t < frames; t++) free((void *)points[t]);
-    free(points);
-    free(counts);
     free(models);
     free(reports);
     free(ws);
@@ -352,10 +352,105 @@ static int cmd_track(int argc, char **argv)
     return ok ? 0 : 1;
 }
 
+static int cmd_track(int argc, char **argv)
+{
+    size_t frames = argc > 3 ? (size_t)(argc - 3) : 0, t;
+    const double **points;
+    size_t *counts;
+    int status = 1;
+    if (frames == 0) return fail("track", "usage: reference track OUT FRAME.f64 ...");
+    points = (const double **)calloc(frames, sizeof *points);
+    counts = (size_t *)calloc(frames, sizeof *counts);
+    if (points && counts) {
+        for (t = 0; t < frames; t++)
+            if (!(points[t] = read_points(argv[3 + t], &counts[t]))) break;
+        if (t == frames) status = track_and_write(argv[2], points, counts, frames, NULL);
+    }
+    for (t = 0; points && t < frames; t++) free((void *)points[t]);
+    free(points);
+    free(counts);
+    return status;
+}
+
+/* The phantom's ED and ES short-axis stacks: 8 slices 7 mm apart from 3 mm
+   above the ED apex, 96 points each, every slice shifted in-plane by up to
+   +-2 mm (the same shifts in both frames, as breath-holds give them). */
+static int cmd_contours(int argc, char **argv)
+{
+    phantom_lv p = phantom_lv_default();
+    double levels[8], shifts[16], points[8 * 96 * 3];
+    uint64_t state = 2026u;
+    int k;
+    if (argc != 3) return fail("contours", "usage: reference contours DIR");
+    for (k = 0; k < 8; k++) levels[k] = -p.height + 3.0 + 7.0 * k;
+    for (k = 0; k < 16; k++) shifts[k] = 4.0 * phantom__uniform(&state) - 2.0;
+    for (k = 0; k < 2; k++) {
+        char path[4096];
+        size_t n = phantom_lv_contours(&p, 0.5 * k, levels, 8, 96, shifts, points);
+        snprintf(path, sizeof path, "%s/contours_%s.f64", argv[2], k ? "es" : "ed");
+        if (!write_file(path, points, 3 * n * sizeof(double))) return 1;
+    }
+    return 0;
+}
+
+/* Each frame's stack, the slice shifts (OUT.shifts: 3 doubles a slice),
+   applied to every frame, each frame closed by its lids (OUT_NN.lids),
+   then tracked with the stacks as `reference track`. */
+static int cmd_stack(int argc, char **argv)
+{
+    size_t frames = argc > 3 ? (size_t)(argc - 3) : 0, t, count;
+    double *points[8] = {NULL}, *closed[8] = {NULL};
+    size_t counts[8], closed_counts[8];
+    sqffd_points views[8];
+    sqffd_stack stacks[8];
+    sqffd_slice_shifts shifts;
+    char path[4096], suffix[32];
+    int found = 1, status = 1;
+    if (frames == 0 || frames > 8) return fail("stack", "usage: reference stack OUT FRAME.f64 ... (at most 8)");
+    for (t = 0; t < frames; t++) {
+        if (!(points[t] = read_points(argv[3 + t], &counts[t]))) goto done;
+        views[t] = sqffd_points_packed(points[t], counts[t]);
+        if (sqffd_points_stack(views[t], &stacks[t], &found) != SQFFD_OK || !found) {
+            fail(argv[3 + t], "not a short-axis stack");
+            goto done;
+        }
+    }
+    if (sqffd_stack_shifts(views, stacks, frames, &shifts) != SQFFD_OK) {
+        fail("stack", "sqffd_stack_shifts failed");
+        goto done;
+    }
+    if (!with_suffix(path, sizeof path, argv[2], ".shifts") || !write_file(path, shifts.shift, shifts.slices * sizeof shifts.shift[0]))
+        goto done;
+    for (t = 0; t < frames; t++) {
+        if (sqffd_slice_shifts_apply(&shifts, points[t], counts[t], NULL) != SQFFD_OK ||
+            sqffd_stack_lids(views[t], &stacks[t], NULL, 0, &count) != SQFFD_OK ||
+            !(closed[t] = (double *)malloc(3 * (counts[t] + count) * sizeof(double))) ||
+            sqffd_stack_lids(views[t], &stacks[t], closed[t] + 3 * counts[t], count, &count) != SQFFD_OK) {
+            fail("stack", "shifts or lids failed");
+            goto done;
+        }
+        memcpy(closed[t], points[t], 3 * counts[t] * sizeof(double));
+        closed_counts[t] = counts[t] + count;
+        snprintf(suffix, sizeof suffix, "_%02d.lids", (int)t);
+        if (!with_suffix(path, sizeof path, argv[2], suffix) || !write_file(path, closed[t] + 3 * counts[t], 3 * count * sizeof(double)))
+            goto done;
+    }
+    status = track_and_write(argv[2], (const double **)closed, closed_counts, frames, stacks);
+done:
+    for (t = 0; t < frames; t++) {
+        free(points[t]);
+        free(closed[t]);
+    }
+    return status;
+}
+
 int main(int argc, char **argv)
 {
     if (argc >= 2 && strcmp(argv[1], "phantom") == 0) return cmd_phantom(argc, argv);
     if (argc >= 2 && strcmp(argv[1], "fit") == 0) return cmd_fit(argc, argv);
     if (argc >= 2 && strcmp(argv[1], "track") == 0) return cmd_track(argc, argv);
-    return fail("usage", "reference phantom DIR FRAMES POINTS | fit POINTS.f64 OUT [NAME=VALUE ...] | track OUT FRAME.f64 ...");
+    if (argc >= 2 && strcmp(argv[1], "contours") == 0) return cmd_contours(argc, argv);
+    if (argc >= 2 && strcmp(argv[1], "stack") == 0) return cmd_stack(argc, argv);
+    return fail("usage", "reference phantom DIR FRAMES POINTS | fit POINTS.f64 OUT [NAME=VALUE ...] | "
+                         "track OUT FRAME.f64 ... | contours DIR | stack OUT FRAME.f64 ...");
 }

@@ -119,6 +119,7 @@ class Layout(unittest.TestCase):
         self.assertEqual(constants["SQFFD_MAX_LATTICE"], sqffd._MAX_LATTICE)
         self.assertEqual(constants["SQFFD_FIT_HISTORY"], sqffd._FIT_HISTORY)
         self.assertEqual(constants["SQFFD_SEGMENTS"], sqffd._SEGMENTS)
+        self.assertEqual(constants["SQFFD_STACK_PLANES"], sqffd._STACK_PLANES)
         self.assertEqual(constants["SQFFD_RESULT_COUNT"], len(sqffd.Result))
         for prefix, enum_type in (("SQFFD_ERROR_", sqffd.Result), ("SQFFD_STAGE_", sqffd.Stage),
                                   ("SQFFD_SQ_COST_", sqffd.SqCost), ("SQFFD_SQ_OPTIMIZER_", sqffd.SqOptimizer),
@@ -337,6 +338,96 @@ class BadInput(unittest.TestCase):
         self.assertIn("make shared", run.stderr)
 
 
+class Stacks(unittest.TestCase):
+    @staticmethod
+    def circles(radii, levels, centres, rotation, per_slice=64):
+        """A stack of circles slice by slice (in drawing order), rotated: x = rotation @ local."""
+        theta = 2 * np.pi * np.arange(per_slice) / per_slice
+        local = np.vstack([np.column_stack((cx + r * np.cos(theta), cy + r * np.sin(theta), np.full(per_slice, z)))
+                           for r, z, (cx, cy) in zip(radii, levels, centres)])
+        return local @ rotation.T
+
+    def test_stack_of_circles(self):
+        rotation, _ = np.linalg.qr(np.random.default_rng(31).normal(size=(3, 3)))
+        radii, levels = 10.0 + np.arange(6), 8.0 * np.arange(6)
+        points = self.circles(radii, levels, [(3.0, -4.0)] * 6, rotation)
+        found = sqffd.stack(points)
+        normal = rotation[:, 2] * np.sign(rotation[np.argmax(np.abs(rotation[:, 2])), 2])  # largest component > 0
+        self.assertTrue(np.allclose(found.axis, normal, rtol=0, atol=1e-12))
+        offset = normal @ rotation @ np.array([3.0, -4.0, 0.0])
+        along = np.sort((levels if normal @ rotation[:, 2] > 0 else -levels) + offset)
+        self.assertTrue(np.allclose(found.levels, along, rtol=0, atol=1e-9))
+        self.assertAlmostEqual(found.spacing, 8.0, delta=1e-9)
+        lids = sqffd.stack_lids(points, found)
+        local = lids @ rotation  # back to the stack's frame
+        ends = np.where(np.abs(local[:, 2] - 44.0) < 1e-9, 1, np.where(np.abs(local[:, 2] + 4.0) < 1e-9, 0, -1))
+        self.assertTrue(np.all(ends >= 0), "a lid point off the planes half a spacing beyond the outer slices")
+        share = np.hypot(local[:, 0] - 3.0, local[:, 1] + 4.0) / np.where(ends == 1, 15.0, 10.0)
+        rings = np.rint(4 * (1 - share)).astype(int)
+        self.assertTrue(np.allclose(share, 1 - rings / 4, rtol=0, atol=1e-9))
+        for end in (0, 1):  # the ring itself, then every 2nd, 3rd and 4th point at 3/4, 1/2, 1/4 of its radius
+            self.assertEqual(np.bincount(rings[ends == end], minlength=4).tolist(), [64, 32, 22, 16])
+        self.assertIsNone(sqffd.stack(np.random.default_rng(5).normal(size=(300, 3))))
+
+    def test_slice_shifts_exact(self):
+        rotation, _ = np.linalg.qr(np.random.default_rng(29).normal(size=(3, 3)))
+        k = np.arange(8.0)
+        q, _ = np.linalg.qr(np.vander(k, 5, increasing=True))  # columns 3 and 4: orthogonal to 1, k, k^2
+        jumps = np.column_stack((0.5 * q[:, 3], -0.4 * q[:, 4], np.zeros(8)))
+        frames = []
+        for t, (bend, radius) in enumerate(((0.02, 15.0), (-0.01, 12.0))):
+            z = 5.0 * k
+            centres = np.column_stack((1.0 + bend * z * z, -2.0 + 0.1 * z)) + jumps[:, :2]
+            frames.append(self.circles(radius + 0.2 * z, z + 100.0, centres, rotation))
+        stacks = [sqffd.stack(frame) for frame in frames]
+        shifts = sqffd.stack_shifts(frames, stacks)
+        order = slice(None) if shifts.axis @ rotation[:, 2] > 0 else slice(None, None, -1)
+        self.assertTrue(np.allclose(shifts.shifts, -(jumps @ rotation.T)[order], rtol=0, atol=1e-9))
+        moved, count = shifts.apply(frames[0])
+        self.assertEqual(count, len(frames[0]))
+        again = sqffd.stack_shifts([moved, shifts.apply(frames[1])[0]], stacks)
+        self.assertTrue(np.allclose(again.shifts, 0.0, rtol=0, atol=1e-9))
+        with self.assertRaises(TypeError):
+            sqffd.stack_shifts(frames, stacks[:1])
+        broken = frames[0].copy()
+        broken[5, 2] = np.nan
+        self.assert_code(sqffd.Result.NON_FINITE, sqffd.stack_shifts, [broken], stacks[:1])
+
+    def assert_code(self, code, function, *arguments):
+        with self.assertRaises(sqffd.SqffdError) as raised:
+            function(*arguments)
+        self.assertEqual(raised.exception.code, code)
+        return raised.exception
+
+    def test_stack_pipeline_same_as_c(self):
+        """Stacks, slice shifts, lids, track and motion between the stacks: the C pipeline's bytes."""
+        reference("contours", Data.directory.name)
+        paths = [Data.path(f"contours_{phase}.f64") for phase in ("ed", "es")]
+        reference("stack", Data.path("stack_c"), *paths)
+        frames = [np.fromfile(path).reshape(-1, 3) for path in paths]
+        stacks = [sqffd.stack(frame) for frame in frames]
+        shifts = sqffd.stack_shifts(frames, stacks)
+        self.assertTrue(np.array_equal(shifts.shifts.ravel(), np.fromfile(Data.path("stack_c.shifts"))))
+        closed = []
+        for t, frame in enumerate(frames):
+            moved, _ = shifts.apply(frame)
+            lids = sqffd.stack_lids(moved, stacks[t])
+            self.assertTrue(np.array_equal(lids.ravel(), np.fromfile(Data.path(f"stack_c_{t:02d}.lids"))), f"frame {t}")
+            closed.append(np.vstack((moved, lids)))
+        models = sqffd.track(closed)
+        for t, model in enumerate(models):
+            with open(Data.path(f"stack_c_{t:02d}.model"), "rb") as f:
+                self.assertEqual(model.save(), f.read(), f"frame {t}")
+        result = sqffd.motion(models, stacks=stacks, septum_direction=(-1, 0, 0))
+        self.assertTrue(np.array_equal(result.volumes, np.fromfile(Data.path("stack_c.volumes"))))
+        self.assertEqual(result.ejection_fraction, read_report(Data.path("stack_c.motion"))["ejection_fraction"])
+        closed_volumes = sqffd.motion(models, septum_direction=(-1, 0, 0)).volumes
+        self.assertFalse(np.array_equal(result.volumes, closed_volumes))  # the stacks reached the library
+        with self.assertRaises(TypeError):
+            sqffd.motion(models, stacks=stacks[:1])
+        FINDINGS["stack_ef"] = result.ejection_fraction
+
+
 class Memory(unittest.TestCase):
     FITS = 1000
 
@@ -371,5 +462,6 @@ if __name__ == "__main__":
         sys.exit(1)
     print(f"python wrapper: {result.testsRun} tests passed (python {sys.version.split()[0]}, numpy {np.__version__}): "
           f"layouts match sqffd.h; fit (bunny {100 * FINDINGS['bunny']:.4f} %, phantom), track and motion "
-          f"(EF {100 * FINDINGS['ef']:.1f} %) byte-identical to C; "
+          f"(EF {100 * FINDINGS['ef']:.1f} %) and the stack pipeline (EF {100 * FINDINGS['stack_ef']:.1f} %) "
+          f"byte-identical to C; "
           f"resident memory {FINDINGS['growth'] / 1024:+.0f} KB over {Memory.FITS:,} fits")
