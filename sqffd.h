@@ -779,10 +779,14 @@ SQFFD_DEF sqffd_result sqffd_ffd_jacobian_bound(const sqffd_ffd *ffd, double *mi
 
 /* The global shape model: 13 superquadric numbers plus the control lattice.
    Model point (eta, omega) = FFD(superquadric point (eta, omega)).
-   The model's grid (n_eta x n_omega) places its model points and its mesh:
-   vertex i * n_omega + j is (eta_i, omega_j) with eta_i = -pi/2 + (i + 1) pi /
-   (n_eta + 1) (rows strictly between the poles, evenly spaced with them) and
-   omega_j = -pi + 2 pi j / n_omega; then the south pole (eta = -pi/2) and the
+   The model's grid (n_eta x n_omega) places its model points and its mesh,
+   evenly over the superquadric's surface whatever its shape: vertex
+   i * n_omega + j is (eta_i, omega_j), where row eta_i lies (i + 1) /
+   (n_eta + 1) of the way from the south pole to the north along the
+   superquadric's meridian (the superellipse of half-width (a1 + a2) / 2,
+   half-height a3 and exponent e1, untapered; measured by arc length) and
+   column omega_j j / n_omega of the way around its cross-section (a1, a2,
+   e2) from omega_0 = -pi; then the south pole (eta = -pi/2) and the
    north pole (eta = pi/2): n_eta n_omega + 2 vertices, 2 n_eta n_omega
    triangles (quads split along their (i, j)-(i+1, j+1) diagonal, fans at the
    poles, outward-facing for a proper superquadric).
@@ -5345,9 +5349,8 @@ SQFFD_DEF sqffd_result sqffd_ffd_jacobian_bound(const sqffd_ffd *ffd, double *mi
 #define SQFFD__FIT_SNAP 1e-14         /* u this close to its run's first is that u (rounding: the runs' B rows factor) */
 
 /* ---- the (eta, omega) grid and its closed mesh ----------------------------
-   Vertex i * n_omega + j is (eta_i, omega_j) with eta_i = -pi/2 + (i + 1) pi /
-   (n_eta + 1) (rows strictly between the poles, evenly spaced with them) and
-   omega_j = -pi + 2 pi j / n_omega; then the south pole (eta = -pi/2), then
+   Vertex i * n_omega + j is (eta_i, omega_j) at equal steps of arc length
+   (see sqffd_model and below); then the south pole (eta = -pi/2), then
    the north pole. Each quad (i, j), (i, j+1), (i+1, j+1), (i+1, j) is split
    along its (i, j)-(i+1, j+1) diagonal; the pole caps are fans. */
 
@@ -5365,16 +5368,74 @@ static size_t sqffd__fit_grid_count(const int grid[2])
     return (size_t)grid[0] * (size_t)grid[1] + 2;
 }
 
-static void sqffd__fit_grid_angles(const int grid[2], size_t v, double *eta, double *omega)
+/* The grid's angles: equal shares of arc length. Evenly spaced angles put
+   a squarish superquadric's rows on its caps (e1 = 0.1: the first row off
+   the equator at 0.74 of the half-height, nothing of the wall between), so
+   rows go at equal steps of the length of its meridian (the superellipse of
+   half-width (a1 + a2) / 2, half-height a3 and exponent e1, untapered) and
+   columns at equal steps of the perimeter of its cross-section (a1, a2,
+   e2). The length is summed over SQFFD__FIT_ARC_SAMPLES chords between
+   points evenly spaced in their angle seen from the centre (which spreads
+   them over the sides and the caps of a squarish curve alike); an angle
+   within a chord is interpolated in that angle. */
+#define SQFFD__FIT_ARC_SAMPLES 1024
+
+typedef struct sqffd__fit_arc {
+    double half[2], exponent, from, step; /* the superellipse and its central angles' range */
+    double total;                         /* its length over the range */
+    double walked, at[2];                 /* the walk: the length up to sample k, sample k's point */
+    int k;
+} sqffd__fit_arc;
+
+/* The superellipse's point at central angle theta. */
+static void sqffd__fit_arc_point(const sqffd__fit_arc *a, double theta, double xy[2])
 {
-    size_t rows = (size_t)grid[0] * (size_t)grid[1];
-    if (v >= rows) {
-        *eta = v == rows ? -0.5 * SQFFD__FIT_PI : 0.5 * SQFFD__FIT_PI;
-        *omega = 0.0;
-        return;
+    double c = cos(theta), s = sin(theta), big = a->half[0] > a->half[1] ? a->half[0] : a->half[1], power = 2.0 / a->exponent;
+    double r = big * pow(pow(fabs(c) * big / a->half[0], power) + pow(fabs(s) * big / a->half[1], power), -0.5 * a->exponent);
+    xy[0] = r * c;
+    xy[1] = r * s;
+}
+
+static void sqffd__fit_arc_start(sqffd__fit_arc *a, double half0, double half1, double exponent, double from, double to)
+{
+    double next[2];
+    int k;
+    a->half[0] = half0;
+    a->half[1] = half1;
+    a->exponent = exponent;
+    a->from = from;
+    a->step = (to - from) / SQFFD__FIT_ARC_SAMPLES;
+    a->total = 0.0;
+    sqffd__fit_arc_point(a, from, a->at);
+    for (k = 1; k <= SQFFD__FIT_ARC_SAMPLES; ++k) {
+        sqffd__fit_arc_point(a, from + a->step * k, next);
+        a->total += hypot(next[0] - a->at[0], next[1] - a->at[1]);
+        a->at[0] = next[0];
+        a->at[1] = next[1];
     }
-    *eta = -0.5 * SQFFD__FIT_PI + SQFFD__FIT_PI * (double)(v / (size_t)grid[1] + 1) / (double)(grid[0] + 1);
-    *omega = -SQFFD__FIT_PI + 2.0 * SQFFD__FIT_PI * (double)(v % (size_t)grid[1]) / (double)grid[1];
+    a->walked = 0.0;
+    a->k = 0;
+    sqffd__fit_arc_point(a, from, a->at);
+}
+
+/* The superellipse's own angle (its point is (h0 spow(cos t, e), h1 spow(sin t, e)))
+   at share (0..1) of the length; shares must come in ascending order. */
+static double sqffd__fit_arc_angle(sqffd__fit_arc *a, double share)
+{
+    double target = share * a->total, next[2], chord = 0.0, theta, xy[2];
+    while (a->k < SQFFD__FIT_ARC_SAMPLES) {
+        sqffd__fit_arc_point(a, a->from + a->step * (a->k + 1), next);
+        chord = hypot(next[0] - a->at[0], next[1] - a->at[1]);
+        if (a->walked + chord >= target) break;
+        a->walked += chord;
+        a->at[0] = next[0];
+        a->at[1] = next[1];
+        ++a->k;
+    }
+    theta = a->from + a->step * (a->k + (chord > 0.0 ? (target - a->walked) / chord : 0.0));
+    sqffd__fit_arc_point(a, theta, xy);
+    return atan2(sqffd__sq_spow(xy[1] / a->half[1], 1.0 / a->exponent),
+                 sqffd__sq_spow(xy[0] / a->half[0], 1.0 / a->exponent));
 }
 
 /* The mesh neighbours of a vertex in cyclic order: the triangles around v are
@@ -6093,34 +6154,36 @@ SQFFD_DEF sqffd_result sqffd_model_point(const sqffd_model *model, double eta, d
 }
 
 /* The superquadric's points on the grid into x, each as sqffd_sq_point gives
-   it (to the bit) but with each row's and each column's powers taken once:
-   the columns' are parked in row 0's slots (its x and y), which rows
-   rows - 1 ... 1 read and row 0 reads last, each slot before it is
-   overwritten. */
+   it (to the bit) at the grid's angles, but with each row's and each
+   column's powers taken once: the columns' are parked in the last row's
+   slots (its x and y), which rows 0 ... rows - 2 read and the last row
+   reads last, each slot before it is overwritten. */
 static void sqffd__fit_sq_grid(const sqffd_superquadric *sq, const int grid[2], double *x)
 {
-    size_t rows = (size_t)grid[0], cols = (size_t)grid[1], i, j, v;
-    double eta, omega, s[3];
+    size_t rows = (size_t)grid[0], cols = (size_t)grid[1], i, j, last = 3 * (rows - 1) * cols;
+    double s[3], eta;
+    sqffd__fit_arc arc;
+    sqffd__fit_arc_start(&arc, sq->size[0], sq->size[1], sq->shape[1], -SQFFD__FIT_PI, SQFFD__FIT_PI);
     for (j = 0; j < cols; ++j) {
-        sqffd__fit_grid_angles(grid, j, &eta, &omega);
-        x[3 * j] = sqffd__sq_spow(cos(omega), sq->shape[1]);
-        x[3 * j + 1] = sqffd__sq_spow(sin(omega), sq->shape[1]);
+        double omega = j == 0 ? -SQFFD__FIT_PI : sqffd__fit_arc_angle(&arc, (double)j / (double)cols);
+        x[last + 3 * j] = sqffd__sq_spow(cos(omega), sq->shape[1]);
+        x[last + 3 * j + 1] = sqffd__sq_spow(sin(omega), sq->shape[1]);
     }
-    for (i = rows; i-- > 0;) {
+    sqffd__fit_arc_start(&arc, 0.5 * (sq->size[0] + sq->size[1]), sq->size[2], sq->shape[0], -0.5 * SQFFD__FIT_PI,
+                         0.5 * SQFFD__FIT_PI);
+    for (i = 0; i < rows; ++i) {
         double ce;
-        sqffd__fit_grid_angles(grid, i * cols, &eta, &omega);
+        eta = sqffd__fit_arc_angle(&arc, (double)(i + 1) / (double)(rows + 1));
         ce = sqffd__sq_spow(cos(eta), sq->shape[0]);
         s[2] = sq->size[2] * sqffd__sq_spow(sin(eta), sq->shape[0]);
         for (j = 0; j < cols; ++j) {
-            s[0] = sq->size[0] * ce * x[3 * j];
-            s[1] = sq->size[1] * ce * x[3 * j + 1];
+            s[0] = sq->size[0] * ce * x[last + 3 * j];
+            s[1] = sq->size[1] * ce * x[last + 3 * j + 1];
             sqffd__sq_place(sq, s, x + 3 * (i * cols + j));
         }
     }
-    for (v = rows * cols; v < rows * cols + 2; ++v) {
-        sqffd__fit_grid_angles(grid, v, &eta, &omega);
-        sqffd__sq_point(sq, eta, omega, x + 3 * v, NULL);
-    }
+    sqffd__sq_point(sq, -0.5 * SQFFD__FIT_PI, 0.0, x + 3 * rows * cols, NULL);
+    sqffd__sq_point(sq, 0.5 * SQFFD__FIT_PI, 0.0, x + 3 * (rows * cols + 1), NULL);
 }
 
 /* The model's surface points on the grid into x. */
@@ -7780,10 +7843,12 @@ static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagon
         double energy;
         sqffd_distance_stats stats;
         int last = rep->iterations == o->max_iterations || rep->converged || it.origin == SQFFD__FIT_FROM_ACCEPTED;
-        res = sqffd__fit_measure(&it, last, &energy, &stats);
+        res = sqffd__fit_measure(&it, 0, &energy, &stats);
         if (res != SQFFD_OK) return res;
         if (!sqffd__fit_accept_or_roll_back(&it, energy)) continue; /* rolled back: measure the replacement */
-        res = sqffd__fit_record(&it, energy, &stats);
+        if (last && (it.mode & SQFFD__FIT_EXACT_END) && !it.search.exact) /* the model a longer run passes through */
+            res = sqffd__fit_measure(&it, 1, &energy, &stats);                  /* too, then measured exactly */
+        if (res == SQFFD_OK) res = sqffd__fit_record(&it, energy, &stats);
         if (last) rep->min_jacobian = sqffd__ffd_jacobian_min(s->dims, &model->ffd.control[0][0], model->ffd.inverse,
                                                              &w->fold->at, HUGE_VAL);
         if (res != SQFFD_OK || last) return res;

@@ -36,8 +36,10 @@ static void test_internal_triangle_tree(void)
         h.nodes = (sqffd__fit_bvh_node *)malloc(h.count * sizeof *h.nodes);
         CHECK(sqffd__fit_bvh_build(grids[g], h.nodes) == h.count);
         for (v = 0; v < m; v++) { /* a sphere on the grid, its points jittered */
-            double eta, omega;
-            sqffd__fit_grid_angles(grids[g], v, &eta, &omega);
+            size_t cells_in_rows = (size_t)grids[g][0] * (size_t)grids[g][1];
+            double eta = v < cells_in_rows ? -1.5 + 3.0 * (double)(v / (size_t)grids[g][1] + 1) / (grids[g][0] + 1)
+                                           : v == cells_in_rows ? -1.5707963267948966 : 1.5707963267948966;
+            double omega = v < cells_in_rows ? 6.283185307179586 * (double)(v % (size_t)grids[g][1]) / grids[g][1] : 0.0;
             x[3 * v] = cos(eta) * cos(omega) + 0.2 * (double)rand() / RAND_MAX;
             x[3 * v + 1] = cos(eta) * sin(omega) + 0.2 * (double)rand() / RAND_MAX;
             x[3 * v + 2] = sin(eta) + 0.2 * (double)rand() / RAND_MAX;

@@ -451,9 +451,9 @@ static void test_track_phantom(void)
     CHECK_MSG(fabs(score.excursion_ratio - 1.0) <= 0.1, "normal wall excursion %g of the truth's", score.excursion_ratio);
     CHECK_MSG(fabs(score.ef_error) <= 0.02, "EF %g, true %g", score.ef, score.true_ef);
     /* (a valve-plane vertex at the rim, where the mesh rounds the corner, may
-       fall either side of the 45-degree rule: 0 or 3 of 421 with the same data
-       as the iteration's path changes) */
-    CHECK_MSG(score.lid_in_wall * 50 <= score.lid_vertices, "%d of %d lid vertices in the wall", score.lid_in_wall,
+       fall either side of the 45-degree rule: 9 of 395 with the grid's rows
+       at equal steps of arc length, which puts some on the rounded rim) */
+    CHECK_MSG(score.lid_in_wall * 25 <= score.lid_vertices, "%d of %d lid vertices in the wall", score.lid_in_wall,
               score.lid_vertices);
     for (k = 0; k < SQFFD_SEGMENTS; k++) {
         if (score.coverage[k] >= 0.6)
