@@ -375,6 +375,109 @@ static void test_model_mesh(void)
     }
 }
 
+/* Where points on the superellipse |X/p|^(2/e) + |Y/q|^(2/e) = 1 lie along
+   it, as shares of its length from polar angle `from` (-pi/2 for a
+   meridian's right half, -pi for a closed cross-section): the curve drawn
+   densely by X = p (1 - |Y/q|^(2/e))^(e/2) over even Y and by Y the same
+   over even X (the two cover a squarish curve's sides and caps alike),
+   ordered by polar angle, its length summed over the chords. */
+typedef struct arc_truth {
+    double *angle, *length; /* ascending polar angles; the length up to each */
+    size_t count;
+} arc_truth;
+
+static int cmp_angle(const void *a, const void *b)
+{
+    double x = atan2(((const double *)a)[1], ((const double *)a)[0]), y = atan2(((const double *)b)[1], ((const double *)b)[0]);
+    return (x > y) - (x < y);
+}
+
+static arc_truth arc_truth_make(double p, double q, double e, int closed)
+{
+    enum { K = 40000 };
+    const double pi = 3.14159265358979323846;
+    double *xy = (double *)test_malloc((8 * (size_t)K + 10) * sizeof(double)), from = closed ? -pi : -0.5 * pi;
+    arc_truth t;
+    size_t n = 0, i;
+    int k, sign;
+    for (k = 0; k <= K; k++) {
+        double u = -1.0 + 2.0 * k / K, across = pow(1.0 - pow(fabs(u), 2.0 / e), 0.5 * e);
+        for (sign = 1; sign >= (closed ? -1 : 1); sign -= 2) {
+            xy[2 * n] = sign * p * across; xy[2 * n + 1] = q * u; n++;       /* even Y: the sides */
+            if (closed || u >= 0.0) { xy[2 * n] = p * u; xy[2 * n + 1] = sign * q * across; n++; } /* even X: the caps */
+        }
+        if (!closed && u >= 0.0) { xy[2 * n] = p * u; xy[2 * n + 1] = -q * across; n++; }
+    }
+    if (closed) { xy[2 * n] = -p; xy[2 * n + 1] = -0.0; n++; } /* (atan2 puts (-p, +0) at +pi: the start, at -pi) */
+    qsort(xy, n, 2 * sizeof(double), cmp_angle);
+    t.angle = (double *)test_malloc(n * sizeof(double));
+    t.length = (double *)test_malloc(n * sizeof(double));
+    t.count = n;
+    for (i = 0; i < n; i++) {
+        t.angle[i] = atan2(xy[2 * i + 1], xy[2 * i]);
+        t.length[i] = i ? t.length[i - 1] + hypot(xy[2 * i] - xy[2 * i - 2], xy[2 * i + 1] - xy[2 * i - 1]) : 0.0;
+    }
+    CHECK(t.angle[0] < from + 1e-6); /* (the start point is drawn) */
+    free(xy);
+    return t;
+}
+
+static double arc_truth_share(const arc_truth *t, double x, double y)
+{
+    double a = atan2(y, x);
+    size_t lo = 0, hi = t->count - 1;
+    while (hi - lo > 1) {
+        size_t mid = (lo + hi) / 2;
+        if (t->angle[mid] <= a) lo = mid; else hi = mid;
+    }
+    return (t->length[lo] + (t->length[hi] - t->length[lo]) * (a - t->angle[lo]) / (t->angle[hi] - t->angle[lo])) /
+           t->length[t->count - 1];
+}
+
+/* The grid's rows lie at equal steps of the meridian's length (half-width
+   (a1 + a2) / 2, half-height a3, exponent e1) and its columns at equal
+   steps of the cross-section's perimeter (a1, a2, e2), on squarish and
+   round superquadrics, against the curves drawn densely: to 1e-4 of the
+   length (evenly spaced angles miss by up to a fifth on the squarish). */
+static void test_model_grid_arc_length(void)
+{
+    static const double shapes[3][2] = {{0.1, 0.3}, {0.6, 1.0}, {1.8, 0.5}};
+    const int rows = 31, cols = 40;
+    sqffd_fit_options o = sqffd_fit_options_default();
+    double *v = (double *)test_malloc(3 * (size_t)(rows * cols + 2) * sizeof(double));
+    uint32_t *tri = (uint32_t *)test_malloc(6 * (size_t)(rows * cols) * sizeof(uint32_t));
+    int s, i, j;
+    for (s = 0; s < 3; s++) {
+        sqffd_superquadric sq;
+        sqffd_model m;
+        arc_truth meridian, section;
+        double worst_row = 0.0, worst_col = 0.0, a1 = 2.0, a2 = 3.0, a3 = 5.0;
+        memset(&sq, 0, sizeof sq);
+        sq.size[0] = a1; sq.size[1] = a2; sq.size[2] = a3;
+        sq.shape[0] = shapes[s][0]; sq.shape[1] = shapes[s][1];
+        sq.rotation[0] = sq.rotation[4] = sq.rotation[8] = 1.0;
+        CHECK_RESULT(sqffd_model_init(&m, &sq, &o), SQFFD_OK);
+        CHECK_RESULT(sqffd_model_mesh(&m, rows, cols, v, tri), SQFFD_OK);
+        meridian = arc_truth_make(0.5 * (a1 + a2), a3, sq.shape[0], 0);
+        section = arc_truth_make(a1, a2, sq.shape[1], 1);
+        for (i = 0; i < rows; i++) { /* column cols/2 is omega = 0: x = a1 cos(eta)^e1 */
+            const double *p = v + 3 * (size_t)(i * cols + cols / 2);
+            double share = arc_truth_share(&meridian, 0.5 * (a1 + a2) * p[0] / a1, p[2]);
+            worst_row = fmax(worst_row, fabs(share - (i + 1.0) / (rows + 1.0)));
+        }
+        for (j = 0; j < cols; j++) { /* a row is the cross-section scaled: the shares are the same */
+            const double *p = v + 3 * (size_t)(rows / 2 * cols + j);
+            double share = arc_truth_share(&section, p[0], p[1]);
+            worst_col = fmax(worst_col, fabs(share - (double)j / cols));
+        }
+        CHECK_MSG(worst_row <= 1e-4 && worst_col <= 1e-4, "e %g %g: rows off by %g, columns by %g of the length",
+                  shapes[s][0], shapes[s][1], worst_row, worst_col);
+        free(meridian.angle); free(meridian.length); free(section.angle); free(section.length);
+    }
+    free(v);
+    free(tri);
+}
+
 /* Closest point on a triangle by brute force: the plane projection when it
    falls inside, else the nearest of the three edges. */
 static double brute_triangle_dist(const double p[3], const double *a, const double *b, const double *c)
@@ -1394,6 +1497,7 @@ void suite_ffd(void)
     RUN_TEST(test_ffd_bad_input);
     RUN_TEST(test_model_point_identity);
     RUN_TEST(test_model_mesh);
+    RUN_TEST(test_model_grid_arc_length);
     RUN_TEST(test_model_distances);
     RUN_TEST(test_fit_in_class_recovery);
     RUN_TEST(test_fit_warm_start_exact);
