@@ -735,6 +735,14 @@ class SliceShifts(_Planes):
         return f"<sqffd.SliceShifts {self._struct.slices} slices, largest {np.abs(self.shifts).max(initial=0):.6g}>"
 
 
+def _stack_array(stacks, count, what):
+    """stacks, one Stack per `what` (count of them), as a C array of sqffd_stack."""
+    stacks = list(stacks)
+    if len(stacks) != count or not all(isinstance(s, Stack) for s in stacks):
+        raise TypeError(f"stacks: expected one sqffd.Stack a {what}")
+    return (_Stack * max(count, 1))(*(s._struct for s in stacks))
+
+
 def stack(points):
     """The short-axis stack the points form (listed slice by slice, each contour in drawing order,
     as contour exports list them; sqffd_points_stack), or None when they do not lie on 3 to 64
@@ -763,12 +771,9 @@ def stack_shifts(frames, stacks):
     (N_t, 3) contour stacks; stacks, their Stack each. Returns SliceShifts; apply it to every frame
     and fit or track again."""
     prepared = [_points(frame, f"frames[{t}]") for t, frame in enumerate(frames)]
-    stacks = list(stacks)
-    if len(stacks) != len(prepared) or not all(isinstance(s, Stack) for s in stacks):
-        raise TypeError("stacks: expected one sqffd.Stack a frame")
     count = len(prepared)
+    structs = _stack_array(stacks, count, "frame")
     views = (_Points * max(count, 1))(*(view for _, view in prepared))
-    structs = (_Stack * max(count, 1))(*(s._struct for s in stacks))
     shifts = _SliceShifts()
     _check(_lib.sqffd_stack_shifts(views, structs, count, ctypes.byref(shifts)), "stack shifts")
     return SliceShifts(shifts)
@@ -826,10 +831,7 @@ def motion(models, stacks=None, **options):
     struct_options = _lib.sqffd_motion_options_default()
     _set_options(struct_options, options, "", [])
     if stacks is not None:
-        stacks = list(stacks)
-        if len(stacks) != count or not all(isinstance(s, Stack) for s in stacks):
-            raise TypeError("stacks: expected one sqffd.Stack a model")
-        stack_structs = (_Stack * max(count, 1))(*(s._struct for s in stacks))  # (alive until the call returns)
+        stack_structs = _stack_array(stacks, count, "model")  # (alive until the call returns)
         struct_options.stacks = ctypes.cast(stack_structs, _pointer)
     work, work_size = _workspace(_lib.sqffd_motion_workspace_size, "motion", structs, count)
     vertex_count = _size()
