@@ -847,6 +847,12 @@ typedef struct sqffd_distance_stats {
 } sqffd_distance_stats;
 
 #define SQFFD_FIT_HISTORY 64 /* iterations whose error the report keeps */
+
+typedef enum sqffd_fit_stop {
+    SQFFD_FIT_CONVERGED = 0,    /* the last plain step moved the model points by at most the tolerance */
+    SQFFD_FIT_CAPPED = 1,       /* max_iterations were done first: not converged */
+    SQFFD_FIT_STALLED = 2       /* no further progress: a plain step that did not lower the energy */
+} sqffd_fit_stop;
 #define SQFFD_FIT_COARSE_POINTS 2000 /* the coarse iterations' subsample (sqffd_fit_options.coarse_iterations) */
 
 typedef struct sqffd_fit_report {
@@ -864,6 +870,7 @@ typedef struct sqffd_fit_report {
     double energy;                 /* the energy of the final model (THE ENERGY, over the FFD subsample) */
     double energy_history[SQFFD_FIT_HISTORY]; /* after iteration 1, 2, ...: never rising */
     double min_jacobian;           /* the final lattice's sqffd_ffd_jacobian_bound (> 0: it folds nothing) */
+    sqffd_fit_stop stop;           /* why the iteration ended (a run that stopped at its cap has not converged) */
 } sqffd_fit_report;
 
 SQFFD_DEF sqffd_fit_options sqffd_fit_options_default(void);
@@ -7664,6 +7671,7 @@ static void sqffd__fit_begin(sqffd__fit_iteration *it, const sqffd_points *point
     it->omega = SQFFD__FIT_RELAX;
     rep->iterations = 0;
     rep->converged = 0;
+    rep->stop = SQFFD_FIT_CAPPED;
     rep->history_count = 0;
 }
 
@@ -7849,8 +7857,12 @@ static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagon
         if (last && (it.mode & SQFFD__FIT_EXACT_END) && !it.search.exact) /* the model a longer run passes through */
             res = sqffd__fit_measure(&it, 1, &energy, &stats);                  /* too, then measured exactly */
         if (res == SQFFD_OK) res = sqffd__fit_record(&it, energy, &stats);
-        if (last) rep->min_jacobian = sqffd__ffd_jacobian_min(s->dims, &model->ffd.control[0][0], model->ffd.inverse,
-                                                             &w->fold->at, HUGE_VAL);
+        if (last) {
+            rep->min_jacobian = sqffd__ffd_jacobian_min(s->dims, &model->ffd.control[0][0], model->ffd.inverse,
+                                                        &w->fold->at, HUGE_VAL);
+            rep->stop = rep->converged ? SQFFD_FIT_CONVERGED
+                        : it.origin == SQFFD__FIT_FROM_ACCEPTED ? SQFFD_FIT_STALLED : SQFFD_FIT_CAPPED;
+        }
         if (res != SQFFD_OK || last) return res;
         res = sqffd__fit_advance(&it);
         if (res != SQFFD_OK) return res;

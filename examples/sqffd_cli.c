@@ -804,7 +804,10 @@ static void fit_report(const fit_args *a, const input_summary *in, size_t n, con
     printf("    jacobian       %.4f   (the lattice's smallest Bernstein bound: > 0, no fold)\n", r->min_jacobian);
     if (r->coarse_iterations > 0) printf("  iterations       %d coarse + %d", r->coarse_iterations, r->iterations);
     else printf("  iterations       %d", r->iterations);
-    printf("%s\n", r->iterations == 0 ? " (the superquadric alone)" : r->converged ? " (converged)" : " (iteration cap)");
+    printf("%s\n", r->iterations == 0                ? " (the superquadric alone)"
+                  : r->stop == SQFFD_FIT_CONVERGED ? " (converged)"
+                  : r->stop == SQFFD_FIT_STALLED   ? " (stalled: no further progress)"
+                                                   : " (iteration cap: not converged)");
     printf("  model mesh       %s: %lu vertices, %lu triangles; model-to-data RMS %.4f %%, max %.4f %%\n",
            a->output, (unsigned long)mesh_vertices, (unsigned long)mesh_triangles,
            100.0 * model_to_data->rms_relative, 100.0 * model_to_data->max_relative);

@@ -128,8 +128,8 @@ expect 0 "after FFD" fit "$DATA" -o "$TMP/j.ply" --min-jacobian none --iteration
 for v in 1.5 nan abc ""; do
     expect 2 "--min-jacobian takes" fit "$DATA" -o "$TMP/x.ply" --min-jacobian "$v"
 done
-expect 0 "iterations       3 coarse + 2 (iteration cap)" fit "$DATA" -o "$TMP/c.ply" --iterations 5 --coarse-iterations 3 --mesh 8
-expect 0 "iterations       5 (iteration cap)" fit "$DATA" -o "$TMP/c.ply" --iterations 5 --coarse-iterations 0 --mesh 8
+expect 0 "iterations       3 coarse + 2 (iteration cap: not converged)" fit "$DATA" -o "$TMP/c.ply" --iterations 5 --coarse-iterations 3 --mesh 8
+expect 0 "iterations       5 (iteration cap: not converged)" fit "$DATA" -o "$TMP/c.ply" --iterations 5 --coarse-iterations 0 --mesh 8
 expect 1 "$TMP/no/dir/out.ply: cannot create" fit "$DATA" -o "$TMP/no/dir/out.ply" --iterations 2 --mesh 8
 [ ! -e "$TMP/x.ply" ] && ok || bad "a failed run left an output file"
 

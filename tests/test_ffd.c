@@ -1231,6 +1231,7 @@ static void test_fit_progress_and_cancel(void)
     CHECK_RESULT(sqffd_model_init(&m, &sq, &o), SQFFD_OK);
     CHECK_RESULT(run_fit_ffd(pts, N, &o, &m, &rep), SQFFD_OK);
     CHECK(calls[0] == 7 && rep.iterations == 7 && rep.history_count == 7);
+    CHECK(!rep.converged && rep.stop == SQFFD_FIT_CAPPED); /* (tolerance 0: the cap ends it) */
     calls[0] = 0; calls[1] = 3;
     CHECK_RESULT(sqffd_model_init(&m, &sq, &o), SQFFD_OK);
     CHECK_RESULT(run_fit_ffd(pts, N, &o, &m, &rep), SQFFD_ERROR_CANCELLED);
@@ -1241,7 +1242,7 @@ static void test_fit_progress_and_cancel(void)
     o.max_iterations = 30;
     CHECK_RESULT(sqffd_model_init(&m, &sq, &o), SQFFD_OK);
     CHECK_RESULT(run_fit_ffd(pts, N, &o, &m, &rep), SQFFD_OK);
-    CHECK(rep.converged && rep.iterations < 30);
+    CHECK(rep.converged && rep.iterations < 30 && rep.stop == SQFFD_FIT_CONVERGED);
     free(pts);
 }
 

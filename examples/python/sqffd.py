@@ -186,7 +186,7 @@ class _FitReport(ctypes.Structure):
                 ("coarse_iterations", _int), ("iterations", _int), ("converged", _int), ("step", _double),
                 ("history_count", _int),
                 ("history", _double * _FIT_HISTORY), ("energy", _double),
-                ("energy_history", _double * _FIT_HISTORY), ("min_jacobian", _double)]
+                ("energy_history", _double * _FIT_HISTORY), ("min_jacobian", _double), ("stop", _int)]
 
 
 class _TrackOptions(ctypes.Structure):
@@ -494,13 +494,14 @@ class FitReport:
     energy: float
     energy_history: np.ndarray
     min_jacobian: float       # the lattice's Jacobian bound (> 0: the model folds nowhere)
+    stop: str                 # why the iteration ended: "converged", "capped" (not converged) or "stalled"
 
     @classmethod
     def _from_c(cls, r):
         count = min(r.history_count, _FIT_HISTORY)
         return cls(SuperquadricReport._from_c(r.sq), DistanceStats._from_c(r.sq_error), DistanceStats._from_c(r.error),
                    r.coarse_iterations, r.iterations, bool(r.converged), r.step, _array(r.history[:count]), r.energy,
-                   _array(r.energy_history[:count]), r.min_jacobian)
+                   _array(r.energy_history[:count]), r.min_jacobian, ("converged", "capped", "stalled")[r.stop])
 
 
 # ---- the model -----------------------------------------------------------------------------------

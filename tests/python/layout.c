@@ -107,6 +107,7 @@ int main(void)
     FIELD(sqffd_fit_report, energy);
     FIELD(sqffd_fit_report, energy_history);
     FIELD(sqffd_fit_report, min_jacobian);
+    FIELD(sqffd_fit_report, stop);
 
     STRUCT(sqffd_track_options);
     FIELD(sqffd_track_options, fit);
