@@ -85,6 +85,13 @@ class Stage(enum.IntEnum):
     COARSE = 4        # fit's coarse iterations: error = the relative RMS error on the coarse grid
 
 
+class FitStop(enum.IntEnum):
+    """sqffd_fit_stop: why a fit's iteration ended."""
+    CONVERGED = 0  # the last plain step moved the model points by at most the tolerance
+    CAPPED = 1     # max_iterations were done first: not converged
+    STALLED = 2    # no further progress: a plain step that did not lower the energy
+
+
 class SqCost(enum.IntEnum):
     SOLINA = 0
     RADIAL = 1
@@ -494,14 +501,14 @@ class FitReport:
     energy: float
     energy_history: np.ndarray
     min_jacobian: float       # the lattice's Jacobian bound (> 0: the model folds nowhere)
-    stop: str                 # why the iteration ended: "converged", "capped" (not converged) or "stalled"
+    stop: FitStop             # why the iteration ended (CAPPED: not converged)
 
     @classmethod
     def _from_c(cls, r):
         count = min(r.history_count, _FIT_HISTORY)
         return cls(SuperquadricReport._from_c(r.sq), DistanceStats._from_c(r.sq_error), DistanceStats._from_c(r.error),
                    r.coarse_iterations, r.iterations, bool(r.converged), r.step, _array(r.history[:count]), r.energy,
-                   _array(r.energy_history[:count]), r.min_jacobian, ("converged", "capped", "stalled")[r.stop])
+                   _array(r.energy_history[:count]), r.min_jacobian, FitStop(r.stop))
 
 
 # ---- the model -----------------------------------------------------------------------------------

@@ -122,6 +122,7 @@ static int write_report(const char *path, const sqffd_fit_report *r)
     put(f, "", "energy", r->energy);
     put_array(f, "", "energy_history", r->energy_history, r->history_count);
     put(f, "", "min_jacobian", r->min_jacobian);
+    put(f, "", "stop", r->stop);
     if (fclose(f) != 0) {
         fail(path, strerror(errno));
         return 0;
