@@ -24,6 +24,7 @@
 #include "../sqffd.h"
 #include "../examples/sqffd_io.h"
 #include "../examples/sqffd_synth.h"
+#include "../tests/mesh_check.h"
 #include "bench.h"
 #include <stdio.h>
 #include <string.h>
@@ -160,7 +161,7 @@ static double folded(const sqffd_model *m)
     v = (double *)malloc(3 * nv * sizeof *v);
     t = (uint32_t *)malloc(3 * nt * sizeof *t);
     if (v && t && sqffd_model_mesh(m, m->grid[0], m->grid[1], v, t) == SQFFD_OK)
-        share = synth_folded_share(v, nv, t, nt, FOLD_SAMPLES, FOLD_SEED);
+        share = meshcheck_folded_share(v, nv, t, nt, FOLD_SAMPLES, FOLD_SEED);
     free(v);
     free(t);
     return share;

@@ -204,7 +204,7 @@ static inline size_t synth_sample_triangles(synth_rng *r, const double *vertices
         a = vertices + 3 * (size_t)triangles[3 * lo];
         b = vertices + 3 * (size_t)triangles[3 * lo + 1];
         c = vertices + 3 * (size_t)triangles[3 * lo + 2];
-        for (k = 0; k < 3; k++) out[3 * i + k] = wa * a[k] + wb * b[k] + wc * c[k];
+        for (k = 0; k < 3; k++) out[3 * i + (size_t)k] = wa * a[k] + wb * b[k] + wc * c[k];
     }
     free(cumulative);
     return n;
@@ -218,8 +218,8 @@ static inline void synth_bounds(const double *points, size_t n, double lo[3], do
     for (k = 0; k < 3; k++) lo[k] = hi[k] = n ? points[k] : 0.0;
     for (i = 1; i < n; i++)
         for (k = 0; k < 3; k++) {
-            if (points[3 * i + k] < lo[k]) lo[k] = points[3 * i + k];
-            if (points[3 * i + k] > hi[k]) hi[k] = points[3 * i + k];
+            if (points[3 * i + (size_t)k] < lo[k]) lo[k] = points[3 * i + (size_t)k];
+            if (points[3 * i + (size_t)k] > hi[k]) hi[k] = points[3 * i + (size_t)k];
         }
 }
 
@@ -235,7 +235,7 @@ static inline void synth_outliers(synth_rng *r, const double *points, size_t n, 
     for (i = 0; i < m; i++)
         for (k = 0; k < 3; k++) {
             double c = 0.5 * (lo[k] + hi[k]), h = 0.5 * scale * (hi[k] - lo[k]);
-            out[3 * i + k] = synth_range(r, c - h, c + h);
+            out[3 * i + (size_t)k] = synth_range(r, c - h, c + h);
         }
 }
 
@@ -303,46 +303,6 @@ static inline void synth_hand(size_t n, uint64_t seed, double *out)
             p[2] = 0.06 * sin(a);
         }
     }
-}
-
-/* The share of `samples` random points (seeded) in a closed triangle
-   mesh's bounding box whose generalised winding number, rounded, is neither
-   0 nor 1: where a surface passes through itself (a fold) some region is
-   wound -1 or 2 times; a surface that does not has none. The winding number
-   is the sum of the triangles' signed solid angles over 4 pi (Van Oosterom
-   and Strackee's formula). */
-static inline double synth_folded_share(const double *vertices, size_t vertex_count, const uint32_t *triangles,
-                                        size_t triangle_count, size_t samples, uint64_t seed)
-{
-    synth_rng r = synth_rng_seed(seed);
-    double lo[3], hi[3];
-    size_t i, t, folded = 0;
-    synth_bounds(vertices, vertex_count, lo, hi);
-    for (i = 0; i < samples; i++) {
-        double q[3], w = 0.0;
-        long wound;
-        int k;
-        for (k = 0; k < 3; k++) q[k] = synth_range(&r, lo[k], hi[k]);
-        for (t = 0; t < triangle_count; t++) {
-            double a[3], b[3], c[3], la, lb, lc, bc[3];
-            for (k = 0; k < 3; k++) {
-                a[k] = vertices[3 * triangles[3 * t] + k] - q[k];
-                b[k] = vertices[3 * triangles[3 * t + 1] + k] - q[k];
-                c[k] = vertices[3 * triangles[3 * t + 2] + k] - q[k];
-            }
-            la = sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
-            lb = sqrt(b[0] * b[0] + b[1] * b[1] + b[2] * b[2]);
-            lc = sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
-            bc[0] = b[1] * c[2] - b[2] * c[1]; bc[1] = b[2] * c[0] - b[0] * c[2]; bc[2] = b[0] * c[1] - b[1] * c[0];
-            w += 2.0 * atan2(a[0] * bc[0] + a[1] * bc[1] + a[2] * bc[2],
-                             la * lb * lc + (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]) * lc +
-                                 (b[0] * c[0] + b[1] * c[1] + b[2] * c[2]) * la +
-                                 (c[0] * a[0] + c[1] * a[1] + c[2] * a[2]) * lb);
-        }
-        wound = lround(w / (4.0 * 3.14159265358979323846));
-        folded += wound != 0 && wound != 1;
-    }
-    return (double)folded / (double)samples;
 }
 
 /* A label map of a short-axis stack of closed contours, as a segmentation

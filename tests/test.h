@@ -53,5 +53,6 @@ void suite_memory(void);
 void suite_points(void);
 void suite_pcd(void);
 void suite_fold(void);
+void suite_mesh_check(void);
 
 #endif

@@ -8,6 +8,7 @@
 #include "test.h"
 #include "../examples/sqffd_phantom.h"
 #include "../examples/sqffd_synth.h"
+#include "mesh_check.h"
 #include <stdlib.h>
 #include <string.h>
 
@@ -127,7 +128,7 @@ static double model_folded(const sqffd_model *m)
     if (sqffd_model_mesh_size(m->grid[0], m->grid[1], &nv, &nt) != SQFFD_OK) return 1.0;
     v = (double *)test_malloc(3 * nv * sizeof *v);
     t = (uint32_t *)test_malloc(3 * nt * sizeof *t);
-    share = sqffd_model_mesh(m, m->grid[0], m->grid[1], v, t) == SQFFD_OK ? synth_folded_share(v, nv, t, nt, 1000, 7) : 1.0;
+    share = sqffd_model_mesh(m, m->grid[0], m->grid[1], v, t) == SQFFD_OK ? meshcheck_folded_share(v, nv, t, nt, 1000, 7) : 1.0;
     free(v);
     free(t);
     return share;

@@ -43,6 +43,7 @@ int main(int argc, char **argv)
     suite_superquadric();
     suite_ffd();
     suite_fold();
+    suite_mesh_check();
     suite_io();
     suite_internal();
     suite_phantom();
