@@ -41,13 +41,13 @@ def find_exams(root):
 
 
 def shard(exams, spec):
-    """The exams of shard 'I/N': those whose index modulo N is I."""
+    """The exams of shard 'I/N': those whose index modulo N is I (ValueError for a bad spec)."""
     try:
         i, n = (int(x) for x in spec.split("/"))
     except ValueError:
-        raise SystemExit("study_csv: --shard takes I/N (two whole numbers), not %r" % spec)
+        raise ValueError("--shard takes I/N (two whole numbers), not %r" % spec)
     if not (n >= 1 and 0 <= i < n):
-        raise SystemExit("study_csv: --shard %s: I must be 0..N-1" % spec)
+        raise ValueError("--shard %s: I must be 0..N-1" % spec)
     return exams[i::n]
 
 
@@ -100,7 +100,10 @@ def main(argv):
     a = p.parse_args(argv)
     if a.jobs < 1:
         p.error("--jobs takes a whole number >= 1")
-    exams = shard(find_exams(a.exams), a.shard)
+    try:
+        exams = shard(find_exams(a.exams), a.shard)
+    except ValueError as e:
+        p.error(str(e))
     if not exams:
         print("study_csv: no exam (a folder holding ed.xyz and es.xyz) under %s in shard %s" % (a.exams, a.shard),
               file=sys.stderr)
@@ -121,10 +124,9 @@ def main(argv):
     finally:
         if a.output:
             out.close()
-    failed = [r["exam"] for r in rows if r["status"] != "ok"]
-    for r in rows:
-        if r["status"] != "ok":
-            print("study_csv: %s: %s" % (r["exam"], r["message"]), file=sys.stderr)
+    failed = [r for r in rows if r["status"] != "ok"]
+    for r in failed:
+        print("study_csv: %s: %s" % (r["exam"], r["message"]), file=sys.stderr)
     return 1 if failed else 0
 
 

@@ -286,6 +286,34 @@ expect 2 "--apex takes a direction" track "$PH0" "$PH3" -o "$TMP/no" --apex 1e99
 [ -e "$TMP/no" ] && bad "track: a refused option left an output folder" || ok
 # ... and a septum along the long axis the model shows (the phantom's: z)
 expect 2 "from the long axis found" track "$PH0" "$PH3" -o "$TMP/sa" --septum 0,0.1,1
+# examples/study_csv.py: three exams (a sphere shrinking to 0.8 and 0.9 of its radius: EF 48.8 and 27.1 %; one the
+# model cannot follow) in a pool of two, one CSV; two shards concatenated hold the same rows
+if command -v python3 >/dev/null 2>&1; then
+    for e in e1:0.8 e2:0.9 e3:5e-5; do
+        mkdir -p "$TMP/study/sub/${e%%:*}"
+        cp "$TMP/sphere.xyz" "$TMP/study/sub/${e%%:*}/ed.xyz"
+        awk -v f="${e#*:}" '{ printf "%.12g %.12g %.12g\n", $1 * f, $2 * f, $3 * f }' "$TMP/sphere.xyz" >"$TMP/study/sub/${e%%:*}/es.xyz"
+    done
+    python3 examples/study_csv.py "$TMP/study" -o "$TMP/study.csv" --jobs 2 --sqffd "$SQFFD" -- --mm-per-unit 2 2>"$TMP/err"
+    [ $? -eq 1 ] && grep -q "sub/e3: .*did not follow" "$TMP/err" && ok || bad "study_csv: the failed exam not reported: $(cat "$TMP/err")"
+    python3 - "$TMP/study.csv" <<'PY' && ok || bad "study_csv: wrong rows (see above)"
+import csv, sys
+rows = list(csv.DictReader(open(sys.argv[1])))
+assert [r["exam"] for r in rows] == ["sub/e1", "sub/e2", "sub/e3"], rows
+for r, ef in zip(rows, (100 * (1 - 0.8 ** 3), 100 * (1 - 0.9 ** 3))):
+    assert r["status"] == "ok" and abs(float(r["ef_percent"]) - ef) < 1, (r, ef)
+    assert r["unit_source"] == "given" and float(r["mm_per_unit"]) == 2 and r["ed_index"] == "0", r
+    assert abs(float(r["edv_ml"]) - 8 * 4 / 3 * 3.141592653589793 * 1e3 / 1e3) < 0.02 * 33.5, r
+assert rows[2]["status"] == "failed" and "did not follow" in rows[2]["message"] and rows[2]["ef_percent"] == "", rows[2]
+PY
+    for i in 0 1; do python3 examples/study_csv.py "$TMP/study" --shard $i/2 --sqffd "$SQFFD" -o "$TMP/shard_$i.csv" -- --mm-per-unit 2 2>/dev/null; done
+    awk 'FNR > 1 || NR == 1' "$TMP/shard_0.csv" "$TMP/shard_1.csv" | sort >"$TMP/shards.csv"
+    sort "$TMP/study.csv" | cmp -s - "$TMP/shards.csv" && ok || bad "study_csv: two shards do not hold the whole study's rows"
+    python3 examples/study_csv.py "$TMP/study" --shard 2/2 2>"$TMP/err"
+    [ $? -eq 2 ] && grep -q "I must be 0..N-1" "$TMP/err" && ok || bad "study_csv: --shard 2/2 accepted"
+else
+    echo "cli_test: no python3: examples/study_csv.py not tested"
+fi
 
 # PCD clouds (PCL's files): fit, info and track report the NaN pixels dropped; broken files are bad input
 PCD=tests/data/pcd_kinect_binary_compressed.pcd
