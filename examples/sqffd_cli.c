@@ -1541,6 +1541,13 @@ static int track_run(track_args *a, double **points, size_t *counts, track_resul
         a->motion.ed_frame = res->largest;
         r = sqffd_motion(res->models, frames, &a->motion, &res->out, &res->motion, work, work_size);
     }
+    if (r == SQFFD_ERROR_INVALID_ARGUMENT) { /* a septum exactly along the long axis found: that axis, to say so */
+        sqffd_motion_options o = a->motion;
+        memset(o.septum_direction, 0, sizeof o.septum_direction);
+        if (sqffd_motion(res->models, frames, &o, NULL, &res->motion, work, work_size) == SQFFD_OK &&
+            (status = septum_check(a, res->motion.axis, "the long axis found")) != 0)
+            goto done;
+    }
     if (r != SQFFD_OK) {
         fprintf(stderr, "sqffd track: the motion analysis failed: %s\n", sqffd_result_string(r));
         goto done;

@@ -286,6 +286,8 @@ expect 2 "--apex takes a direction" track "$PH0" "$PH3" -o "$TMP/no" --apex 1e99
 [ -e "$TMP/no" ] && bad "track: a refused option left an output folder" || ok
 # ... and a septum along the long axis the model shows (the phantom's: z)
 expect 2 "from the long axis found" track "$PH0" "$PH3" -o "$TMP/sa" --septum 0,0.1,1
+axis=$(awk '$1 == "\"long_axis\":" { gsub(/[][ ]/, ""); sub(/^"long_axis":/, ""); sub(/,$/, ""); print }' "$TMP/fw.json")
+expect 2 "is 0.0 degrees from the long axis found" track "$PH0" "$PH3" -o "$TMP/sa" --septum "$axis"
 # examples/study_csv.py: three exams (a sphere shrinking to 0.8 and 0.9 of its radius: EF 48.8 and 27.1 %; one the
 # model cannot follow) in a pool of two, one CSV; two shards concatenated hold the same rows
 if command -v python3 >/dev/null 2>&1; then
