@@ -157,6 +157,7 @@
    6. Tracking and motion
        sqffd_ffd_system_size/_init, sqffd_fit_prepared(_view, _workspace_size)
                                        the FFD stage against a system prepared once
+       sqffd_fit_check_data(_view)     the data checks of a fit, which tracking makes of every frame
        sqffd_track(_view, _workspace_size, _view_workspace_size), sqffd_track_options_default
                                        a sequence: frame 0 whole, then frame to frame
        sqffd_track_frame(_view, _workspace_size)
@@ -1043,6 +1044,16 @@ SQFFD_DEF sqffd_result sqffd_fit_prepared_view(const sqffd_ffd_system *system, s
                                                const sqffd_fit_options *options, sqffd_model *model,
                                                sqffd_fit_report *report, void *workspace, size_t workspace_size);
 
+/* The checks sqffd_fit makes of its data, without the fit: at least
+   SQFFD_SQ_FIT_MIN_POINTS points, every coordinate finite and within
+   +-1e100, neither all coincident nor collinear or coplanar (as
+   sqffd_sq_fit judges them). sqffd_track makes them of every frame before
+   it fits any, and sqffd_track_frame of its frame: a sequence takes the
+   frames a lone fit takes, whatever their order. Results: OK,
+   INVALID_ARGUMENT (a bad view), TOO_FEW_POINTS, NON_FINITE, DEGENERATE. */
+SQFFD_DEF sqffd_result sqffd_fit_check_data(const double *points, size_t n);
+SQFFD_DEF sqffd_result sqffd_fit_check_data_view(sqffd_points points);
+
 /* Tracking a sequence (the paper's section 4.2). Frame 0 gets the whole fit
    (sqffd_fit). Every later frame keeps frame 0's superquadric, box, lattice
    and grid (one prepared system for the sequence) and runs the FFD stage
@@ -1072,7 +1083,10 @@ SQFFD_DEF sqffd_result sqffd_track_workspace_size(const size_t *counts, size_t f
    zero, sq_error is the previous model's error on this frame's points).
    frames_done (may be NULL) receives the number of frames fitted: on an
    error it is the index of the failing frame; models and reports before it
-   are complete, those from it on undefined. options NULL: defaults.
+   are complete, those from it on undefined. Every frame's points are
+   checked first (sqffd_fit_check_data): a frame that fails them ends the
+   call before any fit, *frames_done its index, nothing else written.
+   options NULL: defaults.
    Results: INVALID_ARGUMENT (NULL frames, counts or models, frame_count 0,
    a NULL frame, bad options), TOO_FEW_POINTS, NON_FINITE, DEGENERATE (a
    frame's points), WORKSPACE_TOO_SMALL, CANCELLED, and whatever sqffd_fit
@@ -4379,6 +4393,38 @@ static void sqffd__sq_moments(const double *pts, size_t m, double centre[3], dou
     }
 }
 
+/* The data checks of sqffd_sq_fit (and so of every fit): at least
+   SQFFD_SQ_FIT_MIN_POINTS points, finite, neither all coincident nor
+   collinear or coplanar (the covariance's smallest eigenvalue at most
+   SQFFD__SQ_FLAT_RATIO of its largest; the offsets from the centroid
+   divided by the largest first, so that no square overflows). */
+static sqffd_result sqffd__sq_check_data(const sqffd_points *points)
+{
+    double p[3], centroid[3] = {0.0, 0.0, 0.0}, big = 0.0, cov[9], values[3], axes[9];
+    size_t i, n = points->count;
+    int k;
+    if (n < SQFFD_SQ_FIT_MIN_POINTS) return SQFFD_ERROR_TOO_FEW_POINTS;
+    for (i = 0; i < n; i++) {
+        sqffd__points_get(points, i, p);
+        if (!sqffd__finite3(p)) return SQFFD_ERROR_NON_FINITE;
+        for (k = 0; k < 3; k++) centroid[k] += p[k] / (double)n;
+    }
+    for (i = 0; i < n; i++) {
+        sqffd__points_get(points, i, p);
+        for (k = 0; k < 3; k++) big = fabs(p[k] - centroid[k]) > big ? fabs(p[k] - centroid[k]) : big;
+    }
+    if (!(big > 0.0) || !isfinite(big)) return SQFFD_ERROR_DEGENERATE;
+    memset(cov, 0, sizeof cov);
+    for (i = 0; i < n; i++) {
+        double d[3];
+        sqffd__points_get(points, i, p);
+        for (k = 0; k < 3; k++) d[k] = (p[k] - centroid[k]) / big;
+        for (k = 0; k < 9; k++) cov[k] += d[k / 3] * d[k % 3] / (double)n;
+    }
+    sqffd_sym3_eigen(cov, values, axes);
+    return values[0] > SQFFD__SQ_FLAT_RATIO * values[2] ? SQFFD_OK : SQFFD_ERROR_DEGENERATE;
+}
+
 static void sqffd__sq_swap(double *a, size_t i, size_t j)
 {
     double t = a[i];
@@ -4640,20 +4686,16 @@ SQFFD_DEF sqffd_result sqffd_sq_fit_view(sqffd_points points, const sqffd_sq_fit
     int k, best_start = 0, converged = 0;
     sqffd_result r = sqffd__points_check(&points);
     if (r == SQFFD_OK && (!sq || !sqffd__sq_options_valid(o))) r = SQFFD_ERROR_INVALID_ARGUMENT;
+    if (r == SQFFD_OK) r = sqffd__sq_check_data(&points);
     if (r != SQFFD_OK) return r;
-    if (n < SQFFD_SQ_FIT_MIN_POINTS) return SQFFD_ERROR_TOO_FEW_POINTS;
     sqffd__arena_init(&arena, workspace, workspace_size);
     sqffd__sq_fit_layout(&arena, n, o, &w);
     if (arena.overflow) return sqffd__arena_error(&arena);
     list = w.list;
-    for (i = 0; i < n; i++) { /* the points as doubles, normalised below */
-        sqffd__points_get(&points, i, w.points + 3 * i);
-        if (!sqffd__finite3(w.points + 3 * i)) return SQFFD_ERROR_NON_FINITE;
-    }
+    for (i = 0; i < n; i++) sqffd__points_get(&points, i, w.points + 3 * i); /* as doubles, normalised below */
     if (!sqffd__sq_normalize(w.points, n, centroid, &scale)) return SQFFD_ERROR_DEGENERATE;
     sqffd__sq_moments(w.points, n, centre, cov);
     sqffd_sym3_eigen(cov, values, axes);
-    if (!(values[0] > SQFFD__SQ_FLAT_RATIO * values[2])) return SQFFD_ERROR_DEGENERATE; /* coplanar or collinear */
 
     memset(&fit, 0, sizeof fit);
     fit.opt = o;
@@ -8437,6 +8479,18 @@ static sqffd_result sqffd__track_workspace_size(const size_t *counts, const sqff
     return SQFFD_OK;
 }
 
+SQFFD_DEF sqffd_result sqffd_fit_check_data_view(sqffd_points points)
+{
+    double diagonal;
+    sqffd_result r = sqffd__fit_check_data(&points, &diagonal);
+    return r == SQFFD_OK ? sqffd__sq_check_data(&points) : r;
+}
+
+SQFFD_DEF sqffd_result sqffd_fit_check_data(const double *points, size_t n)
+{
+    return sqffd_fit_check_data_view(sqffd_points_packed(points, n));
+}
+
 SQFFD_DEF sqffd_result sqffd_track_workspace_size(const size_t *counts, size_t frame_count,
                                                   const sqffd_track_options *options, size_t *size)
 {
@@ -8469,6 +8523,13 @@ static sqffd_result sqffd__track(const double *const *frames, const size_t *coun
     o.progress_user = opt->progress_user;
     res = sqffd__fit_check_whole_options(&o);
     if (res != SQFFD_OK) return res;
+    for (t = 0; t < frame_count; ++t) { /* every frame's data before any fit */
+        res = sqffd_fit_check_data_view(views ? views[t] : sqffd_points_packed(frames[t], counts[t]));
+        if (res != SQFFD_OK) {
+            if (frames_done) *frames_done = t;
+            return res;
+        }
+    }
     sqffd__arena_init(&a, workspace, workspace_size);
     sqffd__fit_state_layout(&a, o.lattice, o.grid, &state);
     if (!state) return sqffd__arena_error(&a);
@@ -8553,7 +8614,8 @@ SQFFD_DEF sqffd_result sqffd_track_frame_view(const sqffd_ffd_system *system, sq
     sqffd_track_options defaults = sqffd_track_options_default();
     const sqffd_track_options *opt = options ? options : &defaults;
     sqffd_fit_options o = sqffd__track_frame_options(opt);
-    if (opt->frame_iterations < 0) return SQFFD_ERROR_INVALID_ARGUMENT;
+    sqffd_result r = opt->frame_iterations < 0 ? SQFFD_ERROR_INVALID_ARGUMENT : sqffd_fit_check_data_view(points);
+    if (r != SQFFD_OK) return r;
     return sqffd__fit_prepared(system, &points, &o, SQFFD__FIT_EXACT_END, model, report, workspace, workspace_size);
 }
 

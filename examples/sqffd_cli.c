@@ -56,7 +56,7 @@ static const cli_command commands[] = {
      cmd_fit},
     {"track", "track a model through a sequence of point files: motion, volumes, ejection fraction, 17 segments",
      "sqffd track FRAME... -o DIR [--ed N] [--septum X,Y,Z] [--apex X,Y,Z] [--low-motion F] [--frame-iterations K] "
-     "[--volume auto|closed|slices] "
+     "[--volume auto|closed|slices] [--mm-per-unit F] [--json FILE] "
      "[input and model options of fit] [--ascii] [--quiet]",
      track_details,
      cmd_track},
@@ -411,12 +411,11 @@ static size_t find_stacks(double *const *frames, const size_t *counts, size_t fr
 }
 
 /* Each frame's stack closed by its lids (sqffd_stack_lids), appended to its
-   points; *added: how many in all. 0, or 1 with a message in err. */
+   points; added[t]: how many frame t got. 0, or 1 with a message in err. */
 static int add_lids(double **frames, size_t *counts, size_t frame_count, const sqffd_stack *stacks, size_t *added,
                     char *err, size_t err_size)
 {
     size_t t, n;
-    *added = 0;
     for (t = 0; t < frame_count; t++) {
         sqffd_points view = sqffd_points_packed(frames[t], counts[t]);
         double *grown;
@@ -432,7 +431,7 @@ static int add_lids(double **frames, size_t *counts, size_t frame_count, const s
             return 1;
         }
         counts[t] += n;
-        *added += n;
+        added[t] = n;
     }
     return 0;
 }
@@ -459,15 +458,15 @@ static int correct_slices(const char *name, double *const *frames, const size_t 
 /* The frames as short-axis stacks, before a fit or a track: *found when
    every frame is one, their planes parallel (their stacks in stacks); then
    --slice-shifts (which needs them) moves their slices, and unless
-   --no-lids each frame's lids are appended (*lids: how many). 0, or 1 with
-   a message in err. */
+   --no-lids each frame's lids are appended (lids[t]: how many frame t got,
+   else 0). 0, or 1 with a message in err. */
 static int prepare_stacks(const input_args *in, const char *const *names, double **frames, size_t *counts,
                           size_t frame_count, sqffd_stack *stacks, int *found, sqffd_slice_shifts *shifts,
                           size_t *lids, char *err, size_t err_size)
 {
     size_t stacked = find_stacks(frames, counts, frame_count, stacks);
     *found = stacked == frame_count;
-    *lids = 0;
+    memset(lids, 0, frame_count * sizeof *lids);
     if (in->slice_shifts && !*found) {
         snprintf(err, err_size, "%s: --slice-shifts: not a short-axis stack (points on 3 to %d parallel planes, listed "
                  "slice by slice)%s", names[stacked], SQFFD_STACK_PLANES, stacked ? ", or not the first frame's planes" : "");
@@ -1001,10 +1000,81 @@ typedef struct track_args {
     int volume;                  /* VOLUME_AUTO, VOLUME_CLOSED or VOLUME_SLICES */
     sqffd_stack *stacks;         /* the frames' short-axis stacks, when the volumes are the slices' */
     sqffd_slice_shifts shifts;   /* --slice-shifts: what was applied */
-    size_t lids;                 /* points the stacks' lids added, over all frames */
+    size_t *lids;                /* per frame: the points its stack's lids added (NULL: none) */
     int ascii, quiet;
     size_t dropped_nan, dropped_frames; /* PCD points dropped for NaN coordinates, and the frames that had some */
+    int ed_given;                /* --ed: else ED is the frame of largest volume */
+    double mm_per_unit;          /* --mm-per-unit (default 1): the report's numbers are the model's times it */
+    int unit;                    /* UNIT_GIVEN, UNIT_ASSUMED (a point file without --mm-per-unit), UNIT_VOLUMES */
+    const char *json_output;     /* --json FILE */
 } track_args;
+
+enum { UNIT_VOLUMES, UNIT_ASSUMED, UNIT_GIVEN };
+static const char *const unit_sources[] = {"volume files (mm)", "assumed", "given"};
+
+/* A septum direction at least this many degrees off the long axis: only its
+   part across the axis counts, and nearer the axis that part is less than
+   half of it and turns by cot(angle) degrees (over 1.7) for a degree of the
+   axis. */
+#define TRACK_SEPTUM_MIN_DEGREES 30.0
+
+/* A frame the model could not follow: its relative RMS error above both
+   TRACK_ERROR_RATIO x the median of the other frames' and TRACK_ERROR_FLOOR.
+   The error is relative to the frame's own bounding-box diagonal, so the
+   rule holds for any shape at any scale. The frames of one sequence are one
+   object: on the real hearts (ED and ES of 11 exams, 3 contourings each,
+   tracked in either order) the larger error is at most 1.99 x the smaller,
+   and every error is below 2.2 %; a model that lost its frame (a sphere,
+   then the same sphere shrunk 20,000 times) is at 31,730 % against 0.013 %.
+   The floor keeps sequences of small errors (0.1 % against 0.5 %, both
+   close fits) from failing on the ratio. */
+#define TRACK_ERROR_RATIO 4.0
+#define TRACK_ERROR_FLOOR 0.05
+
+static void track_args_default(track_args *a)
+{
+    memset(a, 0, sizeof *a);
+    a->options = sqffd_track_options_default();
+    a->motion = sqffd_motion_options_default();
+    input_args_default(&a->in);
+    a->mm_per_unit = 1.0;
+}
+
+/* The angle in degrees between two directions of non-zero length (each
+   divided by its largest component first, so that no square overflows). */
+static double angle_degrees(const double *u, const double *v)
+{
+    double a[3], b[3], su = 0.0, sv = 0.0, dot = 0.0, uu = 0.0, vv = 0.0, c;
+    int k;
+    for (k = 0; k < 3; k++) {
+        su = fabs(u[k]) > su ? fabs(u[k]) : su;
+        sv = fabs(v[k]) > sv ? fabs(v[k]) : sv;
+    }
+    for (k = 0; k < 3; k++) {
+        a[k] = u[k] / su;
+        b[k] = v[k] / sv;
+        dot += a[k] * b[k];
+        uu += a[k] * a[k];
+        vv += b[k] * b[k];
+    }
+    c = dot / sqrt(uu * vv);
+    return acos(c > 1.0 ? 1.0 : c < -1.0 ? -1.0 : c) * 180.0 / 3.14159265358979323846;
+}
+
+/* The septum against a long axis (either way along it): 0 when at least
+   TRACK_SEPTUM_MIN_DEGREES off, else a usage error's status after a
+   message naming the option; what: the axis's name. */
+static int septum_check(const track_args *a, const double *axis, const char *what)
+{
+    const double *s = a->motion.septum_direction;
+    double angle = angle_degrees(s, axis);
+    angle = angle > 90.0 ? 180.0 - angle : angle;
+    if (!(s[0] != 0.0 || s[1] != 0.0 || s[2] != 0.0) || angle >= TRACK_SEPTUM_MIN_DEGREES) return 0;
+    return usage_error(find_command("track"), "track: --septum %g,%g,%g is %.1f degrees from %s (%.4g %.4g %.4g): "
+                       "a septum direction must be at least %g degrees off the long axis (only its part across the "
+                       "axis counts)", s[0], s[1], s[2], angle, what, axis[0], axis[1], axis[2],
+                       TRACK_SEPTUM_MIN_DEGREES);
+}
 
 static int track_parse(int argc, char **argv, track_args *a, int *help)
 {
@@ -1016,9 +1086,6 @@ static int track_parse(int argc, char **argv, track_args *a, int *help)
     memset(&s, 0, sizeof s);
     s.argc = argc;
     s.argv = argv;
-    a->options = sqffd_track_options_default();
-    a->motion = sqffd_motion_options_default();
-    input_args_default(&a->in);
     *help = 0;
     while ((kind = scan_next(&s, &arg)) != 0) {
 #define IS(x) (strcmp(s.name, x) == 0)
@@ -1039,16 +1106,27 @@ static int track_parse(int argc, char **argv, track_args *a, int *help)
             continue;
         }
         if (!(IS("-o") || IS("--output") || IS("--ed") || IS("--septum") || IS("--apex") || IS("--low-motion") ||
-              IS("--frame-iterations") || IS("--volume")))
+              IS("--frame-iterations") || IS("--volume") || IS("--mm-per-unit") || IS("--json")))
             return usage_error(c, "track: unknown option '%s'", s.argv[s.i]);
         if (!(v = scan_value(&s, c))) return EXIT_USAGE;
         if (IS("-o") || IS("--output")) a->output = v;
         else if (IS("--ed")) {
             if (parse_int(v, 0, 1000000, &n)) return usage_error(c, "track: --ed takes a frame number, not '%s'", v);
             a->motion.ed_frame = (size_t)n;
+            a->ed_given = 1;
         } else if (IS("--septum") || IS("--apex")) {
-            if (parse_numbers(v, 3, IS("--septum") ? a->motion.septum_direction : a->motion.apex_direction))
-                return usage_error(c, "track: %s takes a direction X,Y,Z, not '%s'", s.name, v);
+            double *d = IS("--septum") ? a->motion.septum_direction : a->motion.apex_direction;
+            if (parse_numbers(v, 3, d))
+                return usage_error(c, "track: %s takes a direction X,Y,Z of finite numbers, not '%s'", s.name, v);
+            if (d[0] == 0.0 && d[1] == 0.0 && d[2] == 0.0)
+                return usage_error(c, "track: %s %s: a direction needs a non-zero length", s.name, v);
+        } else if (IS("--mm-per-unit")) {
+            if (parse_numbers(v, 1, &a->mm_per_unit) || !(a->mm_per_unit > 0.0))
+                return usage_error(c, "track: --mm-per-unit takes a finite number > 0 (millimetres per unit of the "
+                                   "point files), not '%s'", v);
+            a->unit = UNIT_GIVEN;
+        } else if (IS("--json")) {
+            a->json_output = v;
         } else if (IS("--volume")) {
             a->volume = strcmp(v, "auto") == 0 ? VOLUME_AUTO : strcmp(v, "closed") == 0 ? VOLUME_CLOSED
                       : strcmp(v, "slices") == 0 ? VOLUME_SLICES : -1;
@@ -1065,6 +1143,8 @@ static int track_parse(int argc, char **argv, track_args *a, int *help)
     }
     if (a->input_count == 0) return usage_error(c, "track: no FRAME input");
     if (!a->output) return usage_error(c, "track: no output folder (-o DIR)");
+    if (a->motion.apex_direction[0] != 0.0 || a->motion.apex_direction[1] != 0.0 || a->motion.apex_direction[2] != 0.0)
+        return septum_check(a, a->motion.apex_direction, "--apex");
     return 0;
 }
 
@@ -1085,18 +1165,28 @@ static void track_details(FILE *f)
             "                                          'displacement' (ED to ES), 'excursion' (its inward\n"
             "                                          part along the normal), 'low_motion' (0 or 1)\n"
             "                                          and 'segment' (1-17; 0: valve plane, not wall)\n"
-            "                           segments.csv   per AHA segment: mean displacement and\n"
-            "                                          excursion, low-motion share, flag\n"
-            "                           volumes.csv    per frame: model volume, error\n"
-            "  --ed N                 the end-diastolic frame (default %lu); end-systole is the\n"
+            "                           segments.csv   per AHA segment: area (mm^2), mean displacement and\n"
+            "                                          excursion (mm), low-motion share, flag\n"
+            "                           volumes.csv    per frame: model volume (ml), error, iterations\n"
+            "                         (the meshes in the input's units, as its points; the report,\n"
+            "                         the CSV files and --json in mm and ml)\n"
+            "  --ed N                 the end-diastolic frame (default: the frame of largest model\n"
+            "                         volume; the report says when N is not it); end-systole is the\n"
             "                         frame of least model volume\n"
-            "  --septum X,Y,Z         direction of the septum (default: a superquadric axis; the\n"
-            "                         points do not tell it, give it for a real heart)\n"
+            "  --septum X,Y,Z         direction of the septum, at least %g degrees off the long axis\n"
+            "                         (default: a superquadric axis; the points do not tell it,\n"
+            "                         give it for a real heart)\n"
             "  --apex X,Y,Z           direction base -> apex (default: the long axis, toward its\n"
             "                         narrower end)\n"
             "  --low-motion F         a vertex is low-motion below F x the median excursion\n"
             "                         of the wall at its level (default %g); a segment is\n"
             "                         hypokinetic when at least %g of its area is\n"
+            "  --mm-per-unit F        millimetres per unit of the point files, > 0 (default 1: the\n"
+            "                         report says the unit was assumed to be mm); volumes (NIfTI,\n"
+            "                         MetaImage, NRRD) are in mm already and take no scale\n"
+            "  --json FILE            also write the report as JSON: units, per frame points, lid\n"
+            "                         points, volume, error, iterations and stop reason; EDV, ESV,\n"
+            "                         EF; per segment area, excursion, share and flag\n"
             "  --frame-iterations K   FFD iterations of the frames after the first (default %d)\n"
             "  --volume auto|closed|slices\n"
             "                         the frames' volumes (EF): 'closed', the closed models'; 'slices',\n"
@@ -1104,12 +1194,18 @@ static void track_details(FILE *f)
             "                         moved out by half the spacing, where Simpson's method puts its\n"
             "                         discs (point files on 3 or more parallel planes, slice by\n"
             "                         slice); 'auto' (default): slices for such stacks, else closed\n",
-            (unsigned long)m.ed_frame, m.low_motion_fraction, m.hypokinetic_share, d.frame_iterations);
+            TRACK_SEPTUM_MIN_DEGREES, m.low_motion_fraction, m.hypokinetic_share, d.frame_iterations);
     input_option_details(f);
     model_option_details(f, &d.fit, "frame 0");
     fprintf(f,
             "  --ascii                write ascii PLY instead of binary little endian\n"
-            "  --quiet                print nothing on success\n");
+            "  --quiet                print nothing on success\n"
+            "\n"
+            "Every frame must hold what a lone fit needs (%d points or more, finite, not all on\n"
+            "a plane or a line). A frame the model could not follow fails the track (exit 1, no\n"
+            "EF): one whose relative RMS error is above both %g x the median of the other\n"
+            "frames' and %g %% of its data's bounding-box diagonal.\n",
+            SQFFD_SQ_FIT_MIN_POINTS, TRACK_ERROR_RATIO, 100.0 * TRACK_ERROR_FLOOR);
 }
 
 /* DIR/NAME into path; 0 on success. */
@@ -1126,39 +1222,106 @@ static int make_folder(const char *dir)
     return mkdir(dir, 0777) != 0;
 }
 
-static void track_report(const track_args *a, const size_t *counts, const sqffd_fit_report *reports,
-                         const double *volumes, const sqffd_motion_report *m, double seconds)
+/* What track_run leaves for the reports and the extra outputs. */
+typedef struct track_result {
+    sqffd_model *models;
+    sqffd_fit_report *reports;
+    sqffd_motion_outputs out;
+    sqffd_motion_report motion;
+    size_t vertices;      /* per frame's mesh */
+    size_t largest;       /* the frame of largest volume */
+    double seconds;
+} track_result;
+
+/* Why frame t's iterations ended, from what its report holds (the
+   converged flag; the iterations at the cap); one place to read the
+   library's own stop reason from once it has one. */
+static const char *stop_reason(const track_args *a, const sqffd_fit_report *r, size_t t)
 {
+    int cap = t == 0 ? a->options.fit.max_iterations : a->options.frame_iterations;
+    return r->converged ? "converged" : r->coarse_iterations + r->iterations >= cap ? "capped" : "no progress";
+}
+
+/* A volume in the model's units as ml, a length as mm, an area as mm^2. */
+static double to_ml(const track_args *a, double v) { return v * (a->mm_per_unit * a->mm_per_unit * a->mm_per_unit) / 1000.0; }
+static double to_mm(const track_args *a, double d) { return d * a->mm_per_unit; }
+static double to_mm2(const track_args *a, double s) { return s * (a->mm_per_unit * a->mm_per_unit); }
+
+/* A share in percent to one decimal, cut (never rounded up to a threshold
+   it is below: 0.4996 shows 49.9, so the hypokinetic flag can be checked
+   by eye). */
+static double share_shown(double share) { return floor(1000.0 * share) / 10.0; }
+
+static size_t lid_points(const track_args *a, size_t t) { return a->lids ? a->lids[t] : 0; }
+
+static void track_report(const track_args *a, const size_t *counts, const track_result *res)
+{
+    const sqffd_fit_report *reports = res->reports;
+    const sqffd_motion_report *m = &res->motion;
+    const double *volumes = res->out.volumes, *s = a->motion.septum_direction;
     size_t t;
     int k;
+    char iterations[32];
     printf("sqffd track: %lu frames -> %s\n", (unsigned long)a->frame_count, a->output);
+    if (a->unit == UNIT_ASSUMED)
+        printf("  units            the point files' unit assumed to be mm (give --mm-per-unit F for another)\n");
+    else if (a->unit == UNIT_GIVEN)
+        printf("  units            %.6g mm per unit of the point files (--mm-per-unit)\n", a->mm_per_unit);
+    else
+        printf("  units            mm (the volume files')\n");
     if (a->dropped_nan)
         printf("  dropped          %lu points with NaN coordinates (invalid depth) in %lu frame%s\n",
                (unsigned long)a->dropped_nan, (unsigned long)a->dropped_frames, a->dropped_frames == 1 ? "" : "s");
-    printf("  frame  points      error %%  iterations  jacobian  volume\n");
-    for (t = 0; t < a->frame_count; t++)
-        printf("  %5lu  %8lu  %9.4f  %10d  %8.3f  %.6g%s\n", (unsigned long)t, (unsigned long)counts[t],
-               100.0 * reports[t].error.rms_relative, reports[t].iterations, reports[t].min_jacobian, volumes[t],
+    printf("  frame    points  lid points   error %%  error mm  iterations  jacobian   volume ml\n");
+    for (t = 0; t < a->frame_count; t++) {
+        snprintf(iterations, sizeof iterations, "%d%s", reports[t].coarse_iterations + reports[t].iterations,
+                 strcmp(stop_reason(a, reports + t, t), "capped") == 0 ? " (cap)" : "");
+        printf("  %5lu  %8lu  %10lu  %8.4f  %8.4g  %10s  %8.3f  %10.6g%s\n", (unsigned long)t,
+               (unsigned long)(counts[t] - lid_points(a, t)), (unsigned long)lid_points(a, t),
+               100.0 * reports[t].error.rms_relative, to_mm(a, reports[t].error.rms), iterations,
+               reports[t].min_jacobian, to_ml(a, volumes[t]),
                t == m->ed_frame ? "  ED" : t == m->es_frame ? "  ES" : "");
+    }
+    printf("  error            RMS distance from the frame's points to its model (%% of their bounding-box "
+           "diagonal, and mm)\n");
     if (a->motion.stacks)
-        printf("  volumes          between each frame's outer short-axis slices +- half the spacing (%.4g)\n",
-               a->motion.stacks[m->ed_frame].spacing);
+        printf("  volumes          between each frame's outer short-axis slices +- half the spacing (%.4g mm)\n",
+               to_mm(a, a->motion.stacks[m->ed_frame].spacing));
     if (a->in.slice_shifts) print_slice_shifts(&a->shifts);
     if (a->lids)
-        printf("  lids             %lu points close each frame's stack half a spacing beyond its outer slices "
-               "(--no-lids: none)\n", (unsigned long)a->lids);
-    printf("  end-diastolic volume   %.6g (frame %lu)\n", m->edv, (unsigned long)m->ed_frame);
-    printf("  end-systolic volume    %.6g (frame %lu)\n", m->esv, (unsigned long)m->es_frame);
+        printf("  lid points       made up to close each frame's stack half a spacing beyond its outer slices "
+               "(--no-lids: none)\n");
+    printf("  end-diastolic volume   %.6g ml (frame %lu, %s)\n", to_ml(a, m->edv), (unsigned long)m->ed_frame,
+           a->ed_given ? "--ed" : "the largest volume");
+    if (m->ed_frame != res->largest)
+        printf("  note             --ed %lu is not the frame of largest volume: frame %lu holds %.6g ml\n",
+               (unsigned long)m->ed_frame, (unsigned long)res->largest, to_ml(a, volumes[res->largest]));
+    printf("  end-systolic volume    %.6g ml (frame %lu, the smallest volume)\n", to_ml(a, m->esv),
+           (unsigned long)m->es_frame);
     printf("  ejection fraction  %.1f %%\n", 100.0 * m->ejection_fraction);
-    printf("  long axis (base -> apex) %.4g %.4g %.4g, length %.4g; septum %.4g %.4g %.4g\n", m->axis[0], m->axis[1],
-           m->axis[2], m->length, m->septum[0], m->septum[1], m->septum[2]);
-    printf("  median wall excursion ED -> ES  %.4g (inward along the normal)\n", m->median_excursion);
-    printf("  segment                  displacement  excursion  low-motion area  hypokinetic\n");
+    printf("  long axis (base -> apex) %.4g %.4g %.4g, length %.4g mm (%s)\n", m->axis[0], m->axis[1], m->axis[2],
+           to_mm(a, m->length), a->motion.apex_direction[0] != 0.0 || a->motion.apex_direction[1] != 0.0 ||
+           a->motion.apex_direction[2] != 0.0 ? "--apex" : "the model's longest axis, toward its narrower end");
+    if (s[0] != 0.0 || s[1] != 0.0 || s[2] != 0.0)
+        printf("  septum           %.4g %.4g %.4g (--septum, its part across the long axis)\n", m->septum[0],
+               m->septum[1], m->septum[2]);
+    else
+        printf("  septum           not given (--septum X,Y,Z): the ED superquadric's first axis across the long axis\n"
+               "                   (%.4g %.4g %.4g) stands in for it, so the segment names below are sectors counted\n"
+               "                   from that axis, not anatomy\n", m->septum[0], m->septum[1], m->septum[2]);
+    printf("  median wall excursion ED -> ES  %.4g mm (inward along the normal)\n", to_mm(a, m->median_excursion));
+    printf("  segment                  area mm^2  displacement mm  excursion mm  low-motion area  hypokinetic (area >= %g %%)\n",
+           100.0 * a->motion.hypokinetic_share);
     for (k = 0; k < SQFFD_SEGMENTS; k++)
-        printf("  %2d %-22s %12.4g  %9.4g  %13.0f %%  %s\n", k + 1, segment_names[k], m->segments[k].mean_displacement,
-               m->segments[k].mean_excursion, 100.0 * m->segments[k].low_motion_share,
+        printf("  %2d %-22s %9.4g  %15.4g  %12.4g  %13.1f %%  %s\n", k + 1, segment_names[k],
+               to_mm2(a, m->segments[k].area), to_mm(a, m->segments[k].mean_displacement),
+               to_mm(a, m->segments[k].mean_excursion), share_shown(m->segments[k].low_motion_share),
                m->segments[k].hypokinetic ? "yes" : "no");
-    printf("  time             %.1f ms\n", 1e3 * seconds);
+    printf("  low-motion area  the share of the segment's ED area moving inward less than %g x the median\n"
+           "                   excursion of the wall at its level (cut to 0.1 %%, never rounded up)\n",
+           a->motion.low_motion_fraction);
+    if (a->json_output) printf("  summary          %s (JSON)\n", a->json_output);
+    printf("  time             %.1f ms\n", 1e3 * res->seconds);
 }
 
 /* The outputs of track: the frames' meshes, motion.ply, the two tables. */
@@ -1206,20 +1369,21 @@ static int track_write(const track_args *a, const sqffd_model *models, const sqf
         fprintf(stderr, "%s: cannot write: %s\n", path, strerror(errno));
         goto done;
     }
-    fprintf(f, "segment,name,area,mean_displacement,mean_excursion,low_motion_share,hypokinetic\n");
+    fprintf(f, "segment,name,area_mm2,mean_displacement_mm,mean_excursion_mm,low_motion_share,hypokinetic\n");
     for (k = 0; k < SQFFD_SEGMENTS; k++)
-        fprintf(f, "%d,%s,%.9g,%.9g,%.9g,%.6f,%d\n", k + 1, segment_names[k], m->segments[k].area,
-                m->segments[k].mean_displacement, m->segments[k].mean_excursion, m->segments[k].low_motion_share,
-                m->segments[k].hypokinetic);
+        fprintf(f, "%d,%s,%.9g,%.9g,%.9g,%.9g,%d\n", k + 1, segment_names[k], to_mm2(a, m->segments[k].area),
+                to_mm(a, m->segments[k].mean_displacement), to_mm(a, m->segments[k].mean_excursion),
+                m->segments[k].low_motion_share, m->segments[k].hypokinetic);
     if (fclose(f)) goto done;
     if (join_path(path, sizeof path, a->output, "volumes.csv") || !(f = fopen(path, "w"))) {
         fprintf(stderr, "%s: cannot write: %s\n", path, strerror(errno));
         goto done;
     }
-    fprintf(f, "frame,file,volume,error_relative,iterations\n");
+    fprintf(f, "frame,file,volume_ml,error_relative,iterations,error_mm,stop\n");
     for (t = 0; t < a->frame_count; t++)
-        fprintf(f, "%lu,%s,%.9g,%.9g,%d\n", (unsigned long)t, a->frames[t], out->volumes[t], reports[t].error.rms_relative,
-                reports[t].iterations);
+        fprintf(f, "%lu,%s,%.9g,%.9g,%d,%.9g,%s\n", (unsigned long)t, a->frames[t], to_ml(a, out->volumes[t]),
+                reports[t].error.rms_relative, reports[t].coarse_iterations + reports[t].iterations,
+                to_mm(a, reports[t].error.rms), stop_reason(a, reports + t, t));
     if (fclose(f)) goto done;
     status = 0;
 done:
@@ -1228,16 +1392,6 @@ done:
     free(segments);
     return status;
 }
-
-/* What track_run leaves for the reports and the extra outputs. */
-typedef struct track_result {
-    sqffd_model *models;
-    sqffd_fit_report *reports;
-    sqffd_motion_outputs out;
-    sqffd_motion_report motion;
-    size_t vertices;      /* per frame's mesh */
-    double seconds;
-} track_result;
 
 static void track_result_free(track_result *r)
 {
@@ -1263,11 +1417,12 @@ static int track_stacks(track_args *a, double **points, size_t *counts)
     char err[512];
     int found = 0;
     a->stacks = (sqffd_stack *)calloc(a->frame_count, sizeof *a->stacks);
-    if (!a->stacks) {
+    a->lids = (size_t *)calloc(a->frame_count, sizeof *a->lids);
+    if (!a->stacks || !a->lids) {
         fprintf(stderr, "sqffd track: out of memory\n");
         return EXIT_BAD_INPUT;
     }
-    if (prepare_stacks(&a->in, a->frames, points, counts, a->frame_count, a->stacks, &found, &a->shifts, &a->lids, err,
+    if (prepare_stacks(&a->in, a->frames, points, counts, a->frame_count, a->stacks, &found, &a->shifts, a->lids, err,
                        sizeof err)) {
         fprintf(stderr, "%s\n", err);
         return EXIT_BAD_INPUT;
@@ -1278,16 +1433,52 @@ static int track_stacks(track_args *a, double **points, size_t *counts)
     }
     free(a->stacks);
     a->stacks = NULL;
+    free(a->lids);
+    a->lids = NULL;
     if (a->volume != VOLUME_SLICES) return 0;
     fprintf(stderr, "sqffd track: --volume slices: the frames are not short-axis stacks (points on 3 or more "
                     "parallel planes, slice by slice) with the same planes' normal\n");
     return EXIT_BAD_INPUT;
 }
 
+static int compare_doubles(const void *x, const void *y)
+{
+    double u = *(const double *)x, v = *(const double *)y;
+    return u < v ? -1 : u > v;
+}
+
+/* The frames the model could not follow (TRACK_ERROR_RATIO, _FLOOR): 0
+   when none, else 1 after a message naming each. */
+static int unfollowed_frames(const track_args *a, const sqffd_fit_report *reports)
+{
+    size_t t, u, n, frames = a->frame_count, failed = 0;
+    double *others = (double *)malloc(frames * sizeof *others), median;
+    if (!others) {
+        fprintf(stderr, "sqffd track: out of memory\n");
+        return 1;
+    }
+    for (t = 0; t < frames; t++) {
+        for (u = n = 0; u < frames; u++)
+            if (u != t) others[n++] = reports[u].error.rms_relative;
+        qsort(others, n, sizeof *others, compare_doubles);
+        median = n % 2 ? others[n / 2] : 0.5 * (others[n / 2 - 1] + others[n / 2]);
+        if (!(reports[t].error.rms_relative <= TRACK_ERROR_RATIO * median ||
+              reports[t].error.rms_relative <= TRACK_ERROR_FLOOR)) {
+            fprintf(stderr, "%s (frame %lu): the model did not follow this frame: relative RMS error %.4g %% against "
+                    "a median of %.4g %% over the other frames (a frame fails above both %g x that median and %g %%): "
+                    "no volume or EF from this sequence\n", a->frames[t], (unsigned long)t,
+                    100.0 * reports[t].error.rms_relative, 100.0 * median, TRACK_ERROR_RATIO, 100.0 * TRACK_ERROR_FLOOR);
+            failed++;
+        }
+    }
+    free(others);
+    return failed > 0;
+}
+
 static int track_run(track_args *a, double **points, size_t *counts, track_result *res)
 {
     track_progress progress;
-    size_t work_size, done = 0, nv = 0, frames = a->frame_count;
+    size_t work_size, done = 0, nv = 0, frames = a->frame_count, t;
     void *work = NULL;
     sqffd_result r;
     int status = EXIT_BAD_INPUT;
@@ -1325,6 +1516,7 @@ static int track_run(track_args *a, double **points, size_t *counts, track_resul
                 sqffd_result_string(r));
         goto done;
     }
+    if (unfollowed_frames(a, res->reports)) goto done;
     free(work);
     work = NULL;
     r = sqffd_motion_workspace_size(res->models, frames, &work_size);
@@ -1346,15 +1538,128 @@ static int track_run(track_args *a, double **points, size_t *counts, track_resul
         goto done;
     }
     r = sqffd_motion(res->models, frames, &a->motion, &res->out, &res->motion, work, work_size);
+    for (t = 1; r == SQFFD_OK && t < frames; t++)
+        if (res->out.volumes[t] > res->out.volumes[res->largest]) res->largest = t;
+    if (r == SQFFD_OK && !a->ed_given && res->largest != a->motion.ed_frame) { /* ED: the largest volume */
+        a->motion.ed_frame = res->largest;
+        r = sqffd_motion(res->models, frames, &a->motion, &res->out, &res->motion, work, work_size);
+    }
+    if (r == SQFFD_ERROR_INVALID_ARGUMENT) { /* a septum exactly along the long axis found: that axis, to say so */
+        sqffd_motion_options o = a->motion;
+        memset(o.septum_direction, 0, sizeof o.septum_direction);
+        if (sqffd_motion(res->models, frames, &o, NULL, &res->motion, work, work_size) == SQFFD_OK &&
+            (status = septum_check(a, res->motion.axis, "the long axis found")) != 0)
+            goto done;
+    }
     if (r != SQFFD_OK) {
         fprintf(stderr, "sqffd track: the motion analysis failed: %s\n", sqffd_result_string(r));
         goto done;
     }
+    /* the long axis found: a septum along it would name no sectors (a given --apex was checked before) */
+    if ((status = septum_check(a, res->motion.axis, "the long axis found")) != 0) goto done;
+    status = EXIT_BAD_INPUT;
     status = track_write(a, res->models, res->reports, &res->out, nv, &res->motion);
     res->seconds = seconds_now() - start;
 done:
     free(work);
     return status;
+}
+
+/* The report as JSON ("format": "sqffd-track", "version": 1): what
+   track_report prints, in mm and ml; numbers as %.17g, null where not
+   finite. 0, or 1 with a message in err. */
+static int track_json(const track_args *a, const size_t *counts, const track_result *res, char *err, size_t err_size)
+{
+    const sqffd_motion_report *m = &res->motion;
+    const double *sd = a->motion.septum_direction;
+    FILE *f;
+    size_t t;
+    int k;
+    if (sqffd_export__create(a->json_output, &f, err, err_size)) return 1;
+    fprintf(f, "{\n  \"format\": \"sqffd-track\",\n  \"version\": 1,\n  \"library_version\": \"%s\",\n  \"inputs\": [",
+            SQFFD_VERSION_STRING);
+    for (t = 0; t < a->input_count; t++) {
+        fputs(t ? ", " : "", f);
+        sqffd_export_json_string(f, a->inputs[t]);
+    }
+    fputs("],\n  \"units\": {\"mm_per_unit\": ", f);
+    sqffd_export_json_number(f, a->mm_per_unit);
+    fprintf(f, ", \"mm_per_unit_source\": \"%s\", \"volume\": \"ml\", \"length\": \"mm\", \"area\": \"mm2\"},\n"
+               "  \"frames\": [\n", unit_sources[a->unit]);
+    for (t = 0; t < a->frame_count; t++) {
+        const sqffd_fit_report *r = res->reports + t;
+        fputs("    {\"file\": ", f);
+        sqffd_export_json_string(f, a->frames[t]);
+        fprintf(f, ", \"points\": %lu, \"lid_points\": %lu, \"volume_ml\": ", (unsigned long)(counts[t] - lid_points(a, t)),
+                (unsigned long)lid_points(a, t));
+        sqffd_export_json_number(f, to_ml(a, res->out.volumes[t]));
+        fputs(", \"error_relative\": ", f);
+        sqffd_export_json_number(f, r->error.rms_relative);
+        fputs(", \"error_mm\": ", f);
+        sqffd_export_json_number(f, to_mm(a, r->error.rms));
+        fprintf(f, ", \"iterations\": %d, \"stop\": \"%s\"}%s\n", r->coarse_iterations + r->iterations,
+                stop_reason(a, r, t), t + 1 < a->frame_count ? "," : "");
+    }
+    fputs("  ],\n  \"edv_ml\": ", f);
+    sqffd_export_json_number(f, to_ml(a, m->edv));
+    fputs(",\n  \"esv_ml\": ", f);
+    sqffd_export_json_number(f, to_ml(a, m->esv));
+    fputs(",\n  \"ef_percent\": ", f);
+    sqffd_export_json_number(f, 100.0 * m->ejection_fraction);
+    fprintf(f, ",\n  \"ed_index\": %lu,\n  \"ed_given\": %s,\n  \"largest_volume_index\": %lu,\n  \"es_index\": %lu,\n"
+               "  \"septum_given\": %s,\n  \"septum\": ", (unsigned long)m->ed_frame, a->ed_given ? "true" : "false",
+            (unsigned long)res->largest, (unsigned long)m->es_frame,
+            sd[0] != 0.0 || sd[1] != 0.0 || sd[2] != 0.0 ? "true" : "false");
+    for (k = 0; k < 3; k++) {
+        fputs(k ? ", " : "[", f);
+        sqffd_export_json_number(f, m->septum[k]);
+    }
+    fputs("],\n  \"long_axis\": ", f);
+    for (k = 0; k < 3; k++) {
+        fputs(k ? ", " : "[", f);
+        sqffd_export_json_number(f, m->axis[k]);
+    }
+    fputs("],\n  \"median_excursion_mm\": ", f);
+    sqffd_export_json_number(f, to_mm(a, m->median_excursion));
+    fprintf(f, ",\n  \"hypokinetic_share\": %.17g,\n  \"segments\": [\n", a->motion.hypokinetic_share);
+    for (k = 0; k < SQFFD_SEGMENTS; k++) {
+        const sqffd_segment_motion *g = m->segments + k;
+        fprintf(f, "    {\"index\": %d, \"name\": \"%s\", \"area_mm2\": ", k + 1, segment_names[k]);
+        sqffd_export_json_number(f, to_mm2(a, g->area));
+        fputs(", \"displacement_mm\": ", f);
+        sqffd_export_json_number(f, to_mm(a, g->mean_displacement));
+        fputs(", \"excursion_mm\": ", f);
+        sqffd_export_json_number(f, to_mm(a, g->mean_excursion));
+        fputs(", \"share\": ", f);
+        sqffd_export_json_number(f, g->low_motion_share);
+        fprintf(f, ", \"hypokinetic\": %s}%s\n", g->hypokinetic ? "true" : "false", k + 1 < SQFFD_SEGMENTS ? "," : "");
+    }
+    fputs("  ]\n}\n", f);
+    return sqffd_export__close(f, a->json_output, sqffd_export__flush(f, a->json_output, err, err_size), err, err_size);
+}
+
+/* Every frame holds what a lone fit needs (sqffd_fit_check_data); 0, or 1
+   after a message naming the first frame that does not. */
+static int check_frames(const track_args *a, double *const *points, const size_t *counts)
+{
+    size_t t;
+    for (t = 0; t < a->frame_count; t++) {
+        sqffd_result r = sqffd_fit_check_data(points[t], counts[t]);
+        if (r == SQFFD_OK) continue;
+        if (r == SQFFD_ERROR_TOO_FEW_POINTS)
+            fprintf(stderr, "%s (frame %lu): %lu points: a frame needs at least %d, as a lone fit does\n", a->frames[t],
+                    (unsigned long)t, (unsigned long)counts[t], SQFFD_SQ_FIT_MIN_POINTS);
+        else if (r == SQFFD_ERROR_DEGENERATE)
+            fprintf(stderr, "%s (frame %lu): the points are all in one place, on a line or on a plane: they enclose "
+                    "no volume to fit\n", a->frames[t], (unsigned long)t);
+        else if (r == SQFFD_ERROR_NON_FINITE)
+            fprintf(stderr, "%s (frame %lu): a coordinate is not finite or beyond +-1e100\n", a->frames[t],
+                    (unsigned long)t);
+        else
+            fprintf(stderr, "%s (frame %lu): %s\n", a->frames[t], (unsigned long)t, sqffd_result_string(r));
+        return 1;
+    }
+    return 0;
 }
 
 static int cmd_track(int argc, char **argv)
@@ -1366,7 +1671,7 @@ static int cmd_track(int argc, char **argv)
     char err[512];
     int help, status;
 
-    memset(&a, 0, sizeof a);
+    track_args_default(&a);
     memset(&res, 0, sizeof res);
     a.inputs = (const char **)calloc((size_t)argc, sizeof *a.inputs);
     if (!a.inputs) return EXIT_BAD_INPUT;
@@ -1400,6 +1705,12 @@ static int cmd_track(int argc, char **argv)
             a.frames[total + t] = a.inputs[i];
         }
         a.frame_count = total + got_count;
+        if (sum.volume && a.unit == UNIT_GIVEN) {
+            status = usage_error(find_command("track"), "track: --mm-per-unit: %s is a volume (%s), whose coordinates "
+                                 "are in mm already", a.inputs[i], sum.format);
+            goto done;
+        }
+        if (!sum.volume && a.unit == UNIT_VOLUMES) a.unit = UNIT_ASSUMED;
         a.dropped_nan += sum.dropped_nan;
         a.dropped_frames += sum.dropped_nan > 0;
         free(got);
@@ -1415,13 +1726,18 @@ static int cmd_track(int argc, char **argv)
                              (unsigned long)a.motion.ed_frame, (unsigned long)a.frame_count);
         goto done;
     }
-    if ((status = track_stacks(&a, points, counts)) != 0) goto done;
+    if (check_frames(&a, points, counts) || (status = track_stacks(&a, points, counts)) != 0) goto done;
     status = track_run(&a, points, counts, &res);
-    if (status == 0 && !a.quiet) track_report(&a, counts, res.reports, res.out.volumes, &res.motion, res.seconds);
+    if (status == 0 && a.json_output && track_json(&a, counts, &res, err, sizeof err)) {
+        fprintf(stderr, "%s\n", err);
+        status = EXIT_BAD_INPUT;
+    }
+    if (status == 0 && !a.quiet) track_report(&a, counts, &res);
 done:
     free_frames(points, counts, a.frame_count);
     track_result_free(&res);
     free(a.stacks);
+    free(a.lids);
     free((void *)a.frames);
     free((void *)a.inputs);
     return status;
@@ -1681,7 +1997,8 @@ static int cmd_demo(int argc, char **argv)
     static const char *const written[] = {"frame_00.ply ... frame_15.ply", "motion.ply", "segments.csv",
                                           "volumes.csv", "model.json", "fig3_error.svg", "table1_alpha.svg",
                                           "volumes.svg", "bullseye.svg"};
-    memset(&a, 0, sizeof a);
+    track_args_default(&a);
+    a.unit = UNIT_GIVEN; /* the phantom is in mm */
     a.output = "sqffd_demo";
     for (k = 1; k < argc; k++) {
         if (strcmp(argv[k], "--help") == 0 || strcmp(argv[k], "-h") == 0) {
@@ -1692,8 +2009,6 @@ static int cmd_demo(int argc, char **argv)
         else if ((strcmp(argv[k], "-o") == 0 || strcmp(argv[k], "--output") == 0) && k + 1 < argc) a.output = argv[++k];
         else return usage_error(c, "demo: unknown argument '%s'", argv[k]);
     }
-    a.options = sqffd_track_options_default();
-    a.motion = sqffd_motion_options_default();
     memcpy(a.motion.septum_direction, phantom_septum, sizeof phantom_septum);
     a.frames = frames;
     a.frame_count = DEMO_FRAMES;
@@ -1745,7 +2060,7 @@ static int cmd_demo(int argc, char **argv)
         printf("Table 1 (frame 0): the error after the FFD stage against alpha\n");
         for (k = 0; k < 4; k++) printf("  alpha %-8g  %.3f %%\n", alpha[k], 100.0 * table[k]);
         printf("\n");
-        track_report(&a, counts, res.reports, res.out.volumes, &res.motion, res.seconds);
+        track_report(&a, counts, &res);
         printf("\nwritten to %s/:\n", a.output);
         for (k = 0; k < (int)(sizeof written / sizeof written[0]); k++) printf("  %s\n", written[k]);
         printf("total %.1f s\n", seconds_now() - t0);

@@ -344,6 +344,47 @@ static inline int sqffd_export__model_check(const char *name, const sqffd_model 
     return 0;
 }
 
+/* The length of the well-formed UTF-8 sequence at s (1..4), or 0. */
+static inline int sqffd_export__utf8_length(const unsigned char *s)
+{
+    int n = s[0] < 0x80 ? 1 : s[0] >= 0xC2 && s[0] <= 0xDF ? 2 : s[0] >= 0xE0 && s[0] <= 0xEF ? 3
+          : s[0] >= 0xF0 && s[0] <= 0xF4 ? 4 : 0, k;
+    unsigned char lo = s[0] == 0xE0 ? 0xA0 : s[0] == 0xF0 ? 0x90 : 0x80; /* no overlong forms, */
+    unsigned char hi = s[0] == 0xED ? 0x9F : s[0] == 0xF4 ? 0x8F : 0xBF; /* surrogates or beyond U+10FFFF */
+    if (n > 1 && (s[1] < lo || s[1] > hi)) return 0;
+    for (k = 2; k < n; k++)
+        if (s[k] < 0x80 || s[k] > 0xBF) return 0;
+    return n;
+}
+
+/* A JSON string: quoted, '"', '\\' and the control characters escaped;
+   well-formed UTF-8 as it is, any other byte as U+FFFD (a file name is
+   bytes, a JSON text is Unicode). */
+static inline void sqffd_export_json_string(FILE *f, const char *text)
+{
+    const unsigned char *s = (const unsigned char *)text;
+    int n;
+    fputc('"', f);
+    for (; *s; s += n ? n : 1) {
+        n = sqffd_export__utf8_length(s);
+        if (*s == '"' || *s == '\\') fprintf(f, "\\%c", *s);
+        else if (*s == '\n') fputs("\\n", f);
+        else if (*s == '\t') fputs("\\t", f);
+        else if (*s < 0x20 || *s == 0x7f) fprintf(f, "\\u%04x", *s);
+        else if (n == 0) fputs("\\ufffd", f);
+        else fwrite(s, 1, (size_t)n, f);
+    }
+    fputc('"', f);
+}
+
+/* A JSON number, %.17g (it reads back to the same bits), or null for NaN
+   and the infinities, which JSON has no word for. */
+static inline void sqffd_export_json_number(FILE *f, double v)
+{
+    if (isfinite(v)) fprintf(f, "%.17g", v);
+    else fputs("null", f);
+}
+
 static inline void sqffd_export__json_numbers(FILE *f, const double *v, size_t count)
 {
     size_t i;

@@ -160,7 +160,7 @@ expect 2 "--frames takes" phantom -o "$TMP/ph" --frames 1
 expect 2 "--low-motion takes" phantom -o "$TMP/ph" --low-motion 0.5,1,2
 expect 2 "no output folder" phantom --frames 4
 expect 1 "$TMP/missing.ply: cannot open" track "$DATA" "$TMP/missing.ply" -o "$TMP/t"
-expect 1 "tracking failed at frame 1" track "$DATA" "$TMP/two.xyz" -o "$TMP/t"
+expect 1 "$TMP/two.xyz (frame 1): 2 points: a frame needs at least 13" track "$DATA" "$TMP/two.xyz" -o "$TMP/t"
 expect 1 "cannot make the output folder" track "$DATA" "$DATA" -o "$DATA"
 expect 0 "true ejection fraction" phantom -o "$TMP/ph" --frames 8 --points 3000 --noise 0.01
 true_ef=$(awk '/true ejection fraction/ { print $4 }' "$TMP/out")
@@ -194,6 +194,128 @@ LC_ALL=C awk '
         for (s = 1; s <= 17; s++) if (!seen[s]) exit 2
         exit (bad > 0 || low == 0) ? 3 : 0
     }' "$TMP/tr/motion.ply" && ok || bad "motion.ply: wrong properties or values (awk status $?)"
+
+# ED is the frame of largest volume: ES then ED gives the EF of ED then ES (it gave 0.0 %), the motion from ED
+PH0=$TMP/ph/points_00.ply PH3=$TMP/ph/points_03.ply
+expect 0 "ejection fraction" track "$PH0" "$PH3" -o "$TMP/fw" --septum -1,0,0 --json "$TMP/fw.json"
+cp "$TMP/out" "$TMP/fw.out"
+ef_fw=$(awk '/^  ejection fraction/ { print $3 }' "$TMP/fw.out")
+expect 0 "end-diastolic volume" track "$PH3" "$PH0" -o "$TMP/rv" --septum -1,0,0
+ef_rv=$(awk '/^  ejection fraction/ { print $3 }' "$TMP/out")
+awk -v a="$ef_fw" -v b="$ef_rv" 'BEGIN { exit !(a > 30 && a - b <= 1 && b - a <= 1) }' && ok ||
+    bad "track ES ED: EF $ef_rv, ED ES: $ef_fw (not within a point)"
+grep -q "(frame 1, the largest volume)" "$TMP/out" && grep -Eq '^ +1 .* ED$' "$TMP/out" && ok ||
+    bad "track ES ED: ED is not frame 1: $(grep -E 'diastolic|^ +[01] ' "$TMP/out")"
+exc_fw=$(awk '/^  median wall excursion/ { print $7 }' "$TMP/fw.out")
+exc_rv=$(awk '/^  median wall excursion/ { print $7 }' "$TMP/out")
+awk -v a="$exc_fw" -v b="$exc_rv" 'BEGIN { exit !(a > 1 && b > 0.7 * a && b < 1.3 * a) }' && ok ||
+    bad "track ES ED: median excursion $exc_rv, ED ES: $exc_fw (the motion not from ED to ES)"
+expect 0 "--ed 1 is not the frame of largest volume: frame 0" track "$PH0" "$PH3" -o "$TMP/rv" --septum -1,0,0 --ed 1
+grep -q "septum           not given" "$TMP/fw.out" && bad "track --septum: the report says it was not given" || ok
+expect 0 "septum           not given (--septum X,Y,Z)" track "$PH0" "$PH3" -o "$TMP/rv" --frame-iterations 1
+grep -Eq '^ +1 +3000 +0 .* 1 \(cap\) ' "$TMP/out" && ok || bad "track: an iteration count at the cap is not marked: $(grep -E '^ +1 ' "$TMP/out")"
+# the hypokinetic flag agrees with the share printed beside it (cut to 0.1 %, never rounded up to 50 %)
+awk '/^ +[0-9]+ (basal|mid|apical|apex)/ { s = $(NF - 2); f = $NF; if ((s >= 50) != (f == "yes")) bad++; n++ }
+     END { exit bad || n != 17 }' "$TMP/fw.out" && ok || bad "track: a hypokinetic flag disagrees with its share"
+
+# units: --mm-per-unit 2 gives 8 x the volumes and 2 x the lengths of the default, exactly; the default is assumed
+grep -q "unit assumed to be mm" "$TMP/fw.out" && ok || bad "track: the default unit on point files is not said to be assumed"
+expect 0 "2 mm per unit" track "$PH0" "$PH3" -o "$TMP/mm" --septum -1,0,0 --json "$TMP/mm.json" --mm-per-unit 2
+grep -q "assumed" "$TMP/out" && bad "track --mm-per-unit 2: the unit is still said to be assumed" || ok
+for key in edv_ml esv_ml median_excursion_mm ef_percent; do
+    a=$(awk -v k="\"$key\":" '$1 == k { sub(",", "", $2); print $2 }' "$TMP/fw.json")
+    b=$(awk -v k="\"$key\":" '$1 == k { sub(",", "", $2); print $2 }' "$TMP/mm.json")
+    f=$(case $key in *_ml) echo 8;; *_mm) echo 2;; *) echo 1;; esac)
+    awk -v a="$a" -v b="$b" -v f="$f" 'BEGIN { exit !(a != "" && a * f == b + 0) }' && ok ||
+        bad "track --mm-per-unit 2: $key $b, not $f x $a"
+done
+expect 2 "--mm-per-unit takes a finite number > 0" track "$PH0" "$PH3" -o "$TMP/mm" --mm-per-unit 0
+expect 2 "--mm-per-unit takes a finite number > 0" track "$PH0" "$PH3" -o "$TMP/mm" --mm-per-unit -1
+expect 2 "--mm-per-unit takes a finite number > 0" track "$PH0" "$PH3" -o "$TMP/mm" --mm-per-unit nan
+expect 2 "--mm-per-unit takes a finite number > 0" track "$PH0" "$PH3" -o "$TMP/mm" --mm-per-unit inf
+expect 2 "is a volume (NIfTI" track tests/data/example4d.nii.gz -o "$TMP/mm" --mm-per-unit 2
+# the JSON summary: strict JSON (NaN would be null), and what the report prints
+if command -v python3 >/dev/null 2>&1; then
+    python3 - "$TMP/fw.json" "$TMP/mm.json" "$ef_fw" <<'PY' && ok || bad "track --json: the summary disagrees (see above)"
+import json, sys
+def strict(name):
+    return json.load(open(name, encoding="utf-8"), parse_constant=lambda c: sys.exit("%s: %s is no JSON" % (name, c)))
+one, two = strict(sys.argv[1]), strict(sys.argv[2])
+assert one["format"] == "sqffd-track" and one["units"]["mm_per_unit_source"] == "assumed", one["units"]
+assert two["units"] == {"mm_per_unit": 2, "mm_per_unit_source": "given", "volume": "ml", "length": "mm", "area": "mm2"}
+assert "%.1f" % one["ef_percent"] == sys.argv[3], (one["ef_percent"], sys.argv[3])
+assert one["ed_index"] == 0 and one["es_index"] == 1 and one["septum_given"] and len(one["segments"]) == 17
+for f1, f2 in zip(one["frames"], two["frames"]):
+    assert f1["points"] == 3000 and f1["lid_points"] == 0 and f1["stop"] in ("converged", "capped", "no progress"), f1
+    assert f2["volume_ml"] == 8 * f1["volume_ml"] and f2["error_mm"] == 2 * f1["error_mm"], (f1, f2)
+    assert f2["error_relative"] == f1["error_relative"] and f2["iterations"] == f1["iterations"]
+for s1, s2 in zip(one["segments"], two["segments"]):
+    assert s2["area_mm2"] == 4 * s1["area_mm2"] and s2["excursion_mm"] == 2 * s1["excursion_mm"], (s1, s2)
+    assert s2["share"] == s1["share"] and s1["hypokinetic"] == (s1["share"] >= one["hypokinetic_share"]), s1
+PY
+else
+    echo "cli_test: no python3: the JSON summary checked by grep only"
+    grep -q '"ef_percent": '"$ef_fw" "$TMP/fw.json" && ! grep -qi 'nan\|inf' "$TMP/fw.json" && ok ||
+        bad "track --json: no EF $ef_fw, or a NaN"
+fi
+
+# every frame meets a lone fit's checks, refused up front (no output folder made), whatever the order
+awk 'BEGIN { n = 500; for (i = 0; i < n; i++) { z = 1 - (2 * i + 1) / n; r = sqrt(1 - z * z); a = 2.399963229728653 * i
+    printf "%.12g %.12g %.12g\n", 10 * r * cos(a), 10 * r * sin(a), 10 * z } }' >"$TMP/sphere.xyz"
+awk 'NR <= 12' "$TMP/sphere.xyz" >"$TMP/twelve.xyz"
+awk 'NR <= 4' "$TMP/sphere.xyz" >"$TMP/four.xyz"
+awk '{ print $1, $2, 0 }' "$TMP/sphere.xyz" >"$TMP/flat.xyz"
+awk '{ print 0, 0, $3 }' "$TMP/sphere.xyz" >"$TMP/line.xyz"
+expect 1 "four.xyz (frame 1): 4 points: a frame needs at least 13" track "$DATA" "$TMP/four.xyz" -o "$TMP/no"
+expect 1 "twelve.xyz (frame 1): 12 points: a frame needs at least 13" track "$DATA" "$TMP/twelve.xyz" -o "$TMP/no"
+expect 1 "twelve.xyz (frame 0): 12 points: a frame needs at least 13" track "$TMP/twelve.xyz" "$DATA" -o "$TMP/no"
+expect 1 "flat.xyz (frame 1): the points are all in one place, on a line or on a plane" track "$DATA" "$TMP/flat.xyz" -o "$TMP/no"
+expect 1 "line.xyz (frame 2): the points are all in one place, on a line or on a plane" track "$DATA" "$DATA" "$TMP/line.xyz" -o "$TMP/no"
+[ -e "$TMP/no" ] && bad "track: a refused frame left an output folder" || ok
+# a frame the model cannot follow fails the track: a sphere, then the same sphere shrunk 20,000 times
+awk '{ printf "%.12g %.12g %.12g\n", $1 * 5e-5, $2 * 5e-5, $3 * 5e-5 }' "$TMP/sphere.xyz" >"$TMP/tiny.xyz"
+expect 1 "tiny.xyz (frame 1): the model did not follow this frame" track "$TMP/sphere.xyz" "$TMP/tiny.xyz" -o "$TMP/sph"
+grep -q "ejection fraction" "$TMP/out" && bad "track: an EF printed from a frame the model did not follow" || ok
+# the septum and the apex: refused up front, naming the option
+expect 2 "--septum 0,0,0: a direction needs a non-zero length" track "$PH0" "$PH3" -o "$TMP/no" --septum 0,0,0
+expect 2 "--apex 0,0,0: a direction needs a non-zero length" track "$PH0" "$PH3" -o "$TMP/no" --apex 0,0,0
+expect 2 "--septum 1,0,0 is 0.0 degrees from --apex" track "$PH0" "$PH3" -o "$TMP/no" --apex 1,0,0 --septum 1,0,0
+expect 2 "--septum 0.2,0,-1 is 11.3 degrees from --apex" track "$PH0" "$PH3" -o "$TMP/no" --apex 0,0,-1 --septum 0.2,0,-1
+expect 2 "--septum takes a direction" track "$PH0" "$PH3" -o "$TMP/no" --septum nan,0,0
+expect 2 "--apex takes a direction" track "$PH0" "$PH3" -o "$TMP/no" --apex 1e999,0,0
+[ -e "$TMP/no" ] && bad "track: a refused option left an output folder" || ok
+# ... and a septum along the long axis the model shows (the phantom's: z)
+expect 2 "from the long axis found" track "$PH0" "$PH3" -o "$TMP/sa" --septum 0,0.1,1
+axis=$(awk '$1 == "\"long_axis\":" { gsub(/[][ ]/, ""); sub(/^"long_axis":/, ""); sub(/,$/, ""); print }' "$TMP/fw.json")
+expect 2 "is 0.0 degrees from the long axis found" track "$PH0" "$PH3" -o "$TMP/sa" --septum "$axis"
+# examples/study_csv.py: three exams (a sphere shrinking to 0.8 and 0.9 of its radius: EF 48.8 and 27.1 %; one the
+# model cannot follow) in a pool of two, one CSV; two shards concatenated hold the same rows
+if command -v python3 >/dev/null 2>&1; then
+    for e in e1:0.8 e2:0.9 e3:5e-5; do
+        mkdir -p "$TMP/study/sub/${e%%:*}"
+        cp "$TMP/sphere.xyz" "$TMP/study/sub/${e%%:*}/ed.xyz"
+        awk -v f="${e#*:}" '{ printf "%.12g %.12g %.12g\n", $1 * f, $2 * f, $3 * f }' "$TMP/sphere.xyz" >"$TMP/study/sub/${e%%:*}/es.xyz"
+    done
+    python3 examples/study_csv.py "$TMP/study" -o "$TMP/study.csv" --jobs 2 --sqffd "$SQFFD" -- --mm-per-unit 2 2>"$TMP/err"
+    [ $? -eq 1 ] && grep -q "sub/e3: .*did not follow" "$TMP/err" && ok || bad "study_csv: the failed exam not reported: $(cat "$TMP/err")"
+    python3 - "$TMP/study.csv" <<'PY' && ok || bad "study_csv: wrong rows (see above)"
+import csv, sys
+rows = list(csv.DictReader(open(sys.argv[1])))
+assert [r["exam"] for r in rows] == ["sub/e1", "sub/e2", "sub/e3"], rows
+for r, ef in zip(rows, (100 * (1 - 0.8 ** 3), 100 * (1 - 0.9 ** 3))):
+    assert r["status"] == "ok" and abs(float(r["ef_percent"]) - ef) < 1, (r, ef)
+    assert r["unit_source"] == "given" and float(r["mm_per_unit"]) == 2 and r["ed_index"] == "0", r
+    assert abs(float(r["edv_ml"]) - 8 * 4 / 3 * 3.141592653589793 * 1e3 / 1e3) < 0.02 * 33.5, r
+assert rows[2]["status"] == "failed" and "did not follow" in rows[2]["message"] and rows[2]["ef_percent"] == "", rows[2]
+PY
+    for i in 0 1; do python3 examples/study_csv.py "$TMP/study" --shard $i/2 --sqffd "$SQFFD" -o "$TMP/shard_$i.csv" -- --mm-per-unit 2 2>/dev/null; done
+    awk 'FNR > 1 || NR == 1' "$TMP/shard_0.csv" "$TMP/shard_1.csv" | sort >"$TMP/shards.csv"
+    sort "$TMP/study.csv" | cmp -s - "$TMP/shards.csv" && ok || bad "study_csv: two shards do not hold the whole study's rows"
+    python3 examples/study_csv.py "$TMP/study" --shard 2/2 2>"$TMP/err"
+    [ $? -eq 2 ] && grep -q "I must be 0..N-1" "$TMP/err" && ok || bad "study_csv: --shard 2/2 accepted"
+else
+    echo "cli_test: no python3: examples/study_csv.py not tested"
+fi
 
 # PCD clouds (PCL's files): fit, info and track report the NaN pixels dropped; broken files are bad input
 PCD=tests/data/pcd_kinect_binary_compressed.pcd
@@ -249,7 +371,9 @@ expect 0 "slice shifts     6 slices along 0 0 1" fit "$TMP/stack.xyz" -o "$TMP/s
 awk 'BEGIN { split("2.5 -3.5 -2 2 3.5 -2.5", w, " ") } $1 == "level" { k++; if ($4 - w[k] > 1e-6 || w[k] - $4 > 1e-6 || $5 > 1e-6 || $5 < -1e-6) bad = 1 }
     END { exit bad || k != 6 }' "$TMP/out" && ok || bad "fit --slice-shifts: shifts not minus the jumps: $(grep level "$TMP/out")"
 expect 0 "slice shifts     6 slices" track "$TMP/stack.xyz" "$TMP/stack.xyz" -o "$TMP/ts" --slice-shifts --frame-iterations 1 --iterations 2
-grep -q "lids             $((2 * 2 * (48 + 24 + 16 + 12))) points close each frame's stack" "$TMP/out" && ok || bad "track of stacks: lids not 2 x 200: $(grep lids "$TMP/out")"
+# the points column: each frame's 6 x 48 file points, and its 2 x (48 + 24 + 16 + 12) lid points apart
+awk '$1 ~ /^[01]$/ && $2 == 288 && $3 == 200 { n++ } END { exit n != 2 }' "$TMP/out" && ok ||
+    bad "track of stacks: not 288 points and 200 lid points a frame: $(grep -E '^ +[01] ' "$TMP/out")"
 expect 0 "after FFD" fit "$TMP/stack.xyz" -o "$TMP/stack.ply" --no-lids --iterations 2
 grep -q "lids " "$TMP/out" && bad "fit --no-lids: lids added" || ok
 expect 1 "--slice-shifts: not a short-axis stack" fit "$DATA" -o "$TMP/x.ply" --slice-shifts

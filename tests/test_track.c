@@ -181,11 +181,12 @@ static void test_track_bad_input(void)
     for (t = 1; t < F; t++) /* frame 0's superquadric and box are every frame's */
         CHECK(memcmp(&clean[t].sq, &clean[0].sq, sizeof clean[0].sq) == 0 &&
               memcmp(clean[t].ffd.origin, clean[0].ffd.origin, sizeof clean[0].ffd.origin) == 0);
-    /* too few points in frame 2 */
+    /* too few points in frame 2: refused before any frame is fitted, no model written */
     s.counts[2] = 3;
+    memset(models, 0xA5, sizeof models);
     CHECK_RESULT(run_track(&s, &o, models, reports, &done), SQFFD_ERROR_TOO_FEW_POINTS);
     CHECK(done == 2);
-    CHECK(memcmp(models[1].ffd.control, clean[1].ffd.control, sizeof clean[1].ffd.control) == 0);
+    for (t = 0; t < (int)sizeof models; t++) CHECK(((const unsigned char *)models)[t] == 0xA5);
     s.counts[2] = N;
     /* NaN in frame 1 */
     saved = s.points[1][7];
@@ -535,8 +536,72 @@ static void test_track_frame_stream(void)
     free_sequence(&s);
 }
 
+/* Every frame meets a lone fit's checks, whatever its place in the
+   sequence: 12 points are too few and 13 enough in frame 0 and in a later
+   frame alike (the later frames were held to 4 before); a flat, a
+   collinear and a coincident later frame are refused before any fit; the
+   stream's frames likewise. */
+static void test_track_frame_checks(void)
+{
+    enum { F = 3, N = 600 };
+    phantom_lv p = phantom_lv_default();
+    sequence s = make_sequence(&p, F, N, 0.0, 300);
+    sqffd_track_options o = sqffd_track_options_default();
+    sqffd_model models[F];
+    sqffd_fit_report reports[F];
+    sqffd_ffd_system sys;
+    double *keep = s.points[2], *bad = (double *)test_malloc(3 * N * sizeof(double));
+    size_t done = 99, t, i, size = 0;
+    void *memory, *work;
+    int shape;
+    o.fit.max_iterations = 5;
+    o.frame_iterations = 3;
+    for (t = 0; t < F; t++) { /* 12 points in one frame, then 13 */
+        s.counts[t] = SQFFD_SQ_FIT_MIN_POINTS - 1;
+        CHECK_RESULT(sqffd_fit_check_data(s.points[t], s.counts[t]), SQFFD_ERROR_TOO_FEW_POINTS);
+        CHECK_RESULT(run_track(&s, &o, models, reports, &done), SQFFD_ERROR_TOO_FEW_POINTS);
+        CHECK_MSG(done == t, "frame %zu of 12 points: done %zu", t, done);
+        s.counts[t] = SQFFD_SQ_FIT_MIN_POINTS;
+        CHECK_RESULT(sqffd_fit_check_data(s.points[t], s.counts[t]), SQFFD_OK);
+        CHECK_RESULT(run_track(&s, &o, models, reports, &done), SQFFD_OK);
+        s.counts[t] = N;
+    }
+    s.counts[2] = 4; /* what the later frames took before */
+    CHECK_RESULT(run_track(&s, &o, models, reports, &done), SQFFD_ERROR_TOO_FEW_POINTS);
+    s.counts[2] = N;
+    for (shape = 0; shape < 3; shape++) { /* frame 2 flat (z = 0), on a line (the z axis), in one place */
+        for (i = 0; i < 3 * N; i++) bad[i] = keep[i] * (i % 3 == 2 ? shape != 0 : shape == 0);
+        for (i = 0; shape == 2 && i < 3 * N; i++) bad[i] = 1.5;
+        s.points[2] = bad;
+        CHECK_RESULT(sqffd_fit_check_data(bad, N), SQFFD_ERROR_DEGENERATE);
+        CHECK_RESULT(run_track(&s, &o, models, reports, &done), SQFFD_ERROR_DEGENERATE);
+        CHECK_MSG(done == 2, "shape %d: done %zu", shape, done);
+        s.points[2] = keep;
+    }
+    bad[4] = INFINITY;
+    CHECK_RESULT(sqffd_fit_check_data(bad, N), SQFFD_ERROR_NON_FINITE);
+    CHECK_RESULT(sqffd_fit_check_data(NULL, N), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(sqffd_fit_check_data_view(sqffd_points_packed(keep, N)), SQFFD_OK);
+    /* the stream: a flat frame and a 12-point one refused before the workspace is looked at */
+    CHECK_RESULT(run_track(&s, &o, models, reports, &done), SQFFD_OK);
+    CHECK_RESULT(sqffd_ffd_system_size(models, &size), SQFFD_OK);
+    memory = test_malloc(size);
+    CHECK_RESULT(sqffd_ffd_system_init(&sys, models, &o.fit, memory, size), SQFFD_OK);
+    for (i = 0; i < 3 * N; i++) bad[i] = keep[i] * (i % 3 != 2);
+    work = test_malloc(1);
+    CHECK_RESULT(sqffd_track_frame(&sys, bad, N, &o, models + 1, NULL, work, 1), SQFFD_ERROR_DEGENERATE);
+    CHECK_RESULT(sqffd_track_frame(&sys, keep, SQFFD_SQ_FIT_MIN_POINTS - 1, &o, models + 1, NULL, work, 1),
+                 SQFFD_ERROR_TOO_FEW_POINTS);
+    CHECK_RESULT(sqffd_track_frame(&sys, keep, N, &o, models + 1, NULL, work, 1), SQFFD_ERROR_WORKSPACE_TOO_SMALL);
+    free(work);
+    free(memory);
+    free(bad);
+    free_sequence(&s);
+}
+
 void suite_track(void)
 {
+    RUN_TEST(test_track_frame_checks);
     RUN_TEST(test_track_prepared_system);
     RUN_TEST(test_track_frame_stream);
     RUN_TEST(test_track_bad_input);
