@@ -1233,13 +1233,10 @@ typedef struct track_result {
     double seconds;
 } track_result;
 
-/* Why frame t's iterations ended, from what its report holds (the
-   converged flag; the iterations at the cap); one place to read the
-   library's own stop reason from once it has one. */
-static const char *stop_reason(const track_args *a, const sqffd_fit_report *r, size_t t)
+/* Why a frame's iterations ended (the report's stop), as the report and the JSON name it. */
+static const char *stop_reason(const sqffd_fit_report *r)
 {
-    int cap = t == 0 ? a->options.fit.max_iterations : a->options.frame_iterations;
-    return r->converged ? "converged" : r->coarse_iterations + r->iterations >= cap ? "capped" : "no progress";
+    return r->stop == SQFFD_FIT_CONVERGED ? "converged" : r->stop == SQFFD_FIT_STALLED ? "no progress" : "capped";
 }
 
 /* A volume in the model's units as ml, a length as mm, an area as mm^2. */
@@ -1275,7 +1272,7 @@ static void track_report(const track_args *a, const size_t *counts, const track_
     printf("  frame    points  lid points   error %%  error mm  iterations  jacobian   volume ml\n");
     for (t = 0; t < a->frame_count; t++) {
         snprintf(iterations, sizeof iterations, "%d%s", reports[t].coarse_iterations + reports[t].iterations,
-                 strcmp(stop_reason(a, reports + t, t), "capped") == 0 ? " (cap)" : "");
+                 reports[t].stop == SQFFD_FIT_CAPPED ? " (cap)" : "");
         printf("  %5lu  %8lu  %10lu  %8.4f  %8.4g  %10s  %8.3f  %10.6g%s\n", (unsigned long)t,
                (unsigned long)(counts[t] - lid_points(a, t)), (unsigned long)lid_points(a, t),
                100.0 * reports[t].error.rms_relative, to_mm(a, reports[t].error.rms), iterations,
@@ -1383,7 +1380,7 @@ static int track_write(const track_args *a, const sqffd_model *models, const sqf
     for (t = 0; t < a->frame_count; t++)
         fprintf(f, "%lu,%s,%.9g,%.9g,%d,%.9g,%s\n", (unsigned long)t, a->frames[t], to_ml(a, out->volumes[t]),
                 reports[t].error.rms_relative, reports[t].coarse_iterations + reports[t].iterations,
-                to_mm(a, reports[t].error.rms), stop_reason(a, reports + t, t));
+                to_mm(a, reports[t].error.rms), stop_reason(reports + t));
     if (fclose(f)) goto done;
     status = 0;
 done:
@@ -1598,7 +1595,7 @@ static int track_json(const track_args *a, const size_t *counts, const track_res
         fputs(", \"error_mm\": ", f);
         sqffd_export_json_number(f, to_mm(a, r->error.rms));
         fprintf(f, ", \"iterations\": %d, \"stop\": \"%s\"}%s\n", r->coarse_iterations + r->iterations,
-                stop_reason(a, r, t), t + 1 < a->frame_count ? "," : "");
+                stop_reason(r), t + 1 < a->frame_count ? "," : "");
     }
     fputs("  ],\n  \"edv_ml\": ", f);
     sqffd_export_json_number(f, to_ml(a, m->edv));
