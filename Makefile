@@ -137,9 +137,11 @@ check-header: $(BUILD)/O0/sqffd.o
 # as one and how it is wrapped), compiled strict against the header.
 $(BUILD)/snippets.c: tests/snippets.sh README.md sqffd.h | $(BUILD)
 	@sh tests/snippets.sh README.md sqffd.h > $@
+# Then the header's API BY LAYER list against its declarations (tests/check_doc_names.sh).
 snippets: $(BUILD)/snippets.c tests/snippets.h
 	@$(CC) -std=c99 $(filter-out -Wshadow,$(STRICT)) -Itests -fsyntax-only $< \
-	  && echo "snippets: the $$(grep -c '^#line' $<) code snippets of README.md and sqffd.h compile"
+	  && echo "snippets: the $$(grep -c '^#line' $<) code snippets of README.md and sqffd.h compile" \
+	  && sh tests/check_doc_names.sh sqffd.h
 
 # The core object may reference libm, memcpy/memset/memmove and assert only,
 # and may define no writable globals: at -O2 and at -O0 (no inlining, no

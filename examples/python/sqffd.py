@@ -33,7 +33,7 @@ from typing import List
 import numpy as np
 
 __all__ = [
-    "fit", "track", "motion", "load", "stack", "stack_lids", "stack_shifts", "Model", "Stack", "SliceShifts",
+    "fit", "track", "motion", "load", "stack_detect", "stack_lids", "stack_shifts", "Model", "Stack", "SliceShifts",
     "SqffdError", "Result", "Stage",
     "SqCost", "SqOptimizer", "Regularization", "Solver",
     "Superquadric", "SuperquadricReport", "DistanceStats", "FitReport", "SegmentMotion", "Motion",
@@ -263,10 +263,10 @@ _declare("sqffd_track_options_default", _TrackOptions)
 _declare("sqffd_track_view_workspace_size", _int, _P(_Points), _size, _P(_TrackOptions), _P(_size))
 _declare("sqffd_track_view", _int, _P(_Points), _size, _P(_TrackOptions), _P(_Model), _P(_FitReport),
          _P(_size), _pointer, _size)
-_declare("sqffd_points_stack", _int, _Points, _P(_Stack), _P(_int))
-_declare("sqffd_stack_lids", _int, _Points, _P(_Stack), _pointer, _size, _P(_size))
-_declare("sqffd_stack_shifts", _int, _P(_Points), _P(_Stack), _size, _P(_SliceShifts))
-_declare("sqffd_slice_shifts_apply", _int, _P(_SliceShifts), _pointer, _size, _P(_size))
+_declare("sqffd_stack_detect_view", _int, _Points, _P(_Stack), _P(_int))
+_declare("sqffd_stack_lids_view", _int, _Points, _P(_Stack), _pointer, _size, _P(_size))
+_declare("sqffd_stack_shifts_view", _int, _P(_Points), _P(_Stack), _size, _P(_SliceShifts))
+_declare("sqffd_stack_shifts_apply", _int, _P(_SliceShifts), _pointer, _size, _P(_size))
 _declare("sqffd_motion_options_default", _MotionOptions)
 _declare("sqffd_motion_workspace_size", _int, _P(_Model), _size, _P(_size))
 _declare("sqffd_motion", _int, _P(_Model), _size, _P(_MotionOptions), _P(_MotionOutputs), _P(_MotionReport),
@@ -696,7 +696,7 @@ class _Planes:
 
 
 class Stack(_Planes):
-    """sqffd_stack: points on parallel planes, as the contours of cine MRI slices lie. Made by stack()."""
+    """sqffd_stack: points on parallel planes, as the contours of cine MRI slices lie. Made by stack_detect()."""
     _COUNT = "planes"
 
     @property
@@ -724,10 +724,10 @@ class SliceShifts(_Planes):
 
     def apply(self, points):
         """A float64 copy of points, (N, 3), with each slice's shift added to its points
-        (sqffd_slice_shifts_apply), and how many moved; other points stay."""
+        (sqffd_stack_shifts_apply), and how many moved; other points stay."""
         moved = np.array(_points(points)[0], dtype=np.float64, order="C")
         count = _size()
-        _check(_lib.sqffd_slice_shifts_apply(self._struct, moved.ctypes.data, len(moved), ctypes.byref(count)),
+        _check(_lib.sqffd_stack_shifts_apply(self._struct, moved.ctypes.data, len(moved), ctypes.byref(count)),
                "slice shifts")
         return moved, count.value
 
@@ -743,13 +743,13 @@ def _stack_array(stacks, count, what):
     return (_Stack * max(count, 1))(*(s._struct for s in stacks))
 
 
-def stack(points):
+def stack_detect(points):
     """The short-axis stack the points form (listed slice by slice, each contour in drawing order,
-    as contour exports list them; sqffd_points_stack), or None when they do not lie on 3 to 64
+    as contour exports list them; sqffd_stack_detect), or None when they do not lie on 3 to 64
     parallel planes."""
     array, view = _points(points)
     struct, found = _Stack(), _int()
-    _check(_lib.sqffd_points_stack(view, ctypes.byref(struct), ctypes.byref(found)), "stack")
+    _check(_lib.sqffd_stack_detect_view(view, ctypes.byref(struct), ctypes.byref(found)), "stack")
     return Stack(struct) if found.value else None
 
 
@@ -759,9 +759,9 @@ def stack_lids(points, stack):
     track np.vstack((points, lids)) for a model that closes there."""
     array, view = _points(points)
     count = _size()
-    _check(_lib.sqffd_stack_lids(view, stack._struct, None, 0, ctypes.byref(count)), "stack lids")
+    _check(_lib.sqffd_stack_lids_view(view, stack._struct, None, 0, ctypes.byref(count)), "stack lids")
     lids = np.empty((count.value, 3))
-    _check(_lib.sqffd_stack_lids(view, stack._struct, lids.ctypes.data, count.value, ctypes.byref(count)),
+    _check(_lib.sqffd_stack_lids_view(view, stack._struct, lids.ctypes.data, count.value, ctypes.byref(count)),
            "stack lids")
     return lids
 
@@ -775,7 +775,7 @@ def stack_shifts(frames, stacks):
     structs = _stack_array(stacks, count, "frame")
     views = (_Points * max(count, 1))(*(view for _, view in prepared))
     shifts = _SliceShifts()
-    _check(_lib.sqffd_stack_shifts(views, structs, count, ctypes.byref(shifts)), "stack shifts")
+    _check(_lib.sqffd_stack_shifts_view(views, structs, count, ctypes.byref(shifts)), "stack shifts")
     return SliceShifts(shifts)
 
 

@@ -351,7 +351,7 @@ class Stacks(unittest.TestCase):
         rotation, _ = np.linalg.qr(np.random.default_rng(31).normal(size=(3, 3)))
         radii, levels = 10.0 + np.arange(6), 8.0 * np.arange(6)
         points = self.circles(radii, levels, [(3.0, -4.0)] * 6, rotation)
-        found = sqffd.stack(points)
+        found = sqffd.stack_detect(points)
         normal = rotation[:, 2] * np.sign(rotation[np.argmax(np.abs(rotation[:, 2])), 2])  # largest component > 0
         self.assertTrue(np.allclose(found.axis, normal, rtol=0, atol=1e-12))
         offset = normal @ rotation @ np.array([3.0, -4.0, 0.0])
@@ -367,7 +367,7 @@ class Stacks(unittest.TestCase):
         self.assertTrue(np.allclose(share, 1 - rings / 4, rtol=0, atol=1e-9))
         for end in (0, 1):  # the ring itself, then every 2nd, 3rd and 4th point at 3/4, 1/2, 1/4 of its radius
             self.assertEqual(np.bincount(rings[ends == end], minlength=4).tolist(), [64, 32, 22, 16])
-        self.assertIsNone(sqffd.stack(np.random.default_rng(5).normal(size=(300, 3))))
+        self.assertIsNone(sqffd.stack_detect(np.random.default_rng(5).normal(size=(300, 3))))
 
     def test_slice_shifts_exact(self):
         rotation, _ = np.linalg.qr(np.random.default_rng(29).normal(size=(3, 3)))
@@ -379,7 +379,7 @@ class Stacks(unittest.TestCase):
             z = 5.0 * k
             centres = np.column_stack((1.0 + bend * z * z, -2.0 + 0.1 * z)) + jumps[:, :2]
             frames.append(self.circles(radius + 0.2 * z, z + 100.0, centres, rotation))
-        stacks = [sqffd.stack(frame) for frame in frames]
+        stacks = [sqffd.stack_detect(frame) for frame in frames]
         shifts = sqffd.stack_shifts(frames, stacks)
         order = slice(None) if shifts.axis @ rotation[:, 2] > 0 else slice(None, None, -1)
         self.assertTrue(np.allclose(shifts.shifts, -(jumps @ rotation.T)[order], rtol=0, atol=1e-9))
@@ -405,7 +405,7 @@ class Stacks(unittest.TestCase):
         paths = [Data.path(f"contours_{phase}.f64") for phase in ("ed", "es")]
         reference("stack", Data.path("stack_c"), *paths)
         frames = [np.fromfile(path).reshape(-1, 3) for path in paths]
-        stacks = [sqffd.stack(frame) for frame in frames]
+        stacks = [sqffd.stack_detect(frame) for frame in frames]
         shifts = sqffd.stack_shifts(frames, stacks)
         self.assertTrue(np.array_equal(shifts.shifts.ravel(), np.fromfile(Data.path("stack_c.shifts"))))
         closed = []
