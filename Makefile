@@ -19,7 +19,7 @@ TEST_PARTS  = unit check-header snippets cli-test api-demo
 CHECK_PARTS = valgrind unit-asan unit-clang-asan fuzz-replay analyzer cppcheck threads stack check-symbols \
   package-test stream-test test-python $(TEST_PARTS)
 
-.PHONY: all test check unit-build check-header check-symbols snippets cli-test api-demo stream-test package-test unit unit-asan \
+.PHONY: all test check unit-build check-header check-symbols snippets cli-test readme-samples api-demo stream-test package-test unit unit-asan \
   unit-clang-asan valgrind analyzer cppcheck threads fuzz-replay demo bench fuzz install clean stack embedded test-cross
 
 all: $(BUILD)/sqffd $(BUILD)/demo_fit $(BUILD)/stream_fit
@@ -137,9 +137,11 @@ check-header: $(BUILD)/O0/sqffd.o
 # as one and how it is wrapped), compiled strict against the header.
 $(BUILD)/snippets.c: tests/snippets.sh README.md sqffd.h | $(BUILD)
 	@sh tests/snippets.sh README.md sqffd.h > $@
+# Then the header's API BY LAYER list against its declarations (tests/check_doc_names.sh).
 snippets: $(BUILD)/snippets.c tests/snippets.h
 	@$(CC) -std=c99 $(filter-out -Wshadow,$(STRICT)) -Itests -fsyntax-only $< \
-	  && echo "snippets: the $$(grep -c '^#line' $<) code snippets of README.md and sqffd.h compile"
+	  && echo "snippets: the $$(grep -c '^#line' $<) code snippets of README.md and sqffd.h compile" \
+	  && sh tests/check_doc_names.sh sqffd.h
 
 # The core object may reference libm, memcpy/memset/memmove and assert only,
 # and may define no writable globals: at -O2 and at -O0 (no inlining, no
@@ -150,9 +152,14 @@ check-symbols: $(BUILD)/O2/sqffd.o $(BUILD)/O0/sqffd.o
 	  echo "$$out" | sed "s/^\([a-z-]*\):/\1 (-$$o):/"; \
 	done; exit $$bad
 
-# End-to-end checks of the command-line tool (exit codes, messages, output files).
-cli-test: $(BUILD)/sqffd
-	@sh tests/cli_test.sh $(BUILD)/sqffd
+# End-to-end checks of the command-line tool (exit codes, messages, output files), then README.md's
+# sample outputs against what the programs print (tests/readme_samples.sh; timings masked).
+# make readme-samples rewrites those samples from the programs' output.
+cli-test: $(BUILD)/sqffd $(BUILD)/stream_fit
+	@sh tests/cli_test.sh $(BUILD)/sqffd && sh tests/readme_samples.sh $(BUILD) README.md
+
+readme-samples: $(BUILD)/sqffd $(BUILD)/stream_fit
+	@sh tests/readme_samples.sh --write $(BUILD) README.md
 
 api-demo: $(BUILD)/demo_fit
 	@./$(BUILD)/demo_fit > $(BUILD)/demo_fit.log && echo "api demo: fit, report, model point and mesh: ok" \

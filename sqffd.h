@@ -64,19 +64,34 @@
        and a count, sqffd_X_view on sqffd_points views (see POINTS); one
        size call serves both where it takes a count, and
        sqffd_track_view_workspace_size takes the views where
-       sqffd_track_workspace_size takes counts. Long operations
+       sqffd_track_workspace_size takes counts (sqffd_stack_shifts_apply,
+       which moves the caller's points in place, takes packed doubles
+       only: a view is read-only). Names are sqffd_<object>_<operation>,
+       the object first (sqffd_kdtree_build, sqffd_stack_lids). Long operations
        take a progress callback that may cancel. Stored data is data: a
        superquadric, lattice or model handed in is checked at run time
        (INVALID_MODEL), never by assert.
+       Capacities, one convention (as snprintf's): a function that writes
+       a number of elements it finds into the caller's array
+       (sqffd_kdtree_radius, sqffd_sq_sample_uniform, sqffd_stack_lids,
+       sqffd_iso_points) takes the array's capacity in elements and a
+       count pointer. *count receives how many there are; capacity 0 only
+       counts (the arrays may be NULL); a capacity below the count is
+       OUTPUT_TOO_SMALL, found before anything is written: *count is the
+       count needed and the arrays are untouched; else all are written.
+       Nothing is ever truncated. So: call with capacity 0, allocate *count,
+       call again. sqffd_model_save's capacity is in bytes and its count
+       comes from sqffd_model_save_size.
 
    WHAT OUTPUTS HOLD AFTER AN ERROR
        1. Errors found before the work starts (INVALID_ARGUMENT,
           INVALID_MODEL, BAD_FORMAT, TOO_LARGE, WORKSPACE_TOO_SMALL,
           OUTPUT_TOO_SMALL, and NON_FINITE, TOO_FEW_POINTS or DEGENERATE
           found in the input itself): every output is as it was, except
-          that a workspace-size call sets *size to 0, sqffd_kdtree_build
-          zeroes the tree, sqffd_ffd_system_init zeroes the system and
-          sqffd_track sets *frames_done.
+          that a workspace-size call sets *size to 0, OUTPUT_TOO_SMALL sets
+          *count to the count needed (see RESULTS: capacities),
+          sqffd_kdtree_build zeroes the tree, sqffd_ffd_system_init zeroes
+          the system and sqffd_track sets *frames_done.
        2. Errors during the work (NON_FINITE, DEGENERATE, NOT_POSITIVE_DEFINITE
           or NO_CONVERGENCE met midway, CANCELLED): arrays and counts hold
           unspecified values within their documented sizes; a model being
@@ -108,7 +123,13 @@
        results, to the bit, as its values copied into doubles.
 
    API BY LAYER (each layer uses only the ones above it)
+       X(_a, _b) stands for X, X_a and X_b; X/_a for X and X with its last
+       word replaced (sqffd_points_packed/_strided: sqffd_points_packed and
+       sqffd_points_strided). A "types:" line lists types, every other name
+       is a function. make test checks the list against the declarations
+       (tests/check_doc_names.sh): every name declared, every function listed.
    Common
+       types: sqffd_result sqffd_progress_fn sqffd_points sqffd_scalar
        sqffd_result_string             description of a result code
        sqffd_points_packed/_strided    a view of points (float or double, any stride)
    1. Linear algebra
@@ -116,15 +137,18 @@
        sqffd_cholesky_factor/_solve    Cholesky of an SPD matrix, and solve
        sqffd_svd(_workspace_size)      one-sided Jacobi SVD (QR-preconditioned)
        sqffd_svd_solve(_workspace_size) least squares / pseudo-inverse solve
-       sqffd_cg_solve(_workspace_size), sqffd_cg_options_default
+       sqffd_cg_solve, sqffd_cg_workspace_size, sqffd_cg_options_default
                                        conjugate gradient for SPD systems
-       sqffd_ncg_minimize(_workspace_size), sqffd_ncg_options_default
+       sqffd_ncg_minimize, sqffd_ncg_workspace_size, sqffd_ncg_options_default
                                        nonlinear conjugate gradient with bounds
    2. kd-tree
-       sqffd_kdtree_build(_view, _workspace_size)   static 3-D tree over your points
+       types: sqffd_kdtree
+       sqffd_kdtree_build(_view), sqffd_kdtree_workspace_size
+                                       static 3-D tree over your points
        sqffd_kdtree_refit(_view)       the same tree over moved points, O(n)
        sqffd_kdtree_nearest / _knn / _radius queries
    3. Superquadric
+       types: sqffd_superquadric
        sqffd_sq_validate               a stored superquadric's check
        sqffd_sq_inside_outside         inside-outside function F
        sqffd_sq_radial_distance        radial (Euclidean-approximating) distance
@@ -135,13 +159,15 @@
        sqffd_sq_fit(_view, _workspace_size), sqffd_sq_fit_options_default
                                        the fit (LM or the paper's CG, robust mode)
    4. Free-form deformation
+       types: sqffd_ffd
        sqffd_ffd_init                  regular lattice in a box
        sqffd_ffd_validate              a stored lattice's check
        sqffd_ffd_local / _eval / _deform / _weights
                                        local coordinates, Bernstein evaluation
-       sqffd_ffd_jacobian_bound(_workspace_size)
+       sqffd_ffd_jacobian_bound, sqffd_ffd_jacobian_workspace_size
                                        the Jacobian's Bernstein bound: > 0, no fold
    5. Model fit
+       types: sqffd_model sqffd_fit_options sqffd_fit_report
        sqffd_fit(_view, _workspace_size), sqffd_fit_options_default
                                        superquadric + FFD two-step fit
        sqffd_model_init, sqffd_fit_ffd(_view, _workspace_size)
@@ -155,6 +181,7 @@
        sqffd_model_reverse_distances(_view, _workspace_size)
                                        model-to-data distances
    6. Tracking and motion
+       types: sqffd_ffd_system sqffd_stack sqffd_slice_shifts
        sqffd_ffd_system_size/_init, sqffd_fit_prepared(_view, _workspace_size)
                                        the FFD stage against a system prepared once
        sqffd_fit_check_data(_view)     the data checks of a fit, which tracking makes of every frame
@@ -162,18 +189,18 @@
                                        a sequence: frame 0 whole, then frame to frame
        sqffd_track_frame(_view, _workspace_size)
                                        a stream: one later frame at a time, as sqffd_track
-       sqffd_points_stack              a short-axis stack's planes (contours on slices)
-       sqffd_stack_shifts, sqffd_slice_shifts_apply
+       sqffd_stack_detect(_view)       a short-axis stack's planes (contours on slices)
+       sqffd_stack_shifts(_view), sqffd_stack_shifts_apply
                                        breath-hold misregistration: one in-plane shift a slice
-       sqffd_stack_lids                a stack's ends closed as Simpson's method closes them
+       sqffd_stack_lids(_view)         a stack's ends closed as Simpson's method closes them
        sqffd_motion(_workspace_size), sqffd_motion_options_default
                                        volumes (closed or between slices), EF, motion,
                                        low-motion zones, 17 segments
    7. Volumes to points
-       sqffd_volume                    a view of a 3-D image (any voxel type, strides, affine)
+       types: sqffd_volume (a view of a 3-D image: any voxel type, strides, affine)
        sqffd_volume_range, sqffd_volume_otsu
                                        value range, automatic threshold
-       sqffd_iso_points(_workspace_size), sqffd_iso_options_default
+       sqffd_iso_points, sqffd_iso_workspace_size, sqffd_iso_options_default
                                        iso-surface crossing points of a level or a label
                                        (largest component)
        sqffd_points_subsample(_view)   an even subsample of points
@@ -504,9 +531,9 @@ SQFFD_DEF sqffd_result sqffd_kdtree_nearest(const sqffd_kdtree *tree, const doub
 SQFFD_DEF sqffd_result sqffd_kdtree_knn(const sqffd_kdtree *tree, const double query[3], size_t k, size_t *indices,
                                         double *dist2, size_t *found);
 /* The points within `radius` of query (distance <= radius; INVALID_ARGUMENT
-   for a negative or NaN radius): *count = how many there are; the
-   min(*count, capacity) nearest are written (capacity 0 only counts, the
-   arrays may then be NULL). */
+   for a negative or NaN radius): *count = how many there are, all written
+   (capacity 0 only counts, the arrays may then be NULL); a capacity below
+   the count is OUTPUT_TOO_SMALL (see RESULTS: capacities). */
 SQFFD_DEF sqffd_result sqffd_kdtree_radius(const sqffd_kdtree *tree, const double query[3], double radius,
                                            size_t *indices, double *dist2, size_t capacity, size_t *count);
 /* ======================================================================
@@ -563,8 +590,9 @@ SQFFD_DEF sqffd_result sqffd_sq_sample_grid(const sqffd_superquadric *sq, int n_
    covered evenly. Like Pilu & Fisher's product sampling, a shape much
    longer in x or y than its meridians are elsewhere gets its rows closer
    than `spacing` where the meridians are short. *count = how many points
-   the sampling has; the first min(*count, capacity) are written (points may
-   be NULL with capacity 0 to count). INVALID_ARGUMENT for a spacing that is
+   the sampling has, all written (capacity 0 only counts, points may then be
+   NULL; a capacity below the count is OUTPUT_TOO_SMALL, see RESULTS:
+   capacities). INVALID_ARGUMENT for a spacing that is
    not positive and finite, TOO_LARGE for one so small that the count could
    pass ~1e8. */
 SQFFD_DEF sqffd_result sqffd_sq_sample_uniform(const sqffd_superquadric *sq, double spacing, double *points,
@@ -1143,14 +1171,16 @@ typedef struct sqffd_stack {
    SQFFD_STACK_PLANES planes. *found: 1 and *stack filled, or 0 (stack
    untouched). INVALID_ARGUMENT (NULL stack or found, a bad view),
    NON_FINITE. */
-SQFFD_DEF sqffd_result sqffd_points_stack(sqffd_points points, sqffd_stack *stack, int *found);
+SQFFD_DEF sqffd_result sqffd_stack_detect(const double *points, size_t n, sqffd_stack *stack, int *found);
+SQFFD_DEF sqffd_result sqffd_stack_detect_view(sqffd_points points, sqffd_stack *stack, int *found);
 
 /* Breath-hold misregistration. Each slice of a cine stack is acquired in a
    breath-hold of its own, the same for every frame of the cycle; a breath
    held differently moves the whole slice in-plane by a few millimetres.
    One shift a slice, from frame_count frames' stacks (their planes
    parallel; each frame listed slice by slice, each contour in drawing
-   order, as sqffd_points_stack wants them):
+   order, as sqffd_stack_detect wants them; frames[t]: counts[t] packed
+   points, or sqffd_stack_shifts_view: a view each):
    - in each frame, the area centroid of each plane's contour (its points
      within a quarter spacing of the plane, consecutive points forming
      closed runs; a run that encloses nothing counts by its points' mean);
@@ -1163,7 +1193,7 @@ SQFFD_DEF sqffd_result sqffd_points_stack(sqffd_points points, sqffd_stack *stac
      frames that hold a plane at that level (within a quarter spacing).
    A stack of 3 planes gets zeros (nothing tells a jump from a bend); the
    shifts of a slice along a straight or quadratic path are not seen.
-   Add shifts->shift[k] to the points of slice k (sqffd_slice_shifts_apply)
+   Add shifts->shift[k] to the points of slice k (sqffd_stack_shifts_apply)
    and fit again. INVALID_ARGUMENT (NULL arguments, frame_count 0, a bad
    stack or view, planes not parallel, more than SQFFD_STACK_PLANES
    distinct levels), NON_FINITE; on an error *shifts is zeroed. */
@@ -1175,13 +1205,16 @@ typedef struct sqffd_slice_shifts {
     double tolerance;                      /* a point within it of a level is that slice's: a quarter spacing */
 } sqffd_slice_shifts;
 
-SQFFD_DEF sqffd_result sqffd_stack_shifts(const sqffd_points *frames, const sqffd_stack *stacks, size_t frame_count,
-                                          sqffd_slice_shifts *shifts);
+SQFFD_DEF sqffd_result sqffd_stack_shifts(const double *const *frames, const size_t *counts, const sqffd_stack *stacks,
+                                          size_t frame_count, sqffd_slice_shifts *shifts);
+SQFFD_DEF sqffd_result sqffd_stack_shifts_view(const sqffd_points *frames, const sqffd_stack *stacks, size_t frame_count,
+                                               sqffd_slice_shifts *shifts);
 /* Adds slice k's shift to each of the n packed points (3n doubles) within
-   shifts->tolerance of its level; other points stay. *moved (may be NULL):
-   how many moved. INVALID_ARGUMENT (NULL shifts or points with n > 0),
-   NON_FINITE (a point, or a moved one, not finite: then none moves). */
-SQFFD_DEF sqffd_result sqffd_slice_shifts_apply(const sqffd_slice_shifts *shifts, double *points, size_t n,
+   shifts->tolerance of its level, in place (so packed doubles only: a view
+   is read-only); other points stay. *moved (may be NULL): how many moved.
+   INVALID_ARGUMENT (NULL shifts or points with n > 0), NON_FINITE (a
+   point, or a moved one, not finite: then none moves). */
+SQFFD_DEF sqffd_result sqffd_stack_shifts_apply(const sqffd_slice_shifts *shifts, double *points, size_t n,
                                                 size_t *moved);
 
 /* A stack closed where Simpson's method closes it: the lids, points on
@@ -1195,14 +1228,16 @@ SQFFD_DEF sqffd_result sqffd_slice_shifts_apply(const sqffd_slice_shifts *shifts
    rings toward the contour's area centroid, ring r at (r + 1) /
    (rings + 1) of the way and every (r + 2)-th point: about 2.1 points a
    contour point. The fill is right for contours star-shaped about their
-   centroid (a left ventricle's cavity). out: room for capacity points (3
-   doubles each); *count: the points a full out gets (out NULL: only
-   counted). INVALID_ARGUMENT (NULL stack or count, a bad stack or view,
-   out too small), NON_FINITE (also coordinates too large to compute
-   with). */
+   centroid (a left ventricle's cavity). *count = how many lid points
+   there are, all written to out (3 doubles each; capacity 0 only counts,
+   out may then be NULL; a capacity below the count is OUTPUT_TOO_SMALL,
+   see RESULTS: capacities). INVALID_ARGUMENT (NULL stack or count, a bad
+   stack or view), NON_FINITE (also coordinates too large to compute with). */
 #define SQFFD_STACK_LID_RINGS 3
-SQFFD_DEF sqffd_result sqffd_stack_lids(sqffd_points points, const sqffd_stack *stack, double *out, size_t capacity,
-                                        size_t *count);
+SQFFD_DEF sqffd_result sqffd_stack_lids(const double *points, size_t n, const sqffd_stack *stack, double *out,
+                                        size_t capacity, size_t *count);
+SQFFD_DEF sqffd_result sqffd_stack_lids_view(sqffd_points points, const sqffd_stack *stack, double *out, size_t capacity,
+                                             size_t *count);
 
 /* Motion and function of a tracked left ventricle, from the frames' models
    (sqffd_track's; all with the same superquadric, lattice and grid). Per
@@ -1361,11 +1396,12 @@ SQFFD_DEF sqffd_result sqffd_iso_workspace_size(const sqffd_volume *volume, cons
    edge with a non-finite value has none), at the linear interpolation of
    the level between their values, in world coordinates (the affine).
    normals (may be NULL): per point the unit world direction of that edge,
-   pointing from the inside voxel to the outside one. Writes the first
-   min(count, capacity) points (capacity 0: counts only; points may then be
-   NULL) in voxel order, and *count = how many there are. options NULL: level
-   0, all components. Results as sqffd_volume_range, plus
-   WORKSPACE_TOO_SMALL; an image with no crossing gives count 0 and OK. */
+   pointing from the inside voxel to the outside one. *count = how many
+   there are, all written in voxel order (capacity 0 only counts, points may
+   then be NULL; a capacity below the count is OUTPUT_TOO_SMALL, see
+   RESULTS: capacities). options NULL: level 0, all components. Results as
+   sqffd_volume_range, plus WORKSPACE_TOO_SMALL; an image with no crossing
+   gives count 0 and OK. */
 SQFFD_DEF sqffd_result sqffd_iso_points(const sqffd_volume *volume, const sqffd_iso_options *options, double *points,
                                         double *normals, size_t capacity, size_t *count,
                                         void *workspace, size_t workspace_size);
@@ -3015,10 +3051,15 @@ SQFFD_DEF sqffd_result sqffd_kdtree_knn(const sqffd_kdtree *tree, const double q
 SQFFD_DEF sqffd_result sqffd_kdtree_radius(const sqffd_kdtree *tree, const double query[3], double radius,
                                            size_t *indices, double *dist2, size_t capacity, size_t *count)
 {
+    size_t within;
     sqffd_result r = sqffd__kd_queryable(tree, query, count);
     if (r == SQFFD_OK && (!(radius >= 0.0) || (capacity > 0 && (!indices || !dist2)))) r = SQFFD_ERROR_INVALID_ARGUMENT;
     if (r != SQFFD_OK) return r;
-    *count = sqffd__kd_query(tree, query, radius * radius, 1, indices, dist2, capacity);
+    within = sqffd__kd_query(tree, query, radius * radius, 1, NULL, NULL, 0); /* counted before anything is written */
+    *count = within;
+    if (capacity == 0) return SQFFD_OK;
+    if (within > capacity) return SQFFD_ERROR_OUTPUT_TOO_SMALL;
+    sqffd__kd_query(tree, query, radius * radius, 1, indices, dist2, within);
     return SQFFD_OK;
 }
 /* ======================================================================
@@ -3399,18 +3440,12 @@ SQFFD_DEF sqffd_result sqffd_sq_validate(const sqffd_superquadric *sq)
     return sqffd__dot3(sq->rotation, cross) > 0.0 ? SQFFD_OK : SQFFD_ERROR_INVALID_MODEL;
 }
 
-SQFFD_DEF sqffd_result sqffd_sq_sample_uniform(const sqffd_superquadric *sq, double spacing, double *points,
-                                               size_t capacity, size_t *count)
+/* The samples of sqffd_sq_sample_uniform, the first `capacity` written; returns their count. */
+static size_t sqffd__sq_sample_all(const sqffd_superquadric *sq, double spacing, double *points, size_t capacity)
 {
     sqffd__sq_arc arc;
     size_t found = 0;
     int half;
-    sqffd_result r = sqffd__sq_check(sq, NULL, count);
-    if (r != SQFFD_OK) return r;
-    *count = 0;
-    if (!(spacing > 0.0) || !isfinite(spacing) || (capacity && !points)) return SQFFD_ERROR_INVALID_ARGUMENT;
-    /* refuse samplings beyond ~1e8 points rather than run for minutes */
-    if (sqffd__sq_sample_bound(sq, spacing) > 1e8) return SQFFD_ERROR_TOO_LARGE;
     arc.sq = sq;
     arc.along_omega = 0;
     arc.fixed = 0.0;
@@ -3422,7 +3457,23 @@ SQFFD_DEF sqffd_result sqffd_sq_sample_uniform(const sqffd_superquadric *sq, dou
             t = sqffd__sq_next(&arc, t, t_end, spacing, &guess);
         }
     }
-    *count = sqffd__sq_sample_row(sq, 0.5 * SQFFD__SQ_PI, spacing, points, capacity, found);
+    return sqffd__sq_sample_row(sq, 0.5 * SQFFD__SQ_PI, spacing, points, capacity, found);
+}
+
+SQFFD_DEF sqffd_result sqffd_sq_sample_uniform(const sqffd_superquadric *sq, double spacing, double *points,
+                                               size_t capacity, size_t *count)
+{
+    size_t found;
+    sqffd_result r = sqffd__sq_check(sq, NULL, count);
+    if (r != SQFFD_OK) return r;
+    if (!(spacing > 0.0) || !isfinite(spacing) || (capacity && !points)) return SQFFD_ERROR_INVALID_ARGUMENT;
+    /* refuse samplings beyond ~1e8 points rather than run for minutes */
+    if (sqffd__sq_sample_bound(sq, spacing) > 1e8) return SQFFD_ERROR_TOO_LARGE;
+    found = sqffd__sq_sample_all(sq, spacing, NULL, 0); /* counted before anything is written */
+    *count = found;
+    if (capacity == 0) return SQFFD_OK;
+    if (found > capacity) return SQFFD_ERROR_OUTPUT_TOO_SMALL;
+    sqffd__sq_sample_all(sq, spacing, points, capacity);
     return SQFFD_OK;
 }
 
@@ -8677,7 +8728,12 @@ static void sqffd__stack_sort(double *v, size_t n)
         }
 }
 
-SQFFD_DEF sqffd_result sqffd_points_stack(sqffd_points points, sqffd_stack *stack, int *found)
+SQFFD_DEF sqffd_result sqffd_stack_detect(const double *points, size_t n, sqffd_stack *stack, int *found)
+{
+    return sqffd_stack_detect_view(sqffd_points_packed(points, n), stack, found);
+}
+
+SQFFD_DEF sqffd_result sqffd_stack_detect_view(sqffd_points points, sqffd_stack *stack, int *found)
 {
     double cov[9] = {0}, values[3], vectors[9], prev[3], p[3], mean = 0.0, diagonal, gaps[SQFFD_STACK_PLANES];
     sqffd_stack s;
@@ -8917,8 +8973,9 @@ static sqffd_result sqffd__stack_frame_shifts(const sqffd_points *points, const 
     return SQFFD_OK;
 }
 
-SQFFD_DEF sqffd_result sqffd_stack_shifts(const sqffd_points *frames, const sqffd_stack *stacks, size_t frame_count,
-                                          sqffd_slice_shifts *shifts)
+/* sqffd_stack_shifts over packed frames (views NULL) or sqffd_stack_shifts_view. */
+static sqffd_result sqffd__stack_shifts(const double *const *packed, const size_t *counts, const sqffd_points *views,
+                                        const sqffd_stack *stacks, size_t frame_count, sqffd_slice_shifts *shifts)
 {
     double e[2][3], spacing = HUGE_VAL;
     uint32_t count[SQFFD_STACK_PLANES];
@@ -8926,12 +8983,13 @@ SQFFD_DEF sqffd_result sqffd_stack_shifts(const sqffd_points *frames, const sqff
     size_t t, k, j;
     sqffd_result r = SQFFD_OK;
     int c;
-    if (!frames || !stacks || !shifts || frame_count == 0) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if ((!views && (!packed || !counts)) || !stacks || !shifts || frame_count == 0) return SQFFD_ERROR_INVALID_ARGUMENT;
     memset(s, 0, sizeof *s);
     for (t = 0; t < frame_count; ++t) {
+        sqffd_points frame = views ? views[t] : sqffd_points_packed(packed[t], counts[t]);
         if (!sqffd__stack_valid(stacks + t) || !(fabs(sqffd__dot3(stacks[t].axis, stacks[0].axis)) >= 1.0 - 1e-6))
             return SQFFD_ERROR_INVALID_ARGUMENT;
-        if ((r = sqffd__points_check(frames + t)) != SQFFD_OK) return r;
+        if ((r = sqffd__points_check(&frame)) != SQFFD_OK) return r;
         if (stacks[t].spacing < spacing) spacing = stacks[t].spacing;
     }
     memcpy(s->axis, stacks[0].axis, sizeof s->axis);
@@ -8953,8 +9011,10 @@ SQFFD_DEF sqffd_result sqffd_stack_shifts(const sqffd_points *frames, const sqff
         }
     }
     memset(count, 0, sizeof count);
-    for (t = 0; t < frame_count && r == SQFFD_OK; ++t)
-        r = sqffd__stack_frame_shifts(frames + t, stacks + t, (const double(*)[3])e, s, count);
+    for (t = 0; t < frame_count && r == SQFFD_OK; ++t) {
+        sqffd_points frame = views ? views[t] : sqffd_points_packed(packed[t], counts[t]);
+        r = sqffd__stack_frame_shifts(&frame, stacks + t, (const double(*)[3])e, s, count);
+    }
     for (j = 0; j < s->slices && r == SQFFD_OK; ++j)
         for (c = 0; c < 3; ++c) {
             if (count[j]) s->shift[j][c] /= (double)count[j];
@@ -8964,7 +9024,19 @@ SQFFD_DEF sqffd_result sqffd_stack_shifts(const sqffd_points *frames, const sqff
     return r;
 }
 
-SQFFD_DEF sqffd_result sqffd_slice_shifts_apply(const sqffd_slice_shifts *shifts, double *points, size_t n,
+SQFFD_DEF sqffd_result sqffd_stack_shifts(const double *const *frames, const size_t *counts, const sqffd_stack *stacks,
+                                          size_t frame_count, sqffd_slice_shifts *shifts)
+{
+    return sqffd__stack_shifts(frames, counts, NULL, stacks, frame_count, shifts);
+}
+
+SQFFD_DEF sqffd_result sqffd_stack_shifts_view(const sqffd_points *frames, const sqffd_stack *stacks, size_t frame_count,
+                                               sqffd_slice_shifts *shifts)
+{
+    return sqffd__stack_shifts(NULL, NULL, frames, stacks, frame_count, shifts);
+}
+
+SQFFD_DEF sqffd_result sqffd_stack_shifts_apply(const sqffd_slice_shifts *shifts, double *points, size_t n,
                                                 size_t *moved)
 {
     size_t i, j, count = 0;
@@ -8987,26 +9059,23 @@ SQFFD_DEF sqffd_result sqffd_slice_shifts_apply(const sqffd_slice_shifts *shifts
     return SQFFD_OK;
 }
 
-SQFFD_DEF sqffd_result sqffd_stack_lids(sqffd_points points, const sqffd_stack *stack, double *out, size_t capacity,
-                                        size_t *count)
+/* The lids of sqffd_stack_lids_view (a valid stack and view): *total of
+   them, written to out unless it is NULL. */
+static sqffd_result sqffd__stack_lids(const sqffd_points *points, const sqffd_stack *stack, double *out, size_t *total)
 {
     double e[2][3];
-    size_t total = 0, i, j;
-    sqffd_result r;
+    size_t i, j;
     int end, ring, c;
-    if (!count) return SQFFD_ERROR_INVALID_ARGUMENT;
-    *count = 0;
-    if (!stack || !sqffd__stack_valid(stack)) return SQFFD_ERROR_INVALID_ARGUMENT;
-    if ((r = sqffd__points_check(&points)) != SQFFD_OK) return r;
+    *total = 0;
     sqffd__stack_basis(stack->axis, e);
     for (end = 0; end < 2; ++end) {
         double level = stack->level[end ? stack->planes - 1 : 0], centre[2], p[3], tolerance = SQFFD__STACK_SLICE * stack->spacing;
         double lid = level + (end ? 0.5 : -0.5) * stack->spacing;
-        int got = sqffd__stack_centroid(&points, stack->axis, (const double(*)[3])e, level, tolerance, centre);
+        int got = sqffd__stack_centroid(points, stack->axis, (const double(*)[3])e, level, tolerance, centre);
         if (got < 0) return SQFFD_ERROR_NON_FINITE;
         if (!got) continue;
-        for (i = 0, j = 0; i < points.count; ++i) {
-            sqffd__points_get(&points, i, p);
+        for (i = 0, j = 0; i < points->count; ++i) {
+            sqffd__points_get(points, i, p);
             if (!(fabs(sqffd__dot3(p, stack->axis) - level) <= tolerance)) continue;
             for (ring = -1; ring < SQFFD_STACK_LID_RINGS; ++ring) {
                 double t = (double)(ring + 1) / (SQFFD_STACK_LID_RINGS + 1), q[3]; /* of the way to the centre */
@@ -9016,17 +9085,34 @@ SQFFD_DEF sqffd_result sqffd_stack_lids(sqffd_points points, const sqffd_stack *
                            (1.0 - t) * (sqffd__dot3(p, e[0]) * e[0][c] + sqffd__dot3(p, e[1]) * e[1][c]) +
                            t * (centre[0] * e[0][c] + centre[1] * e[1][c]);
                 if (!sqffd__finite3(q)) return SQFFD_ERROR_NON_FINITE; /* (coordinates too large to compute with) */
-                if (out) {
-                    if (total == capacity) return SQFFD_ERROR_INVALID_ARGUMENT;
-                    memcpy(out + 3 * total, q, sizeof q);
-                }
-                ++total;
+                if (out) memcpy(out + 3 * *total, q, sizeof q);
+                ++*total;
             }
             ++j; /* (the contour's points so far) */
         }
     }
-    *count = total;
     return SQFFD_OK;
+}
+
+SQFFD_DEF sqffd_result sqffd_stack_lids_view(sqffd_points points, const sqffd_stack *stack, double *out, size_t capacity,
+                                             size_t *count)
+{
+    size_t total;
+    sqffd_result r;
+    if (!count || !stack || !sqffd__stack_valid(stack) || (capacity && !out)) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if ((r = sqffd__points_check(&points)) != SQFFD_OK) return r;
+    /* counted (and every lid point checked) before anything is written */
+    if ((r = sqffd__stack_lids(&points, stack, NULL, &total)) != SQFFD_OK) return r;
+    *count = total;
+    if (capacity == 0) return SQFFD_OK;
+    if (total > capacity) return SQFFD_ERROR_OUTPUT_TOO_SMALL;
+    return sqffd__stack_lids(&points, stack, out, &total);
+}
+
+SQFFD_DEF sqffd_result sqffd_stack_lids(const double *points, size_t n, const sqffd_stack *stack, double *out,
+                                        size_t capacity, size_t *count)
+{
+    return sqffd_stack_lids_view(sqffd_points_packed(points, n), stack, out, capacity, count);
 }
 
 typedef struct sqffd__motion_work {
@@ -9604,49 +9690,23 @@ static uint32_t sqffd__iso_largest(const sqffd_volume *v, const sqffd_iso_option
     return best;
 }
 
-SQFFD_DEF sqffd_result sqffd_iso_points(const sqffd_volume *volume, const sqffd_iso_options *options, double *points,
-                                        double *normals, size_t capacity, size_t *count,
-                                        void *workspace, size_t workspace_size)
+/* The crossings of sqffd_iso_points (slices read into w again), the first
+   `capacity` written; returns their count. */
+static size_t sqffd__iso_scan(const sqffd_volume *v, const sqffd_iso_options *o, sqffd__iso_work *w, uint32_t keep,
+                              const double axis[3][3], double *points, double *normals, size_t capacity)
 {
-    sqffd_iso_options defaults = sqffd_iso_options_default();
-    const sqffd_iso_options *o = options ? options : &defaults;
-    const sqffd_volume *v = volume;
-    sqffd__arena a;
-    sqffd__iso_work w;
-    double axis[3][3];
-    size_t voxels, nx, ny, plane, i, j, k, found = 0;
-    uint32_t keep = UINT32_MAX;
+    size_t nx, ny, plane, i, j, k, found = 0;
     int d, r;
     double level = sqffd__iso_level(o);
-    sqffd_result res = sqffd__vol_check(volume, &voxels);
-    if (res != SQFFD_OK) return res;
-    if (!count || (capacity && !points) || !isfinite(o->labelled ? o->label : o->level))
-        return SQFFD_ERROR_INVALID_ARGUMENT;
-    *count = 0;
-    sqffd__arena_init(&a, workspace, workspace_size);
-    sqffd__iso_layout(&a, v, voxels, o->largest_component, &w);
-    if (a.overflow) return sqffd__arena_error(&a);
-    for (d = 0; d < 3; ++d) { /* the world direction of each voxel axis (scaled first: no under/overflow) */
-        double len = 0.0, big = 0.0;
-        for (r = 0; r < 3; ++r) big = fabs(v->affine[4 * r + d]) > big ? fabs(v->affine[4 * r + d]) : big;
-        for (r = 0; r < 3; ++r) axis[d][r] = big > 0.0 ? v->affine[4 * r + d] / big : 0.0;
-        for (r = 0; r < 3; ++r) len += axis[d][r] * axis[d][r];
-        len = sqrt(len);
-        for (r = 0; r < 3; ++r) axis[d][r] = len > 0.0 ? axis[d][r] / len : 0.0;
-    }
-    if (o->largest_component) {
-        keep = sqffd__iso_largest(v, o, &w);
-        if (keep == UINT32_MAX) return SQFFD_OK;
-    }
     nx = v->dims[0];
     ny = v->dims[1];
     plane = nx * ny;
-    sqffd__iso_slice(v, 0, o, &w, 0);
+    sqffd__iso_slice(v, 0, o, w, 0);
     for (k = 0; k < v->dims[2]; ++k) {
-        const double *cur = w.slice[k & 1], *up = w.slice[(k + 1) & 1];
-        const unsigned char *fc = w.flag[k & 1], *fu = w.flag[(k + 1) & 1];
+        const double *cur = w->slice[k & 1], *up = w->slice[(k + 1) & 1];
+        const unsigned char *fc = w->flag[k & 1], *fu = w->flag[(k + 1) & 1];
         int inner_k = k + 1 < v->dims[2];
-        if (inner_k) sqffd__iso_slice(v, k + 1, o, &w, (int)((k + 1) & 1));
+        if (inner_k) sqffd__iso_slice(v, k + 1, o, w, (int)((k + 1) & 1));
         for (j = 0; j < ny; ++j)
             for (i = 0; i < nx; ++i) {
                 size_t at = i + nx * j;
@@ -9674,7 +9734,7 @@ SQFFD_DEF sqffd_result sqffd_iso_points(const sqffd_volume *volume, const sqffd_
                     if (o->largest_component) {
                         in_at = inside ? at + plane * k
                                        : (d == 0 ? at + 1 : d == 1 ? at + nx : at) + plane * (k + (d == 2 ? 1u : 0u));
-                        if ((w.parent[in_at] & SQFFD__ISO_ROOT ? (uint32_t)in_at : w.parent[in_at]) != keep) continue;
+                        if ((w->parent[in_at] & SQFFD__ISO_ROOT ? (uint32_t)in_at : w->parent[in_at]) != keep) continue;
                     }
                     if (found < capacity) {
                         double *out = points + 3 * found;
@@ -9693,7 +9753,49 @@ SQFFD_DEF sqffd_result sqffd_iso_points(const sqffd_volume *volume, const sqffd_
                 }
             }
     }
+    return found;
+}
+
+SQFFD_DEF sqffd_result sqffd_iso_points(const sqffd_volume *volume, const sqffd_iso_options *options, double *points,
+                                        double *normals, size_t capacity, size_t *count,
+                                        void *workspace, size_t workspace_size)
+{
+    sqffd_iso_options defaults = sqffd_iso_options_default();
+    const sqffd_iso_options *o = options ? options : &defaults;
+    const sqffd_volume *v = volume;
+    sqffd__arena a;
+    sqffd__iso_work w;
+    double axis[3][3];
+    size_t voxels, found;
+    uint32_t keep = UINT32_MAX;
+    int d, r;
+    sqffd_result res = sqffd__vol_check(volume, &voxels);
+    if (res != SQFFD_OK) return res;
+    if (!count || (capacity && !points) || !isfinite(o->labelled ? o->label : o->level))
+        return SQFFD_ERROR_INVALID_ARGUMENT;
+    sqffd__arena_init(&a, workspace, workspace_size);
+    sqffd__iso_layout(&a, v, voxels, o->largest_component, &w);
+    if (a.overflow) return sqffd__arena_error(&a);
+    for (d = 0; d < 3; ++d) { /* the world direction of each voxel axis (scaled first: no under/overflow) */
+        double len = 0.0, big = 0.0;
+        for (r = 0; r < 3; ++r) big = fabs(v->affine[4 * r + d]) > big ? fabs(v->affine[4 * r + d]) : big;
+        for (r = 0; r < 3; ++r) axis[d][r] = big > 0.0 ? v->affine[4 * r + d] / big : 0.0;
+        for (r = 0; r < 3; ++r) len += axis[d][r] * axis[d][r];
+        len = sqrt(len);
+        for (r = 0; r < 3; ++r) axis[d][r] = len > 0.0 ? axis[d][r] / len : 0.0;
+    }
+    if (o->largest_component) {
+        keep = sqffd__iso_largest(v, o, &w);
+        if (keep == UINT32_MAX) {
+            *count = 0;
+            return SQFFD_OK;
+        }
+    }
+    found = sqffd__iso_scan(v, o, &w, keep, (const double(*)[3])axis, NULL, NULL, 0); /* counted before anything is written */
     *count = found;
+    if (capacity == 0) return SQFFD_OK;
+    if (found > capacity) return SQFFD_ERROR_OUTPUT_TOO_SMALL;
+    sqffd__iso_scan(v, o, &w, keep, (const double(*)[3])axis, points, normals, capacity);
     return SQFFD_OK;
 }
 

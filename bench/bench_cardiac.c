@@ -236,9 +236,9 @@ static int run(const exam *e, double spacing, int flags, int cap, result *out)
         goto done;
     }
     for (k = 0; k < 2 && found; k++)
-        if (sqffd_points_stack(views[k] = sqffd_points_packed(points[k], counts[k]), &stacks[k], &found) != SQFFD_OK)
+        if (sqffd_stack_detect_view(views[k] = sqffd_points_packed(points[k], counts[k]), &stacks[k], &found) != SQFFD_OK)
             found = 0;
-    if (!found || sqffd_stack_shifts(views, stacks, 2, &shifts) != SQFFD_OK) goto done;
+    if (!found || sqffd_stack_shifts_view(views, stacks, 2, &shifts) != SQFFD_OK) goto done;
     for (j = 0; j < shifts.slices; j++) {
         double s2 = shifts.shift[j][0] * shifts.shift[j][0] + shifts.shift[j][1] * shifts.shift[j][1] +
                     shifts.shift[j][2] * shifts.shift[j][2];
@@ -246,14 +246,14 @@ static int run(const exam *e, double spacing, int flags, int cap, result *out)
         if (sqrt(s2) > largest) largest = sqrt(s2);
     }
     for (k = 0; k < 2 && (flags & RUN_SHIFT); k++)
-        if (sqffd_slice_shifts_apply(&shifts, points[k], counts[k], NULL) != SQFFD_OK) goto done;
+        if (sqffd_stack_shifts_apply(&shifts, points[k], counts[k], NULL) != SQFFD_OK) goto done;
     for (k = 0; k < 2 && !(flags & RUN_OPEN); k++) { /* each frame closed by its lids */
         size_t n = 0;
-        if (sqffd_stack_lids(views[k], &stacks[k], NULL, 0, &n) != SQFFD_OK ||
+        if (sqffd_stack_lids_view(views[k], &stacks[k], NULL, 0, &n) != SQFFD_OK ||
             !(surface[k] = (double *)malloc(3 * (counts[k] + n) * sizeof(double))))
             goto done;
         memcpy(surface[k], points[k], 3 * counts[k] * sizeof(double));
-        if (sqffd_stack_lids(views[k], &stacks[k], surface[k] + 3 * counts[k], n, &n) != SQFFD_OK) goto done;
+        if (sqffd_stack_lids_view(views[k], &stacks[k], surface[k] + 3 * counts[k], n, &n) != SQFFD_OK) goto done;
         surface_counts[k] = counts[k] + n;
     }
     status = flags & RUN_OPEN ? track_pair(points, counts, stacks, flags & RUN_MEASURE, cap, out)

@@ -403,7 +403,7 @@ static size_t find_stacks(double *const *frames, const size_t *counts, size_t fr
     int found = 1;
     for (t = 0; t < frame_count; t++) {
         const double *axis = stacks[0].axis, *here = stacks[t].axis;
-        if (sqffd_points_stack(sqffd_points_packed(frames[t], counts[t]), &stacks[t], &found) != SQFFD_OK || !found ||
+        if (sqffd_stack_detect(frames[t], counts[t], &stacks[t], &found) != SQFFD_OK || !found ||
             fabs(axis[0] * here[0] + axis[1] * here[1] + axis[2] * here[2]) < 0.999)
             break;
     }
@@ -417,14 +417,12 @@ static int add_lids(double **frames, size_t *counts, size_t frame_count, const s
 {
     size_t t, n;
     for (t = 0; t < frame_count; t++) {
-        sqffd_points view = sqffd_points_packed(frames[t], counts[t]);
         double *grown;
-        sqffd_result r = sqffd_stack_lids(view, &stacks[t], NULL, 0, &n);
+        sqffd_result r = sqffd_stack_lids(frames[t], counts[t], &stacks[t], NULL, 0, &n);
         grown = r == SQFFD_OK ? (double *)realloc(frames[t], 3 * (counts[t] + n) * sizeof(double)) : NULL;
         if (grown) {
             frames[t] = grown;
-            view = sqffd_points_packed(frames[t], counts[t]);
-            r = sqffd_stack_lids(view, &stacks[t], frames[t] + 3 * counts[t], n, &n);
+            r = sqffd_stack_lids(frames[t], counts[t], &stacks[t], frames[t] + 3 * counts[t], n, &n);
         }
         if (r != SQFFD_OK || !grown) {
             snprintf(err, err_size, "sqffd: the stack's lids: %s", grown ? sqffd_result_string(r) : "out of memory");
@@ -442,15 +440,11 @@ static int add_lids(double **frames, size_t *counts, size_t frame_count, const s
 static int correct_slices(const char *name, double *const *frames, const size_t *counts, size_t frame_count,
                           const sqffd_stack *stacks, sqffd_slice_shifts *shifts, char *err, size_t err_size)
 {
-    sqffd_points *views = (sqffd_points *)calloc(frame_count, sizeof *views);
-    sqffd_result r = views ? SQFFD_OK : SQFFD_ERROR_TOO_LARGE;
+    sqffd_result r = sqffd_stack_shifts((const double *const *)frames, counts, stacks, frame_count, shifts);
     size_t t;
-    for (t = 0; views && t < frame_count; t++) views[t] = sqffd_points_packed(frames[t], counts[t]);
-    if (r == SQFFD_OK) r = sqffd_stack_shifts(views, stacks, frame_count, shifts);
-    for (t = 0; t < frame_count && r == SQFFD_OK; t++) r = sqffd_slice_shifts_apply(shifts, frames[t], counts[t], NULL);
-    free(views);
+    for (t = 0; t < frame_count && r == SQFFD_OK; t++) r = sqffd_stack_shifts_apply(shifts, frames[t], counts[t], NULL);
     if (r == SQFFD_OK) return 0;
-    snprintf(err, err_size, "%s: --slice-shifts: %s%s", name, views ? sqffd_result_string(r) : "out of memory",
+    snprintf(err, err_size, "%s: --slice-shifts: %s%s", name, sqffd_result_string(r),
              r == SQFFD_ERROR_INVALID_ARGUMENT ? " (more levels over the frames than a stack holds)" : "");
     return 1;
 }

@@ -148,7 +148,8 @@ static inline size_t synth_sq_surface(synth_rng *r, const sqffd_superquadric *sq
     all = (double *)malloc(3 * capacity * sizeof *all);
     if (!all) return 0;
     for (tries = 0; tries < 20; tries++) {
-        if (sqffd_sq_sample_uniform(sq, spacing, all, capacity, &count) != SQFFD_OK) count = 0;
+        sqffd_result res = sqffd_sq_sample_uniform(sq, spacing, all, capacity, &count);
+        if (res != SQFFD_OK && res != SQFFD_ERROR_OUTPUT_TOO_SMALL) count = 0; /* (too small: count is the need) */
         if (count >= 2 * n && count <= capacity) break;
         spacing *= count ? sqrt((double)count / (4.0 * (double)n)) : 0.5;
     }

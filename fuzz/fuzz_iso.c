@@ -16,9 +16,10 @@
      rounding), finite and inside the affine image of the index box, the
      normals unit (or zero for a zero affine column) pointing inside ->
      outside; with largest_component the crossings of one largest 6-connected
-     inside component (ties: any of them); the capacity contract (min(count,
-     capacity) written into an array of exactly that size, capacity 0 with
-     NULL points counts only); only the documented return codes;
+     inside component (ties: any of them); the capacity contract (all
+     written into an array of exactly that size, OUTPUT_TOO_SMALL and nothing
+     written below the count, capacity 0 with NULL points counts only); only
+     the documented return codes;
    - subsample: out[i] = point floor(i n / k).
 
    Layout (bytes past the end read as 0):
@@ -535,10 +536,17 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             if (!normals) abort();
         }
     }
+    for (x = 0; x < 3 * capacity; x++) { /* a capacity below the count: OUTPUT_TOO_SMALL, nothing written */
+        points[x] = -7.0;
+        if (normals) normals[x] = -7.0;
+    }
     count = 12345;
     res = sqffd_iso_points(v, &opt, points, normals, capacity, &count, block + (misc_byte & 15), ws_size);
-    if (res != SQFFD_OK || count != expect_count) abort();
-    written = count < capacity ? count : capacity;
+    if (count != expect_count || res != (capacity && capacity < count ? SQFFD_ERROR_OUTPUT_TOO_SMALL : SQFFD_OK)) abort();
+    if (res != SQFFD_OK)
+        for (x = 0; x < 3 * capacity; x++)
+            if (points[x] != -7.0 || (normals && normals[x] != -7.0)) abort();
+    written = res == SQFFD_OK && capacity ? count : 0;
 
     /* tolerance: rounding of the affine over the index box */
     for (rr = 0; rr < 3; rr++)

@@ -283,8 +283,17 @@ static void check_query(const sqffd_kdtree *t, const double *points, size_t n, c
         idx = (size_t *)malloc((cap ? cap : 1) * sizeof(size_t));
         dd = (double *)malloc((cap ? cap : 1) * sizeof(double));
         if (!idx || !dd) abort();
-        if (sqffd_kdtree_radius(t, q, radius, idx, dd, cap, &count) != SQFFD_OK || count != expect) abort();
-        check_answers(s, n, idx, dd, count < cap ? count : cap);
+        for (i = 0; i < cap; i++) idx[i] = (size_t)-1, dd[i] = -1.0;
+        if (sqffd_kdtree_radius(t, q, radius, idx, dd, cap, &count) !=
+                (cap && cap < expect ? SQFFD_ERROR_OUTPUT_TOO_SMALL : SQFFD_OK) ||
+            count != expect)
+            abort();
+        if (cap && cap < expect) { /* too small: nothing written */
+            for (i = 0; i < cap; i++)
+                if (idx[i] != (size_t)-1 || dd[i] != -1.0) abort();
+        } else {
+            check_answers(s, n, idx, dd, cap ? count : 0);
+        }
         if (sqffd_kdtree_radius(t, q, radius, NULL, NULL, 0, &count) != SQFFD_OK || count != expect) abort();
         if (sqffd_kdtree_radius(t, q, radius, NULL, NULL, 5, &count) != SQFFD_ERROR_INVALID_ARGUMENT) /* NULL arrays, capacity 5 */
             abort();

@@ -330,7 +330,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             sqffd_stack st;
             int found = 0;
             size_t k;
-            sqffd_result sr = sqffd_points_stack(sqffd_points_packed(points[t], counts[t]), &st, &found);
+            sqffd_result sr = sqffd_stack_detect(points[t], counts[t], &st, &found);
             if (sr != SQFFD_OK && sr != SQFFD_ERROR_NON_FINITE) abort();
             if (found && (st.planes < 3 || st.planes > SQFFD_STACK_PLANES || !(st.spacing > 0.0) || !isfinite(st.spacing)))
                 abort();
@@ -352,11 +352,11 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             }
             if (found) { /* its lids: counted as written, each on a plane half a spacing beyond an outer one */
                 size_t need = 0, got = 0, k2;
-                sr = sqffd_stack_lids(sqffd_points_packed(points[t], counts[t]), &st, NULL, 0, &need);
+                sr = sqffd_stack_lids(points[t], counts[t], &st, NULL, 0, &need);
                 if (sr == SQFFD_OK && need > 0) {
                     double *lid = (double *)malloc(3 * need * sizeof(double));
                     if (!lid) abort();
-                    if (sqffd_stack_lids(sqffd_points_packed(points[t], counts[t]), &st, lid, need, &got) != SQFFD_OK ||
+                    if (sqffd_stack_lids(points[t], counts[t], &st, lid, need, &got) != SQFFD_OK ||
                         got != need)
                         abort();
                     for (k2 = 0; k2 < got; k2++) { /* (to rounding: the point's size times a few ulps) */
@@ -374,7 +374,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             if (found) { /* its slice shifts: finite, across the axis, and applying them moves slice points only */
                 sqffd_points view = sqffd_points_packed(points[t], counts[t]);
                 sqffd_slice_shifts sh;
-                sr = sqffd_stack_shifts(&view, &st, 1, &sh);
+                sr = sqffd_stack_shifts_view(&view, &st, 1, &sh);
                 if (sr == SQFFD_OK) {
                     double *copy = (double *)malloc(3 * counts[t] * sizeof(double) + 1);
                     size_t moved = 0;
@@ -387,7 +387,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                         if (!isfinite(size) || !(fabs(along) <= 1e-9 * (size + st.spacing + fabs(sh.level[k])))) abort();
                     }
                     memcpy(copy, points[t], 3 * counts[t] * sizeof(double));
-                    if (sqffd_slice_shifts_apply(&sh, copy, counts[t], &moved) != SQFFD_OK || moved > counts[t]) abort();
+                    if (sqffd_stack_shifts_apply(&sh, copy, counts[t], &moved) != SQFFD_OK || moved > counts[t]) abort();
                     free(copy);
                 } else if (sr != SQFFD_ERROR_NON_FINITE && sr != SQFFD_ERROR_INVALID_ARGUMENT) {
                     abort();

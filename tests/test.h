@@ -18,6 +18,8 @@ void *test_malloc(size_t size);
 /* sqffd_fit with its workspace from test_malloc, freed after (report may be NULL). */
 sqffd_result test_fit(const double *points, size_t n, const sqffd_fit_options *options, sqffd_model *model,
                       sqffd_fit_report *report);
+/* Whether the n doubles are all zero (an output left untouched after a zero fill). */
+int test_all_zero(const double *values, size_t n);
 /* Run one test case: it fails when any check inside it failed. */
 void test_run(const char *name, void (*fn)(void));
 

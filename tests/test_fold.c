@@ -244,7 +244,7 @@ static void test_track_stack_ejection(void)
     counts[0] = stack(&p, 0.0, 0, 8, frames[0]);
     counts[1] = stack(&p, 0.5, 0, 8, frames[1]); /* (the base descends: its top plane misses the ES cavity) */
     for (k = 0; k < 2; k++) {
-        CHECK_RESULT(sqffd_points_stack(sqffd_points_packed(frames[k], counts[k]), &stacks[k], &found), SQFFD_OK);
+        CHECK_RESULT(sqffd_stack_detect(frames[k], counts[k], &stacks[k], &found), SQFFD_OK);
         CHECK(found);
     }
     ef = track_ejection(frames, counts, stacks, reports);
@@ -253,11 +253,11 @@ static void test_track_stack_ejection(void)
     CHECK_MSG(fabs(ef - truth) <= 0.02, "EF %g, the phantom's %g", ef, truth);
     for (k = 0; k < 2; k++) { /* closed by their lids (as sqffd track does) */
         size_t n = 0;
-        CHECK_RESULT(sqffd_stack_lids(sqffd_points_packed(frames[k], counts[k]), &stacks[k], NULL, 0, &n), SQFFD_OK);
+        CHECK_RESULT(sqffd_stack_lids(frames[k], counts[k], &stacks[k], NULL, 0, &n), SQFFD_OK);
         CHECK(counts[k] + n <= ROOM);
         if (counts[k] + n > ROOM) break;
         memcpy(labelled[k], frames[k], 3 * counts[k] * sizeof(double));
-        CHECK_RESULT(sqffd_stack_lids(sqffd_points_packed(frames[k], counts[k]), &stacks[k], labelled[k] + 3 * counts[k],
+        CHECK_RESULT(sqffd_stack_lids(frames[k], counts[k], &stacks[k], labelled[k] + 3 * counts[k],
                                       n, &n), SQFFD_OK);
         label_counts[k] = counts[k] + n;
     }
@@ -301,7 +301,7 @@ static void test_points_stack(void)
         for (c = 0; c < 3; c++) q[c] = rot[3 * c] * pts[3 * i] + rot[3 * c + 1] * pts[3 * i + 1] + rot[3 * c + 2] * pts[3 * i + 2];
         memcpy(pts + 3 * i, q, sizeof q);
     }
-    CHECK_RESULT(sqffd_points_stack(sqffd_points_packed(pts, n), &s, &found), SQFFD_OK);
+    CHECK_RESULT(sqffd_stack_detect(pts, n, &s, &found), SQFFD_OK);
     CHECK(found && s.planes == 8);
     if (found) {
         double along = fabs(s.axis[0] * rot[2] + s.axis[1] * rot[5] + s.axis[2] * rot[8]); /* the rotated z */
@@ -312,16 +312,16 @@ static void test_points_stack(void)
     pts[3 * 100 + 0] += 0.5 * rot[2]; /* one point off its plane */
     pts[3 * 100 + 1] += 0.5 * rot[5];
     pts[3 * 100 + 2] += 0.5 * rot[8];
-    CHECK_RESULT(sqffd_points_stack(sqffd_points_packed(pts, n), &s, &found), SQFFD_OK);
+    CHECK_RESULT(sqffd_stack_detect(pts, n, &s, &found), SQFFD_OK);
     CHECK(!found);
-    CHECK_RESULT(sqffd_points_stack(sqffd_points_packed(pts, 2 * 96), &s, &found), SQFFD_OK); /* two planes */
+    CHECK_RESULT(sqffd_stack_detect(pts, 2 * 96, &s, &found), SQFFD_OK); /* two planes */
     CHECK(!found);
     phantom_lv_sample(&p, 0.0, 500, pts); /* a surface */
-    CHECK_RESULT(sqffd_points_stack(sqffd_points_packed(pts, 500), &s, &found), SQFFD_OK);
+    CHECK_RESULT(sqffd_stack_detect(pts, 500, &s, &found), SQFFD_OK);
     CHECK(!found);
     pts[7] = NAN;
-    CHECK_RESULT(sqffd_points_stack(sqffd_points_packed(pts, 500), &s, &found), SQFFD_ERROR_NON_FINITE);
-    CHECK_RESULT(sqffd_points_stack(sqffd_points_packed(pts, 500), NULL, &found), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(sqffd_stack_detect(pts, 500, &s, &found), SQFFD_ERROR_NON_FINITE);
+    CHECK_RESULT(sqffd_stack_detect(pts, 500, NULL, &found), SQFFD_ERROR_INVALID_ARGUMENT);
     free(pts);
 }
 
@@ -378,42 +378,51 @@ static void test_stack_shifts_exact(void)
             memcpy(p, q, sizeof q);
         }
         views[t] = sqffd_points_packed(frames[t], counts[t]);
-        CHECK_RESULT(sqffd_points_stack(views[t], &stacks[t], &found), SQFFD_OK);
+        CHECK_RESULT(sqffd_stack_detect_view(views[t], &stacks[t], &found), SQFFD_OK);
         CHECK(found && stacks[t].planes == 8);
     }
-    CHECK_RESULT(sqffd_stack_shifts(views, stacks, 2, &s), SQFFD_OK);
+    CHECK_RESULT(sqffd_stack_shifts_view(views, stacks, 2, &s), SQFFD_OK);
     CHECK(s.slices == 8);
+    { /* the packed form: the same shifts, to the bit */
+        sqffd_slice_shifts packed;
+        memset(&packed, 0xff, sizeof packed);
+        CHECK_RESULT(sqffd_stack_shifts((const double *const *)frames, counts, stacks, 2, &packed), SQFFD_OK);
+        CHECK(memcmp(&packed, &s, sizeof s) == 0);
+        CHECK_RESULT(sqffd_stack_shifts(NULL, counts, stacks, 2, &packed), SQFFD_ERROR_INVALID_ARGUMENT);
+        CHECK_RESULT(sqffd_stack_shifts((const double *const *)frames, NULL, stacks, 2, &packed),
+                     SQFFD_ERROR_INVALID_ARGUMENT);
+    }
     for (k = 0; k < 8; k++) {
         int at = s.axis[0] * rot[2] + s.axis[1] * rot[5] + s.axis[2] * rot[8] > 0.0 ? k : 7 - k; /* slice k's */
         for (c = 0; c < 3; c++) CHECK_NEAR(s.shift[k][c], -jump[at][c], 1e-9);
     }
     for (t = 0; t < 2; t++) {
-        CHECK_RESULT(sqffd_slice_shifts_apply(&s, frames[t], counts[t], &moved), SQFFD_OK);
+        CHECK_RESULT(sqffd_stack_shifts_apply(&s, frames[t], counts[t], &moved), SQFFD_OK);
         CHECK(moved == counts[t]);
     }
-    CHECK_RESULT(sqffd_stack_shifts(views, stacks, 2, &s), SQFFD_OK); /* nothing left to move */
+    CHECK_RESULT(sqffd_stack_shifts_view(views, stacks, 2, &s), SQFFD_OK); /* nothing left to move */
     for (k = 0; k < 8; k++)
         for (c = 0; c < 3; c++) CHECK_NEAR(s.shift[k][c], 0.0, 1e-9);
     views[0].count = 3 * 64; /* three planes: a quadratic explains any centres */
-    CHECK_RESULT(sqffd_points_stack(views[0], &stacks[0], &found), SQFFD_OK);
+    CHECK_RESULT(sqffd_stack_detect_view(views[0], &stacks[0], &found), SQFFD_OK);
     CHECK(found);
     frames[0][3 * 64] += 2.0;
-    CHECK_RESULT(sqffd_stack_shifts(views, stacks, 1, &s), SQFFD_OK);
+    CHECK_RESULT(sqffd_stack_shifts_view(views, stacks, 1, &s), SQFFD_OK);
     CHECK(s.slices == 3);
     for (k = 0; k < 3; k++)
         for (c = 0; c < 3; c++) CHECK_NEAR(s.shift[k][c], 0.0, 1e-9);
-    CHECK_RESULT(sqffd_stack_shifts(NULL, stacks, 1, &s), SQFFD_ERROR_INVALID_ARGUMENT);
-    CHECK_RESULT(sqffd_stack_shifts(views, stacks, 0, &s), SQFFD_ERROR_INVALID_ARGUMENT);
-    CHECK_RESULT(sqffd_stack_shifts(views, stacks, 1, NULL), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(sqffd_stack_shifts_view(NULL, stacks, 1, &s), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(sqffd_stack_shifts_view(views, stacks, 0, &s), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(sqffd_stack_shifts_view(views, stacks, 1, NULL), SQFFD_ERROR_INVALID_ARGUMENT);
     stacks[1].axis[0] = stacks[0].axis[1]; /* planes not parallel */
     stacks[1].axis[1] = -stacks[0].axis[0];
     stacks[1].axis[2] = 0.0;
     for (c = 0, s.tolerance = 0.0; c < 3; c++) s.tolerance += stacks[1].axis[c] * stacks[1].axis[c];
     for (c = 0; c < 3; c++) stacks[1].axis[c] /= sqrt(s.tolerance);
-    CHECK_RESULT(sqffd_stack_shifts(views, stacks, 2, &s), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(sqffd_stack_shifts_view(views, stacks, 2, &s), SQFFD_ERROR_INVALID_ARGUMENT);
     stacks[1] = stacks[0];
     stacks[1].level[1] = stacks[1].level[0]; /* levels not ascending */
-    CHECK_RESULT(sqffd_stack_shifts(views, stacks, 2, &s), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(sqffd_stack_shifts_view(views, stacks, 2, &s), SQFFD_ERROR_INVALID_ARGUMENT);
     {
         double two[6] = {0.0, 0.0, 0.0, 1e308, 0.0, 0.0}; /* the second moved past DBL_MAX: neither moves */
         sqffd_slice_shifts big;
@@ -422,14 +431,14 @@ static void test_stack_shifts_exact(void)
         big.slices = 1;
         big.tolerance = 1.0;
         big.shift[0][0] = 1.5e308;
-        CHECK_RESULT(sqffd_slice_shifts_apply(&big, two, 2, &moved), SQFFD_ERROR_NON_FINITE);
+        CHECK_RESULT(sqffd_stack_shifts_apply(&big, two, 2, &moved), SQFFD_ERROR_NON_FINITE);
         CHECK(moved == 0 && two[0] == 0.0 && two[3] == 1e308);
     }
     frames[0][5] = NAN;
-    CHECK_RESULT(sqffd_stack_shifts(views, stacks, 1, &s), SQFFD_ERROR_NON_FINITE);
-    CHECK_RESULT(sqffd_slice_shifts_apply(&s, frames[0], 4, &moved), SQFFD_ERROR_NON_FINITE);
-    CHECK_RESULT(sqffd_slice_shifts_apply(&s, NULL, 4, &moved), SQFFD_ERROR_INVALID_ARGUMENT);
-    CHECK_RESULT(sqffd_slice_shifts_apply(&s, NULL, 0, NULL), SQFFD_OK);
+    CHECK_RESULT(sqffd_stack_shifts_view(views, stacks, 1, &s), SQFFD_ERROR_NON_FINITE);
+    CHECK_RESULT(sqffd_stack_shifts_apply(&s, frames[0], 4, &moved), SQFFD_ERROR_NON_FINITE);
+    CHECK_RESULT(sqffd_stack_shifts_apply(&s, NULL, 4, &moved), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(sqffd_stack_shifts_apply(&s, NULL, 0, NULL), SQFFD_OK);
     for (t = 0; t < 2; t++) free(frames[t]);
 }
 
@@ -452,12 +461,12 @@ static void test_stack_lids(void)
         for (c = 0; c < 3; c++) q[c] = rot[3 * c] * p[0] + rot[3 * c + 1] * p[1] + rot[3 * c + 2] * p[2];
         memcpy(p, q, sizeof q);
     }
-    CHECK_RESULT(sqffd_points_stack(sqffd_points_packed(pts, n), &s, &found), SQFFD_OK);
+    CHECK_RESULT(sqffd_stack_detect(pts, n, &s, &found), SQFFD_OK);
     CHECK(found && s.planes == 6);
-    CHECK_RESULT(sqffd_stack_lids(sqffd_points_packed(pts, n), &s, NULL, 0, &need), SQFFD_OK);
+    CHECK_RESULT(sqffd_stack_lids(pts, n, &s, NULL, 0, &need), SQFFD_OK);
     CHECK(need == 2 * (64 + 32 + 22 + 16)); /* every point, every 2nd, 3rd (0, 3, .., 63: 22) and 4th */
     lids = (double *)test_malloc(3 * need * sizeof(double));
-    CHECK_RESULT(sqffd_stack_lids(sqffd_points_packed(pts, n), &s, lids, need, &count), SQFFD_OK);
+    CHECK_RESULT(sqffd_stack_lids(pts, n, &s, lids, need, &count), SQFFD_OK);
     CHECK(count == need);
     for (i = 0; i < count; i++) {
         double local[3], r;
@@ -472,22 +481,48 @@ static void test_stack_lids(void)
         if (end >= 0 && ring >= 0 && ring < 4) at[end][ring]++;
     }
     for (k = 0; k < 2; k++) CHECK(at[k][0] == 64 && at[k][1] == 32 && at[k][2] == 22 && at[k][3] == 16);
-    CHECK_RESULT(sqffd_stack_lids(sqffd_points_packed(pts, n), &s, lids, need - 1, &count), SQFFD_ERROR_INVALID_ARGUMENT);
-    CHECK_RESULT(sqffd_stack_lids(sqffd_points_packed(pts, n), &s, lids, need, NULL), SQFFD_ERROR_INVALID_ARGUMENT);
-    CHECK_RESULT(sqffd_stack_lids(sqffd_points_packed(pts, n), NULL, lids, need, &count), SQFFD_ERROR_INVALID_ARGUMENT);
+    { /* the view form, over floats with a fourth field: the same lids as the floats' doubles */
+        float *records = (float *)test_malloc(4 * n * sizeof(float));
+        double *widened = (double *)test_malloc(3 * n * sizeof(double)), *again = (double *)test_malloc(3 * need * sizeof(double));
+        size_t got = 0;
+        for (i = 0; i < n; i++)
+            for (c = 0; c < 4; c++) {
+                records[4 * i + (size_t)c] = c < 3 ? (float)pts[3 * i + (size_t)c] : -1.0f;
+                if (c < 3) widened[3 * i + (size_t)c] = (double)records[4 * i + (size_t)c];
+            }
+        CHECK_RESULT(sqffd_stack_lids(widened, n, &s, lids, need, &count), SQFFD_OK);
+        CHECK_RESULT(sqffd_stack_lids_view(sqffd_points_strided(records, n, 4 * sizeof(float), SQFFD_SCALAR_FLOAT), &s,
+                                           again, need, &got), SQFFD_OK);
+        CHECK(got == count && memcmp(again, lids, 3 * count * sizeof(double)) == 0);
+        free(records);
+        free(widened);
+        free(again);
+        CHECK_RESULT(sqffd_stack_lids(pts, n, &s, lids, need, &count), SQFFD_OK);
+    }
+    /* one point short: OUTPUT_TOO_SMALL found before anything is written, the count needed */
+    memset(lids, 0, 3 * need * sizeof(double));
+    count = 0;
+    CHECK_RESULT(sqffd_stack_lids(pts, n, &s, lids, need - 1, &count), SQFFD_ERROR_OUTPUT_TOO_SMALL);
+    CHECK(count == need && test_all_zero(lids, 3 * need));
+    CHECK_RESULT(sqffd_stack_lids(pts, n, &s, NULL, 1, &count), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(sqffd_stack_lids(pts, n, &s, lids, need, NULL), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(sqffd_stack_lids(pts, n, NULL, lids, need, &count), SQFFD_ERROR_INVALID_ARGUMENT);
     s.spacing = -1.0;
-    CHECK_RESULT(sqffd_stack_lids(sqffd_points_packed(pts, n), &s, lids, need, &count), SQFFD_ERROR_INVALID_ARGUMENT);
+    CHECK_RESULT(sqffd_stack_lids(pts, n, &s, lids, need, &count), SQFFD_ERROR_INVALID_ARGUMENT);
     s.spacing = 8.0;
     for (i = 0; i < 3 * n; i++) pts[i] *= 1e300; /* areas past DBL_MAX: refused or finite, never NaN written */
     s.spacing *= 1e300;
     for (k = 0; k < 6; k++) s.level[k] *= 1e300;
     {
-        sqffd_result r = sqffd_stack_lids(sqffd_points_packed(pts, n), &s, lids, need, &count);
+        sqffd_result r = sqffd_stack_lids(pts, n, &s, lids, need, &count);
         CHECK(r == SQFFD_OK || r == SQFFD_ERROR_NON_FINITE);
         for (i = 0; r == SQFFD_OK && i < 3 * count; i++) CHECK_MSG(isfinite(lids[i]), "lid coordinate %lu: %g", (unsigned long)i, lids[i]);
     }
-    pts[4] = NAN;
-    CHECK_RESULT(sqffd_stack_lids(sqffd_points_packed(pts, n), &s, lids, need, &count), SQFFD_ERROR_NON_FINITE);
+    pts[4] = NAN; /* found before the work: outputs untouched */
+    memset(lids, 0, 3 * need * sizeof(double));
+    count = 7;
+    CHECK_RESULT(sqffd_stack_lids(pts, n, &s, lids, need, &count), SQFFD_ERROR_NON_FINITE);
+    CHECK(count == 7 && test_all_zero(lids, 3 * need));
     free(lids);
     free(pts);
 }
@@ -529,12 +564,12 @@ static void test_stack_shifts_phantom(void)
         frames[t] = (double *)test_malloc(8 * 96 * 3 * sizeof(double));
         counts[t] = phantom_lv_contours(&p, 0.5 * t, levels, t ? 7 : 8, 96, truth, frames[t]);
         views[t] = sqffd_points_packed(frames[t], counts[t]);
-        CHECK_RESULT(sqffd_points_stack(views[t], &stacks[t], &found), SQFFD_OK);
+        CHECK_RESULT(sqffd_stack_detect_view(views[t], &stacks[t], &found), SQFFD_OK);
         CHECK(found);
     }
     ef = track_ejection(frames, counts, stacks, reports);
     for (t = 0; t < 2; t++) before[t] = reports[t].error.rms_relative;
-    CHECK_RESULT(sqffd_stack_shifts(views, stacks, 2, &s), SQFFD_OK);
+    CHECK_RESULT(sqffd_stack_shifts_view(views, stacks, 2, &s), SQFFD_OK);
     CHECK(s.slices == 8 && s.axis[2] > 0.0);
     for (k = 0; k < 8; k++) {
         for (c = 0; c < 2; c++) {
@@ -543,7 +578,7 @@ static void test_stack_shifts_phantom(void)
         }
         CHECK_NEAR(s.shift[k][2], 0.0, 1e-9);
     }
-    for (t = 0; t < 2; t++) CHECK_RESULT(sqffd_slice_shifts_apply(&s, frames[t], counts[t], NULL), SQFFD_OK);
+    for (t = 0; t < 2; t++) CHECK_RESULT(sqffd_stack_shifts_apply(&s, frames[t], counts[t], NULL), SQFFD_OK);
     ef = track_ejection(frames, counts, stacks, reports);
     printf("    shifts: found within %.3f mm RMS of the jumps (%.3f mm RMS); errors %.3f%% / %.3f%% -> %.3f%% / %.3f%%, "
            "EF %.2f%% (the phantom's %.2f%%)\n", sqrt(err2 / 8.0), sqrt(size2 / 8.0), 100.0 * before[0],

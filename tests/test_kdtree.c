@@ -171,11 +171,19 @@ static void kd_check_query(const sqffd_kdtree *t, const double *points, size_t n
         qsort(idx, got, sizeof *idx, kd_cmp_size);
         for (i = 0; i < got; i++) CHECK(idx[i] == brute_idx[i]);
     }
-    /* capacity smaller than the count: the nearest ones */
+    /* capacity smaller than the count: OUTPUT_TOO_SMALL, the count needed, nothing written;
+       exactly the count: all, the nearest first */
+    if (expect > 1) {
+        got = (size_t)-1;
+        for (i = 0; i < expect; i++) idx[i] = (size_t)-1, d2[i] = -1.0;
+        CHECK_RESULT(sqffd_kdtree_radius(t, q, r, idx, d2, expect - 1, &got), SQFFD_ERROR_OUTPUT_TOO_SMALL);
+        CHECK(got == expect);
+        for (i = 0; i < expect; i++) CHECK(idx[i] == (size_t)-1 && d2[i] == -1.0);
+    }
     got = (size_t)-1;
-    CHECK_RESULT(sqffd_kdtree_radius(t, q, r, idx, d2, 3, &got), SQFFD_OK);
+    CHECK_RESULT(sqffd_kdtree_radius(t, q, r, idx, d2, expect, &got), SQFFD_OK);
     CHECK(got == expect);
-    for (i = 0; i < 3 && i < expect; i++) CHECK_NEAR(d2[i], sorted[i], 1e-12 * (1.0 + sorted[i]));
+    for (i = 0; i < expect; i++) CHECK_NEAR(d2[i], sorted[i], 1e-12 * (1.0 + sorted[i]));
 }
 
 /* Builds a tree over points and runs `queries` queries near them. */

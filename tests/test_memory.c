@@ -1473,19 +1473,31 @@ static void test_memory_output_arrays_exact(void)
               "sqffd_model_mesh wrote past its vertices or triangles");
     free(points);
     free(tri);
-    /* iso points with room for half of them */
+    /* iso points with room for one less than all of them (OUTPUT_TOO_SMALL, the count needed,
+       nothing written), then for exactly all */
     io.level = 100.0;
     CHECK_RESULT(sqffd_iso_workspace_size(&D.volume, &io, &size), SQFFD_OK);
     ws = test_malloc(size);
     CHECK_RESULT(sqffd_iso_points(&D.volume, &io, NULL, NULL, 0, &count, ws, size), SQFFD_OK);
     CHECK(count > 10);
-    k = count / 2;
+    k = count - 1;
     points = (double *)with_tail(3 * k * sizeof(double));
     normals = (double *)with_tail(3 * k * sizeof(double));
+    memset(points, 0, 3 * k * sizeof(double));
+    memset(normals, 0, 3 * k * sizeof(double));
     got = 0;
-    CHECK_RESULT(sqffd_iso_points(&D.volume, &io, points, normals, k, &got, ws, size), SQFFD_OK);
+    CHECK_RESULT(sqffd_iso_points(&D.volume, &io, points, normals, k, &got, ws, size), SQFFD_ERROR_OUTPUT_TOO_SMALL);
     CHECK(got == count);
-    CHECK_MSG(tail_intact(points, 3 * k * sizeof(double)) && tail_intact(normals, 3 * k * sizeof(double)),
+    CHECK_MSG(test_all_zero(points, 3 * k) && test_all_zero(normals, 3 * k) && tail_intact(points, 3 * k * sizeof(double)) &&
+                  tail_intact(normals, 3 * k * sizeof(double)),
+              "sqffd_iso_points wrote into a buffer too small");
+    free(points);
+    free(normals);
+    points = (double *)with_tail(3 * count * sizeof(double));
+    normals = (double *)with_tail(3 * count * sizeof(double));
+    CHECK_RESULT(sqffd_iso_points(&D.volume, &io, points, normals, count, &got, ws, size), SQFFD_OK);
+    CHECK(got == count);
+    CHECK_MSG(tail_intact(points, 3 * count * sizeof(double)) && tail_intact(normals, 3 * count * sizeof(double)),
               "sqffd_iso_points wrote past capacity");
     free(points);
     free(normals);
@@ -1501,9 +1513,12 @@ static void test_memory_output_arrays_exact(void)
     CHECK(got == 7);
     CHECK(tail_intact(idx, 7 * sizeof(size_t)) && tail_intact(dist2, 7 * sizeof(double)));
     got = 0;
-    CHECK_RESULT(sqffd_kdtree_radius(&tree, q, 1e9, idx, dist2, 7, &got), SQFFD_OK);
+    memset(idx, 0, 7 * sizeof(size_t));
+    memset(dist2, 0, 7 * sizeof(double));
+    CHECK_RESULT(sqffd_kdtree_radius(&tree, q, 1e9, idx, dist2, 7, &got), SQFFD_ERROR_OUTPUT_TOO_SMALL);
     CHECK(got == N_FIT);
-    CHECK(tail_intact(idx, 7 * sizeof(size_t)) && tail_intact(dist2, 7 * sizeof(double)));
+    CHECK(test_all_zero(dist2, 7) && tail_intact(idx, 7 * sizeof(size_t)) && tail_intact(dist2, 7 * sizeof(double)));
+    for (got = 0; got < 7; got++) CHECK(idx[got] == 0);
     free(idx);
     free(dist2);
     free(ws);

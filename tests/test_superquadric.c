@@ -281,8 +281,11 @@ static void test_sq_uniform_sampling_even(void)
         CHECK(count > 100);
         cv_uniform = nn_spread(pts, count, &med);
         CHECK_MSG(med > 0.5 * spacing && med < 1.05 * spacing, "shape %d: median spacing %g for %g", s, med, spacing);
-        CHECK_RESULT(sqffd_sq_sample_uniform(&shapes[s], spacing, pts, 10, &again), SQFFD_OK);
-        CHECK(again == count); /* capacity respected, count kept */
+        memcpy(pts + 3 * (count - 1), pts, 3 * sizeof *pts); /* capacity below the count: nothing written */
+        memset(pts, 0, 3 * (count - 1) * sizeof *pts);
+        again = 0;
+        CHECK_RESULT(sqffd_sq_sample_uniform(&shapes[s], spacing, pts, count - 1, &again), SQFFD_ERROR_OUTPUT_TOO_SMALL);
+        CHECK(again == count && test_all_zero(pts, 3 * (count - 1)));
         /* a grid with about as many points */
         side = (int)sqrt((double)count / 2.0);
         m = (size_t)side * (size_t)(2 * side);
@@ -297,7 +300,7 @@ static void test_sq_uniform_sampling_even(void)
     {
         size_t count = 1;
         CHECK_RESULT(sqffd_sq_sample_uniform(&shapes[0], 0.0, NULL, 0, &count), SQFFD_ERROR_INVALID_ARGUMENT);
-        CHECK(count == 0);
+        CHECK(count == 1); /* an error before the work: untouched */
         CHECK_RESULT(sqffd_sq_sample_uniform(&shapes[0], 1e-9, NULL, 0, &count), SQFFD_ERROR_TOO_LARGE);
         CHECK_RESULT(sqffd_sq_sample_uniform(&shapes[0], 0.1, NULL, 5, &count), SQFFD_ERROR_INVALID_ARGUMENT);
     }

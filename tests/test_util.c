@@ -3,6 +3,14 @@
 #include "test.h"
 #include <stdlib.h>
 
+int test_all_zero(const double *values, size_t n)
+{
+    size_t i;
+    for (i = 0; i < n; i++)
+        if (values[i] != 0.0) return 0;
+    return 1;
+}
+
 void *test_malloc(size_t size)
 {
     void *p = malloc(size ? size : 1);

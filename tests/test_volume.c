@@ -158,13 +158,18 @@ static void test_iso_sphere(void)
                (int)types[t], n, worst, wrong_side);
         CHECK_MSG(worst <= 0.01, "type %d: a point %.4f of a voxel off", (int)types[t], worst);
         CHECK(grazing_wrong == 0 && wrong_side * 200 < n);
-        /* a short capacity: the first points, and not one more written */
+        /* a short capacity: OUTPUT_TOO_SMALL, the count needed, not one point written; exactly
+           the count: the same points */
         CHECK_RESULT(sqffd_iso_workspace_size(&s.v, &o, &size), SQFFD_OK);
         work = malloc(size);
-        part = (double *)malloc((3 * 100 + 3) * sizeof(double));
-        part[300] = part[301] = part[302] = 12345.0;
-        CHECK_RESULT(sqffd_iso_points(&s.v, &o, part, NULL, 100, &partial, work, size), SQFFD_OK);
-        CHECK(partial == n && memcmp(part, pts, 300 * sizeof(double)) == 0 && part[300] == 12345.0 && part[302] == 12345.0);
+        part = (double *)malloc((3 * n + 3) * sizeof(double));
+        for (v = 0; v < 3 * n + 3; v++) part[v] = 12345.0;
+        CHECK_RESULT(sqffd_iso_points(&s.v, &o, part, NULL, n - 1, &partial, work, size), SQFFD_ERROR_OUTPUT_TOO_SMALL);
+        CHECK(partial == n);
+        for (v = 0; v < 3 * n + 3 && part[v] == 12345.0; v++) {}
+        CHECK_MSG(v == 3 * n + 3, "a buffer too small was written at %zu", v);
+        CHECK_RESULT(sqffd_iso_points(&s.v, &o, part, NULL, n, &partial, work, size), SQFFD_OK);
+        CHECK(partial == n && memcmp(part, pts, 3 * n * sizeof(double)) == 0 && part[3 * n] == 12345.0);
         CHECK_RESULT(sqffd_iso_points(&s.v, &o, part, NULL, 100, &partial, work, size - 1), SQFFD_ERROR_WORKSPACE_TOO_SMALL);
         free(part);
         free(work);

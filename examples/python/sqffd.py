@@ -7,7 +7,7 @@ environment variable (the path of libsqffd.so), else in the build/ folder of
 the repository this file sits in.
 
     import numpy as np, sqffd
-    model = sqffd.fit(points)                      # points: (N, 3) array-like
+    model = sqffd.fit(points)                      # points: (N, 3) array-like (or wider: x y z first)
     print(model.report.error.rms_relative)         # "the error": RMS distance / bounding-box diagonal
     vertices, triangles = model.mesh(64, 128)      # (V, 3) float64, (T, 3) uint32
     data = model.save()                            # the library's byte format; sqffd.load(data)
@@ -33,7 +33,7 @@ from typing import List
 import numpy as np
 
 __all__ = [
-    "fit", "track", "motion", "load", "stack", "stack_lids", "stack_shifts", "Model", "Stack", "SliceShifts",
+    "fit", "track", "motion", "load", "stack_detect", "stack_lids", "stack_shifts", "Model", "Stack", "SliceShifts",
     "SqffdError", "Result", "Stage",
     "SqCost", "SqOptimizer", "Regularization", "Solver",
     "Superquadric", "SuperquadricReport", "DistanceStats", "FitReport", "SegmentMotion", "Motion",
@@ -270,10 +270,10 @@ _declare("sqffd_track_options_default", _TrackOptions)
 _declare("sqffd_track_view_workspace_size", _int, _P(_Points), _size, _P(_TrackOptions), _P(_size))
 _declare("sqffd_track_view", _int, _P(_Points), _size, _P(_TrackOptions), _P(_Model), _P(_FitReport),
          _P(_size), _pointer, _size)
-_declare("sqffd_points_stack", _int, _Points, _P(_Stack), _P(_int))
-_declare("sqffd_stack_lids", _int, _Points, _P(_Stack), _pointer, _size, _P(_size))
-_declare("sqffd_stack_shifts", _int, _P(_Points), _P(_Stack), _size, _P(_SliceShifts))
-_declare("sqffd_slice_shifts_apply", _int, _P(_SliceShifts), _pointer, _size, _P(_size))
+_declare("sqffd_stack_detect_view", _int, _Points, _P(_Stack), _P(_int))
+_declare("sqffd_stack_lids_view", _int, _Points, _P(_Stack), _pointer, _size, _P(_size))
+_declare("sqffd_stack_shifts_view", _int, _P(_Points), _P(_Stack), _size, _P(_SliceShifts))
+_declare("sqffd_stack_shifts_apply", _int, _P(_SliceShifts), _pointer, _size, _P(_size))
 _declare("sqffd_motion_options_default", _MotionOptions)
 _declare("sqffd_motion_workspace_size", _int, _P(_Model), _size, _P(_size))
 _declare("sqffd_motion", _int, _P(_Model), _size, _P(_MotionOptions), _P(_MotionOutputs), _P(_MotionReport),
@@ -294,12 +294,15 @@ def _workspace(size_function, operation, *arguments):
 
 def _points(points, what="points"):
     """The points as a sqffd_points view, and the array it reads (keep it alive during the call).
-    float32 and float64 arrays (native byte order) whose rows hold x y z side by side are read in
-    place, at any row stride (a slice [:, :3] of wider records too); anything else is converted
-    to contiguous float64 first."""
+    An (N, 3) array, or a wider one whose first three columns are x y z (e.g. x y z nx ny nz as
+    np.loadtxt reads an XYZ file with normals: the other columns are not read). float32 and
+    float64 arrays (native byte order) whose rows hold x y z side by side are read in place, at
+    any row stride; anything else is converted to contiguous float64 first."""
     array = np.asarray(points)
-    if array.ndim != 2 or array.shape[1] != 3:
-        raise ValueError(f"{what}: expected an (N, 3) array of x y z, got shape {array.shape}")
+    if array.ndim != 2 or array.shape[1] < 3:
+        raise ValueError(f"{what}: expected an (N, 3) array of x y z (or (N, >3), x y z first), got shape "
+                         f"{array.shape}")
+    array = array[:, :3]
     in_place = (array.dtype in (np.dtype(np.float32), np.dtype(np.float64)) and array.strides[1] == array.itemsize
                 and array.strides[0] >= 3 * array.itemsize)
     if not in_place:
@@ -347,14 +350,75 @@ def _integer(ctype, value, name):
     return number
 
 
+class _Range:
+    """The valid values of a numeric option: low <= value <= high, or < where an end is open
+    (printed as an interval: [0, inf) is finite and >= 0); NaN is never in it."""
+
+    def __init__(self, low, high, low_open=False, high_open=False):
+        self.low, self.high, self.low_open, self.high_open = low, high, low_open, high_open
+
+    def __contains__(self, value):
+        return (self.low < value if self.low_open else self.low <= value) and \
+            (value < self.high if self.high_open else value <= self.high)
+
+    def __str__(self):
+        return f"{'(' if self.low_open else '['}{self.low:g}, {self.high:g}{')' if self.high_open else ']'}"
+
+
+_INF = float("inf")
+_AT_LEAST_0 = _Range(0, _INF, high_open=True)
+# Each numeric option's valid range, as sqffd.h's checks have it (sqffd__fit_check_options,
+# sqffd__fit_check_whole_options, sqffd__fit_grid_check, sqffd__sq_options_valid, sqffd_track's
+# frame_iterations, sqffd_motion's options), so that a bad value is refused here naming the option
+# (the library only says INVALID_ARGUMENT); tests/python probes every bound against the library.
+# An array option has one range per element. Checked across fields: _check_options.
+_OPTION_RANGES = {
+    _FitOptions: {
+        "lattice": (_Range(2, _MAX_LATTICE),) * 3, "box_margin": _AT_LEAST_0,
+        "grid": (_Range(2, 65536), _Range(3, 65536)),  # (beyond 65536 a grid is TOO_LARGE)
+        "alpha": _AT_LEAST_0, "tether": _AT_LEAST_0, "model_to_data": _AT_LEAST_0,
+        "tolerance": _AT_LEAST_0, "min_jacobian": _Range(-_INF, 1.0),
+        "max_iterations": _AT_LEAST_0, "coarse_iterations": _AT_LEAST_0},
+    _SqFitOptions: {
+        "shape_min": _Range(0.01, 4.0), "shape_max": _Range(0.01, 4.0), "taper_max": _Range(0.0, 1.0, high_open=True),
+        "max_iterations": _Range(1, _INF, high_open=True), "tolerance": _AT_LEAST_0},
+    _TrackOptions: {"frame_iterations": _AT_LEAST_0},
+    _MotionOptions: {
+        "low_motion_fraction": _AT_LEAST_0, "hypokinetic_share": _Range(0.0, 1.0),
+        "apex_fraction": _Range(0.0, 1.0, high_open=True)},
+}
+
+
+def _check_options(struct, prefix=""):
+    """Raises ValueError naming the first option of struct (nested structs too) out of its range."""
+    ranges = _OPTION_RANGES.get(type(struct), {})
+    for name, ctype in struct._fields_:
+        value = getattr(struct, name)
+        if isinstance(ctype, type) and issubclass(ctype, ctypes.Structure):
+            _check_options(value, prefix + name + ".")
+        elif name in ranges:
+            for i, valid in enumerate(ranges[name] if isinstance(ranges[name], tuple) else (ranges[name],)):
+                number = value[i] if isinstance(ranges[name], tuple) else value
+                if number not in valid:
+                    where = f"{prefix}{name}" + (f"[{i}]" if isinstance(ranges[name], tuple) else "")
+                    raise ValueError(f"{where} = {number!r} is out of its range {valid}")
+    if isinstance(struct, _SqFitOptions):
+        if struct.shape_min > struct.shape_max:
+            raise ValueError(f"{prefix}shape_min = {struct.shape_min!r} is above {prefix}shape_max = "
+                             f"{struct.shape_max!r}")
+        if struct.robust and struct.robust_rounds < 1:
+            raise ValueError(f"{prefix}robust_rounds = {struct.robust_rounds} is out of its range [1, inf) "
+                             f"with {prefix}robust")
+
+
 def _field_value(ctype, value, field, name):
     """value for a scalar C field (field: its C name; name: as the caller wrote it, for messages)."""
-    if field in _ENUM_FIELDS and isinstance(value, str):
+    if field in _ENUM_FIELDS and not isinstance(value, enum.Enum):
         enum_type = _ENUM_FIELDS[field]
         try:
-            return enum_type[value.upper()]
-        except KeyError:
-            choices = ", ".join(member.name.lower() for member in enum_type)
+            return enum_type[value.upper()] if isinstance(value, str) else enum_type(_integer(ctype, value, name))
+        except (KeyError, ValueError):
+            choices = ", ".join(f"{member.name.lower()} ({member.value})" for member in enum_type)
             raise ValueError(f"{name}: {value!r} is not one of {choices}") from None
     if ctype is not _double:
         return _integer(ctype, value, name)
@@ -364,8 +428,9 @@ def _field_value(ctype, value, field, name):
 
 
 def _set_options(struct, options, prefix, callbacks):
-    """Sets struct's fields from options (C field names; nested structs as dicts). Progress callables
-    are wrapped and appended to callbacks, which the caller keeps alive during the call."""
+    """Sets struct's fields from options (C field names; nested structs as dicts), then checks them
+    (_check_options). Progress callables are wrapped and appended to callbacks, which the caller
+    keeps alive during the call."""
     fields = {name: ctype for name, ctype in struct._fields_ if name not in _HIDDEN_FIELDS}
     for name, value in options.items():
         full_name = prefix + name
@@ -389,6 +454,8 @@ def _set_options(struct, options, prefix, callbacks):
             setattr(struct, name, ctype(*(_field_value(ctype._type_, v, name, full_name) for v in values)))
         else:
             setattr(struct, name, _field_value(ctype, value, name, full_name))
+    if not prefix:  # the whole struct set: every range, and those across fields
+        _check_options(struct)
 
 
 def _raise_callback_errors(callbacks):
@@ -644,8 +711,10 @@ def _unpickle(data, report):
 # ---- fit and track -------------------------------------------------------------------------------
 
 def fit(points, **options):
-    """Fits the model (superquadric, then FFD) to points, an (N, 3) array-like (float32 and float64
-    arrays are read in place, at any row stride; other input is converted to float64). options: sqffd_fit_options fields by name, e.g. lattice=(6, 6, 6),
+    """Fits the model (superquadric, then FFD) to points, an (N, 3) array-like, or (N, >3) with x y z
+    in the first three columns (the rest, e.g. an XYZ file's normals, is ignored); float32 and
+    float64 arrays are read in place, at any row stride; other input is converted to float64.
+    options: sqffd_fit_options fields by name, e.g. lattice=(6, 6, 6),
     alpha=1e-4, max_iterations=50, sq=dict(robust=True, taper=False), progress=callable(stage,
     iteration, error) returning true to cancel. Returns the Model; model.report is its FitReport."""
     array, view = _points(points)
@@ -661,7 +730,8 @@ def fit(points, **options):
 
 
 def track(frames, **options):
-    """Tracks the model through a sequence: frames, a list of (N_t, 3) array-likes in time order.
+    """Tracks the model through a sequence: frames, a list of (N_t, 3) array-likes in time order
+    (or wider, x y z first, as fit() takes them).
     Frame 0 gets the whole fit; each later frame keeps its superquadric and box and starts from
     the previous frame's control points, so vertex v of every model's grid mesh is the same
     material point. options: sqffd_track_options fields (fit=dict(...) of fit's options,
@@ -704,7 +774,7 @@ class _Planes:
 
 
 class Stack(_Planes):
-    """sqffd_stack: points on parallel planes, as the contours of cine MRI slices lie. Made by stack()."""
+    """sqffd_stack: points on parallel planes, as the contours of cine MRI slices lie. Made by stack_detect()."""
     _COUNT = "planes"
 
     @property
@@ -732,10 +802,10 @@ class SliceShifts(_Planes):
 
     def apply(self, points):
         """A float64 copy of points, (N, 3), with each slice's shift added to its points
-        (sqffd_slice_shifts_apply), and how many moved; other points stay."""
+        (sqffd_stack_shifts_apply), and how many moved; other points stay."""
         moved = np.array(_points(points)[0], dtype=np.float64, order="C")
         count = _size()
-        _check(_lib.sqffd_slice_shifts_apply(self._struct, moved.ctypes.data, len(moved), ctypes.byref(count)),
+        _check(_lib.sqffd_stack_shifts_apply(self._struct, moved.ctypes.data, len(moved), ctypes.byref(count)),
                "slice shifts")
         return moved, count.value
 
@@ -751,13 +821,13 @@ def _stack_array(stacks, count, what):
     return (_Stack * max(count, 1))(*(s._struct for s in stacks))
 
 
-def stack(points):
+def stack_detect(points):
     """The short-axis stack the points form (listed slice by slice, each contour in drawing order,
-    as contour exports list them; sqffd_points_stack), or None when they do not lie on 3 to 64
+    as contour exports list them; sqffd_stack_detect), or None when they do not lie on 3 to 64
     parallel planes."""
     array, view = _points(points)
     struct, found = _Stack(), _int()
-    _check(_lib.sqffd_points_stack(view, ctypes.byref(struct), ctypes.byref(found)), "stack")
+    _check(_lib.sqffd_stack_detect_view(view, ctypes.byref(struct), ctypes.byref(found)), "stack")
     return Stack(struct) if found.value else None
 
 
@@ -767,9 +837,9 @@ def stack_lids(points, stack):
     track np.vstack((points, lids)) for a model that closes there."""
     array, view = _points(points)
     count = _size()
-    _check(_lib.sqffd_stack_lids(view, stack._struct, None, 0, ctypes.byref(count)), "stack lids")
+    _check(_lib.sqffd_stack_lids_view(view, stack._struct, None, 0, ctypes.byref(count)), "stack lids")
     lids = np.empty((count.value, 3))
-    _check(_lib.sqffd_stack_lids(view, stack._struct, lids.ctypes.data, count.value, ctypes.byref(count)),
+    _check(_lib.sqffd_stack_lids_view(view, stack._struct, lids.ctypes.data, count.value, ctypes.byref(count)),
            "stack lids")
     return lids
 
@@ -783,7 +853,7 @@ def stack_shifts(frames, stacks):
     structs = _stack_array(stacks, count, "frame")
     views = (_Points * max(count, 1))(*(view for _, view in prepared))
     shifts = _SliceShifts()
-    _check(_lib.sqffd_stack_shifts(views, structs, count, ctypes.byref(shifts)), "stack shifts")
+    _check(_lib.sqffd_stack_shifts_view(views, structs, count, ctypes.byref(shifts)), "stack shifts")
     return SliceShifts(shifts)
 
 

@@ -18,7 +18,7 @@
        the phantom's ED and ES short-axis stacks (8 slices, shifted in-plane
        by up to 2 mm) into DIR/contours_ed.f64 and DIR/contours_es.f64
    reference stack OUT FRAME.f64 ...
-       each frame's sqffd_points_stack, sqffd_stack_shifts into OUT.shifts
+       each frame's sqffd_stack_detect, sqffd_stack_shifts into OUT.shifts
        (x y z doubles a slice), applied to every frame, each frame's
        sqffd_stack_lids into OUT_NN.lids, then `track` of the frames with
        their lids and sqffd_motion with the stacks
@@ -411,22 +411,22 @@ static int cmd_stack(int argc, char **argv)
     for (t = 0; t < frames; t++) {
         if (!(points[t] = read_points(argv[3 + t], &counts[t]))) goto done;
         views[t] = sqffd_points_packed(points[t], counts[t]);
-        if (sqffd_points_stack(views[t], &stacks[t], &found) != SQFFD_OK || !found) {
+        if (sqffd_stack_detect_view(views[t], &stacks[t], &found) != SQFFD_OK || !found) {
             fail(argv[3 + t], "not a short-axis stack");
             goto done;
         }
     }
-    if (sqffd_stack_shifts(views, stacks, frames, &shifts) != SQFFD_OK) {
+    if (sqffd_stack_shifts_view(views, stacks, frames, &shifts) != SQFFD_OK) {
         fail("stack", "sqffd_stack_shifts failed");
         goto done;
     }
     if (!with_suffix(path, sizeof path, argv[2], ".shifts") || !write_file(path, shifts.shift, shifts.slices * sizeof shifts.shift[0]))
         goto done;
     for (t = 0; t < frames; t++) {
-        if (sqffd_slice_shifts_apply(&shifts, points[t], counts[t], NULL) != SQFFD_OK ||
-            sqffd_stack_lids(views[t], &stacks[t], NULL, 0, &count) != SQFFD_OK ||
+        if (sqffd_stack_shifts_apply(&shifts, points[t], counts[t], NULL) != SQFFD_OK ||
+            sqffd_stack_lids_view(views[t], &stacks[t], NULL, 0, &count) != SQFFD_OK ||
             !(closed[t] = (double *)malloc(3 * (counts[t] + count) * sizeof(double))) ||
-            sqffd_stack_lids(views[t], &stacks[t], closed[t] + 3 * counts[t], count, &count) != SQFFD_OK) {
+            sqffd_stack_lids_view(views[t], &stacks[t], closed[t] + 3 * counts[t], count, &count) != SQFFD_OK) {
             fail("stack", "shifts or lids failed");
             goto done;
         }

@@ -254,11 +254,26 @@ class BadInput(unittest.TestCase):
         self.assert_code(sqffd.Result.TOO_FEW_POINTS, sqffd.fit, Data.bunny[:5])
         self.assert_code(sqffd.Result.INVALID_ARGUMENT, sqffd.fit, np.empty((0, 3)))
         self.assert_code(sqffd.Result.DEGENERATE, sqffd.fit, np.tile(Data.bunny[:1], (100, 1)))
-        for shape in ((100, 2), (300,), (10, 3, 3), ()):
+        for shape in ((100, 2), (300,), (10, 3, 3), (), (100, 0)):
             with self.assertRaisesRegex(ValueError, r"\(N, 3\)"):
                 sqffd.fit(np.zeros(shape))
         with self.assertRaises(ValueError):
             sqffd.fit([["a", "b", "c"]] * 20)
+
+    def test_xyz_with_normals(self):
+        """An XYZ file with normals, as np.loadtxt reads it ((N, 6): x y z nx ny nz): the first
+        three columns are the points (the README's snippet), the same model as the (N, 3) file."""
+        normals = Data.bunny / np.linalg.norm(Data.bunny, axis=1)[:, None]
+        with tempfile.TemporaryDirectory() as folder:
+            path = os.path.join(folder, "bunny.xyz")
+            np.savetxt(path, np.hstack((Data.bunny, normals)), fmt="%.17g")
+            six = np.loadtxt(path)
+        self.assertEqual(six.shape, (len(Data.bunny), 6))
+        self.assertEqual(sqffd.fit(six, max_iterations=3).save(), sqffd.fit(Data.bunny, max_iterations=3).save())
+        models = sqffd.track([np.hstack((frame, np.zeros((len(frame), 2)))) for frame in Data.frames[:2]],
+                             frame_iterations=2, fit=dict(max_iterations=2))
+        self.assertEqual([m.save() for m in models],
+                         [m.save() for m in sqffd.track(Data.frames[:2], frame_iterations=2, fit=dict(max_iterations=2))])
 
     def test_points_read_in_place(self):
         """float32 arrays and x y z inside wider rows are read where they are (the library's point
@@ -295,16 +310,90 @@ class BadInput(unittest.TestCase):
             sqffd.fit(Data.bunny, max_iterations=2.5)
         with self.assertRaisesRegex(TypeError, "alpha: expected a number"):
             sqffd.fit(Data.bunny, alpha="1e-4")
-        with self.assertRaisesRegex(ValueError, "solver: 'qr' is not one of cholesky, svd"):
+        with self.assertRaisesRegex(ValueError, r"solver: 'qr' is not one of cholesky \(0\), svd \(1\)"):
             sqffd.fit(Data.bunny, solver="qr")
         with self.assertRaises(TypeError):
             sqffd.fit(Data.bunny, sq=True)
         with self.assertRaisesRegex(TypeError, "must be callable"):
             sqffd.fit(Data.bunny, progress=3)
-        for options in (dict(alpha=-1.0), dict(alpha=float("nan")), dict(lattice=(1, 5, 5)), dict(lattice=(9, 5, 5)),
-                        dict(grid=(1, 64)), dict(max_iterations=-1), dict(regularization=7)):
-            self.assert_code(sqffd.Result.INVALID_ARGUMENT, sqffd.fit, Data.bunny, **options)
         self.assert_code(sqffd.Result.INVALID_ARGUMENT, sqffd.motion, [])
+
+    def test_options_out_of_range_named(self):
+        """A value the library refuses is refused here first, the message naming the option and
+        its range (the library's own code says only INVALID_ARGUMENT)."""
+        cases = [(sqffd.fit, dict(alpha=-1), r"^alpha = -1\.0 is out of its range \[0, inf\)$"),
+                 (sqffd.fit, dict(alpha=float("nan")), r"^alpha = nan is out of its range \[0, inf\)$"),
+                 (sqffd.fit, dict(min_jacobian=2), r"^min_jacobian = 2\.0 is out of its range \[-inf, 1\]$"),
+                 (sqffd.fit, dict(lattice=(5, 9, 5)), r"^lattice\[1\] = 9 is out of its range \[2, 8\]$"),
+                 (sqffd.fit, dict(grid=(1, 64)), r"^grid\[0\] = 1 is out of its range \[2, 65536\]$"),
+                 (sqffd.fit, dict(max_iterations=-1), r"^max_iterations = -1 is out of its range"),
+                 (sqffd.fit, dict(sq=dict(taper_max=1.0)), r"^sq\.taper_max = 1\.0 is out of its range \[0, 1\)$"),
+                 (sqffd.fit, dict(sq=dict(shape_min=1.5, shape_max=1.2)), r"^sq\.shape_min = 1\.5 is above sq\.shape_max"),
+                 (sqffd.fit, dict(sq=dict(robust=True, robust_rounds=0)), r"^sq\.robust_rounds = 0 .* with sq\.robust$"),
+                 (sqffd.fit, dict(regularization=7), r"^regularization: 7 is not one of displacement \(0\), position"),
+                 (sqffd.track, dict(fit=dict(tether=float("inf"))), r"^fit\.tether = inf is out of its range"),
+                 (sqffd.track, dict(frame_iterations=-1), r"^frame_iterations = -1 is out of its range"),
+                 (sqffd.motion, dict(hypokinetic_share=1.5), r"^hypokinetic_share = 1\.5 is out of its range \[0, 1\]$")]
+        for function, options, message in cases:
+            with self.subTest(options=options), self.assertRaisesRegex(ValueError, message):
+                function([Data.bunny] if function is sqffd.track else [] if function is sqffd.motion else Data.bunny,
+                         **options)
+
+    def test_option_ranges_are_the_librarys(self):
+        """Every bound of the module's table (sqffd._OPTION_RANGES) against the library, the module's
+        check bypassed: a value at a closed bound or just inside an open one is accepted, one just
+        outside (and NaN) refused. A range changed in sqffd.h and not in the table fails here."""
+        model = sqffd.fit(Data.frames[0], max_iterations=0)
+        view = sqffd._points(Data.frames[0])[1]
+
+        def library_accepts(struct_type, field, index, value):
+            options = {field: value if index is None else
+                       tuple(value if i == index else d for i, d in enumerate(defaults[struct_type][field]))}
+            if field == "shape_max":  # (shape_min <= shape_max, across the fields)
+                options["shape_min"] = min(value, 0.1) if value == value else 0.1
+            elif field == "shape_min":
+                options["shape_max"] = max(value, 1.9) if value == value else 1.9
+            if struct_type is sqffd._MotionOptions:
+                try:
+                    sqffd.motion([model], **options)
+                    return True
+                except sqffd.SqffdError:
+                    return False
+            track = sqffd._lib.sqffd_track_options_default()
+            nested = {sqffd._TrackOptions: {}, sqffd._FitOptions: {"fit": options},
+                      sqffd._SqFitOptions: {"fit": {"sq": options}}}[struct_type] or options
+            sqffd._set_options(track, nested, "", [])
+            size = ctypes.c_size_t()
+            return sqffd._lib.sqffd_track_view_workspace_size(ctypes.byref(view), 1, track, ctypes.byref(size)) == 0
+
+        defaults = {sqffd._FitOptions: sqffd.fit_options_default(), sqffd._SqFitOptions: sqffd.fit_options_default()["sq"],
+                    sqffd._TrackOptions: sqffd.track_options_default(), sqffd._MotionOptions: sqffd.motion_options_default()}
+        checked = 0
+        original = sqffd._check_options
+        sqffd._check_options = lambda struct, prefix="": None
+        try:
+            for struct_type, ranges in sqffd._OPTION_RANGES.items():
+                ctypes_of = dict(struct_type._fields_)
+                for field, valid in ranges.items():
+                    for index, each in (enumerate(valid) if isinstance(valid, tuple) else [(None, valid)]):
+                        ctype = ctypes_of[field]._type_ if index is not None else ctypes_of[field]
+                        integer = ctype is not ctypes.c_double
+                        for bound, is_open, outward in ((each.low, each.low_open, -1), (each.high, each.high_open, 1)):
+                            if bound in (-np.inf, np.inf) and integer:
+                                continue  # (the C type's limit: _integer's)
+                            step = (lambda b, d: b + d) if integer else (lambda b, d: float(np.nextafter(b, d * np.inf)))
+                            inside = step(bound, -outward) if is_open else bound
+                            outside = bound if is_open else (None if bound in (-np.inf, np.inf) else step(bound, outward))
+                            what = f"{struct_type.__name__}.{field}{'' if index is None else [index]}"
+                            self.assertTrue(library_accepts(struct_type, field, index, inside), f"{what} = {inside!r}")
+                            if outside is not None:
+                                self.assertFalse(library_accepts(struct_type, field, index, outside), f"{what} = {outside!r}")
+                            checked += 1
+                        if not integer:
+                            self.assertFalse(library_accepts(struct_type, field, index, float("nan")), f"{field} = nan")
+        finally:
+            sqffd._check_options = original
+        FINDINGS["option_bounds"] = checked
 
     def test_saved_bytes(self):
         data = bytearray(sqffd.fit(Data.bunny, max_iterations=0).save())
@@ -351,7 +440,7 @@ class Stacks(unittest.TestCase):
         rotation, _ = np.linalg.qr(np.random.default_rng(31).normal(size=(3, 3)))
         radii, levels = 10.0 + np.arange(6), 8.0 * np.arange(6)
         points = self.circles(radii, levels, [(3.0, -4.0)] * 6, rotation)
-        found = sqffd.stack(points)
+        found = sqffd.stack_detect(points)
         normal = rotation[:, 2] * np.sign(rotation[np.argmax(np.abs(rotation[:, 2])), 2])  # largest component > 0
         self.assertTrue(np.allclose(found.axis, normal, rtol=0, atol=1e-12))
         offset = normal @ rotation @ np.array([3.0, -4.0, 0.0])
@@ -367,7 +456,7 @@ class Stacks(unittest.TestCase):
         self.assertTrue(np.allclose(share, 1 - rings / 4, rtol=0, atol=1e-9))
         for end in (0, 1):  # the ring itself, then every 2nd, 3rd and 4th point at 3/4, 1/2, 1/4 of its radius
             self.assertEqual(np.bincount(rings[ends == end], minlength=4).tolist(), [64, 32, 22, 16])
-        self.assertIsNone(sqffd.stack(np.random.default_rng(5).normal(size=(300, 3))))
+        self.assertIsNone(sqffd.stack_detect(np.random.default_rng(5).normal(size=(300, 3))))
 
     def test_slice_shifts_exact(self):
         rotation, _ = np.linalg.qr(np.random.default_rng(29).normal(size=(3, 3)))
@@ -379,7 +468,7 @@ class Stacks(unittest.TestCase):
             z = 5.0 * k
             centres = np.column_stack((1.0 + bend * z * z, -2.0 + 0.1 * z)) + jumps[:, :2]
             frames.append(self.circles(radius + 0.2 * z, z + 100.0, centres, rotation))
-        stacks = [sqffd.stack(frame) for frame in frames]
+        stacks = [sqffd.stack_detect(frame) for frame in frames]
         shifts = sqffd.stack_shifts(frames, stacks)
         order = slice(None) if shifts.axis @ rotation[:, 2] > 0 else slice(None, None, -1)
         self.assertTrue(np.allclose(shifts.shifts, -(jumps @ rotation.T)[order], rtol=0, atol=1e-9))
@@ -405,7 +494,7 @@ class Stacks(unittest.TestCase):
         paths = [Data.path(f"contours_{phase}.f64") for phase in ("ed", "es")]
         reference("stack", Data.path("stack_c"), *paths)
         frames = [np.fromfile(path).reshape(-1, 3) for path in paths]
-        stacks = [sqffd.stack(frame) for frame in frames]
+        stacks = [sqffd.stack_detect(frame) for frame in frames]
         shifts = sqffd.stack_shifts(frames, stacks)
         self.assertTrue(np.array_equal(shifts.shifts.ravel(), np.fromfile(Data.path("stack_c.shifts"))))
         closed = []
@@ -464,4 +553,5 @@ if __name__ == "__main__":
           f"layouts match sqffd.h; fit (bunny {100 * FINDINGS['bunny']:.4f} %, phantom), track and motion "
           f"(EF {100 * FINDINGS['ef']:.1f} %) and the stack pipeline (EF {100 * FINDINGS['stack_ef']:.1f} %) "
           f"byte-identical to C; "
-          f"resident memory {FINDINGS['growth'] / 1024:+.0f} KB over {Memory.FITS:,} fits")
+          f"resident memory {FINDINGS['growth'] / 1024:+.0f} KB over {Memory.FITS:,} fits; "
+          f"the {FINDINGS['option_bounds']} option bounds the module checks are the library's")
