@@ -317,14 +317,16 @@ bench-python: | $(BUILD)
 	if [ -z "$$py" ]; then echo "bench_python: skipped, no python3 with numpy (Debian: apt-get install python3-numpy)"; exit 0; fi; \
 	$(MAKE) --no-print-directory -s $(BUILD)/python_timer.so && "$$py" bench/bench_python.py $(BUILD)
 
+# The paths are quoted: PREFIX and DESTDIR may hold blanks (not a single quote). sqffd.pc writes the
+# prefix's blanks escaped (prefix=/opt/my\ tools), as pkg-config reads and prints them.
 install: $(BUILD)/sqffd $(BUILD)/demo_fit
-	install -d $(DESTDIR)$(PREFIX)/include $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/lib/pkgconfig
-	install -m 644 sqffd.h $(DESTDIR)$(PREFIX)/include/sqffd.h
-	install -m 755 $(BUILD)/sqffd $(DESTDIR)$(PREFIX)/bin/sqffd
+	install -d '$(DESTDIR)$(PREFIX)/include' '$(DESTDIR)$(PREFIX)/bin' '$(DESTDIR)$(PREFIX)/lib/pkgconfig'
+	install -m 644 sqffd.h '$(DESTDIR)$(PREFIX)/include/sqffd.h'
+	install -m 755 $(BUILD)/sqffd '$(DESTDIR)$(PREFIX)/bin/sqffd'
 	@printf 'prefix=%s\nincludedir=$${prefix}/include\n\nName: sqffd\nDescription: %s\nVersion: %s\nCflags: -I$${includedir}\nLibs: -lm\n' \
-	  '$(PREFIX)' 'Superquadric + free-form deformation shape model (single header)' \
+	  "$$(printf '%s' '$(PREFIX)' | sed 's/ /\\ /g')" 'Superquadric + free-form deformation shape model (single header)' \
 	  "$$(sed -n 's/^#define SQFFD_VERSION_STRING "\(.*\)"$$/\1/p' sqffd.h)" > $(BUILD)/sqffd.pc
-	install -m 644 $(BUILD)/sqffd.pc $(DESTDIR)$(PREFIX)/lib/pkgconfig/sqffd.pc
+	install -m 644 $(BUILD)/sqffd.pc '$(DESTDIR)$(PREFIX)/lib/pkgconfig/sqffd.pc'
 
 clean:
 	rm -rf $(BUILD)

@@ -4,9 +4,11 @@
      sqffd help [COMMAND]                   usage of the tool or of one command
 
    Exit status: 0 success, 1 bad input or failed fit (message "FILE: what is
-   wrong" on stderr), 2 usage error (message and a short usage on stderr).
+   wrong" on stderr) or a report lost (standard output not written), 2 usage
+   error (message and a short usage on stderr).
    Build: make (-> build/sqffd). */
 #define _POSIX_C_SOURCE 200809L
+#define _XOPEN_SOURCE 700 /* realpath */
 #define SQFFD_IMPLEMENTATION
 #include "../sqffd.h"
 #include "sqffd_io.h"
@@ -21,6 +23,7 @@
 #include <string.h>
 #include <time.h>
 #include <math.h>
+#include <dirent.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -86,7 +89,8 @@ static void print_overview(FILE *f)
     fprintf(f, "usage: sqffd COMMAND [ARGS]   (sqffd %s)\n\ncommands:\n", SQFFD_VERSION_STRING);
     for (i = 0; i < COMMAND_COUNT; i++) fprintf(f, "  %-8s %s\n", commands[i].name, commands[i].summary);
     fprintf(f, "\n'sqffd COMMAND --help' shows a command's options; 'sqffd --version' the version.\n"
-               "Exit status: 0 success, 1 bad input or failed fit, 2 usage error.\n");
+               "Exit status: 0 success, 1 bad input, a failed fit or a failed write (also of the\n"
+               "report to standard output), 2 usage error.\n");
 }
 
 static void print_command_help(FILE *f, const cli_command *c)
@@ -129,19 +133,6 @@ static int parse_int(const char *s, long lo, long hi, long *out)
     return 0;
 }
 
-/* A whole finite number >= 0; 0 on success. */
-static int parse_nonnegative(const char *s, double *out)
-{
-    char *end;
-    double v;
-    if (!*s || *s == ' ' || *s == '\t') return 1;
-    errno = 0;
-    v = strtod(s, &end);
-    if (errno || *end || !(v >= 0.0) || v > 1e300) return 1;
-    *out = v;
-    return 0;
-}
-
 /* "X,Y,Z" (count numbers, any sign) into v; 0 on success. */
 static int parse_numbers(const char *s, int count, double *v)
 {
@@ -178,11 +169,404 @@ static int parse_dims(const char *s, int parts, long lo, long hi, int *dims)
     return k == parts ? 0 : 1;
 }
 
+/* ---- the numeric options' ranges: one table ------------------------------
+
+   Every value inside a range works (a fit runs without error on real
+   shapes at either end); outside it, a usage error names the option and
+   its range. */
+typedef struct number_range {
+    const char *command;  /* the command whose option it is; NULL: any that takes it */
+    const char *name;
+    double lo, hi;
+    int whole;            /* a whole number */
+    int zero_too;         /* 0 is valid too, below lo */
+    const char *word;     /* a word it takes instead of a number, or NULL */
+} number_range;
+
+static const number_range number_ranges[] = {
+    /* the model's (fit, track) */
+    {NULL, "--lattice", 2, SQFFD_MAX_LATTICE, 1, 0, NULL},
+    /* alpha weighs the springs (a graph Laplacian, singular) against the data's normal matrix: the fit's Cholesky
+       factor fails where rounding loses one to the other, measured from alpha 1e16 up (a 2x2x2 lattice) and from
+       1e-20 down (an 8x8x8 lattice parts of which no data reach); 0 takes the SVD's pseudo-inverse. The ranges of
+       --alpha and --model-to-data hold 4 and 5 orders of magnitude from those failures on the bunny, the dev
+       shapes and 25 points, lattices 2 to 8, robust or not. */
+    {NULL, "--alpha", 1e-9, 1e12, 0, 1, NULL},
+    {NULL, "--model-to-data", 0, 100, 0, 0, NULL},
+    {NULL, "--min-jacobian", -1e6, 1, 0, 0, "none"},
+    {NULL, "--iterations", 0, 10000, 1, 0, NULL},
+    {NULL, "--coarse-iterations", 0, 10000, 1, 0, NULL},
+    /* inputs (fit, track) */
+    {NULL, "--sample", 20, 100000000, 1, 0, NULL},
+    {"fit", "--mesh", 4, 1024, 1, 0, NULL},
+    {"track", "--ed", 0, 1000000, 1, 0, NULL},
+    {"track", "--low-motion", 0, 1, 0, 0, NULL},
+    {"track", "--frame-iterations", 0, 10000, 1, 0, NULL},
+    {"phantom", "--frames", 2, 1000, 1, 0, NULL},
+    {"phantom", "--points", 20, 10000000, 1, 0, NULL},
+    {"phantom", "--noise", 0, 0.5, 0, 0, NULL},
+    {"phantom", "--seed", 0, 2000000000, 1, 0, NULL},
+};
+
+static const number_range *find_range(const char *command, const char *name)
+{
+    size_t i;
+    for (i = 0; i < sizeof number_ranges / sizeof number_ranges[0]; i++)
+        if (strcmp(number_ranges[i].name, name) == 0 &&
+            (!number_ranges[i].command || strcmp(number_ranges[i].command, command) == 0))
+            return &number_ranges[i];
+    return NULL; /* (every caller names an option of the table) */
+}
+
+/* Option `name`'s range (of command `command`) as the messages and the
+   help write it, "[2, 8]", "0 or in [1e-9, 1e12]", into text. */
+typedef char range_text_buffer[96];
+static const char *range_text(const char *command, const char *name, range_text_buffer text)
+{
+    const number_range *r = find_range(command, name);
+    char lo[32], hi[32], *e;
+    snprintf(lo, sizeof lo, "%g", r->lo);
+    snprintf(hi, sizeof hi, "%g", r->hi);
+    for (e = lo; e; e = e == lo ? hi : NULL) { /* 1e+12 -> 1e12, 1e-09 -> 1e-9 */
+        char *x = strchr(e, 'e');
+        if (!x) continue;
+        x++;
+        if (*x == '+') memmove(x, x + 1, strlen(x));
+        else if (*x == '-') x++;
+        while (*x == '0' && x[1]) memmove(x, x + 1, strlen(x));
+    }
+    snprintf(text, sizeof(range_text_buffer), "%s[%s, %s]", r->zero_too ? "0 or in " : "", lo, hi);
+    return text;
+}
+
+/* Option `name` of command c with value v: a number in its range into
+   *out; 0, or a usage error's status after the message. */
+static int option_number(const cli_command *c, const char *name, const char *v, double *out)
+{
+    const number_range *r = find_range(c->name, name);
+    range_text_buffer text;
+    double x = 0.0;
+    long n;
+    char *end;
+    int bad;
+    if (r->whole) {
+        bad = parse_int(v, (long)r->lo, (long)r->hi, &n);
+        x = (double)n;
+    } else {
+        errno = 0;
+        x = strtod(v, &end);
+        bad = !*v || *v == ' ' || *v == '\t' || *end || errno || !(x >= r->lo || (r->zero_too && x == 0.0)) ||
+              !(x <= r->hi);
+    }
+    if (bad)
+        return usage_error(c, "%s: %s must be %s%s%s%s%s, not '%s'", c->name, name,
+                           r->whole ? "a whole number in " : r->zero_too ? "" : "in ", range_text(c->name, name, text),
+                           r->word ? " or '" : "", r->word ? r->word : "", r->word ? "'" : "", v);
+    *out = x;
+    return 0;
+}
+
+/* Option `name` of command c: "N" (all axes) or "AxBxC" of `parts` whole
+   numbers in its range into dims; 0, or a usage error's status. */
+static int option_dims(const cli_command *c, const char *name, const char *v, int parts, int *dims)
+{
+    const number_range *r = find_range(c->name, name);
+    range_text_buffer text;
+    if (!parse_dims(v, parts, (long)r->lo, (long)r->hi, dims)) return 0;
+    return usage_error(c, "%s: %s must be N or %s, each a whole number in %s, not '%s'", c->name, name,
+                       parts == 3 ? "LxMxN" : "ExO", range_text(c->name, name, text), v);
+}
+
 static double seconds_now(void)
 {
     struct timespec t;
     clock_gettime(CLOCK_MONOTONIC, &t);
     return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+/* ---- outputs: checked before the work, written whole or not at all --------
+
+   Every file the commands write goes through an output set. output_add
+   checks a path before any work: it is none of the inputs and no other
+   output (the same file: device and inode, so a link is caught too), and
+   its folder takes a new file, for the file's temporary is created there
+   at once ("FOLDER/.NAME.XXXXXX"). The writers fill the temporaries one
+   at a time (output_open); output_commit closes the last and, only when
+   every one was written whole, renames each over its target (a symbolic
+   link's target: the link is kept). Any failure before that, and output_abort, remove every
+   temporary: a failed run leaves the targets as they were. (The renames
+   themselves, one per file in the target's own folder, are not undone if
+   a later one fails.) A target that exists and is no regular file
+   (/dev/null, a FIFO) is written in place. */
+
+typedef struct output_file {
+    char *path;          /* as given (for messages and output_stream) */
+    char *target;        /* the file renamed over: path, or the file a symbolic link names */
+    char *temp;          /* the temporary beside it; NULL when written in place */
+    struct stat folder;  /* the target's folder */
+    struct stat file;    /* the target, when it exists (exists) */
+    int exists;
+} output_file;
+
+typedef struct output_set {
+    output_file *file;
+    size_t count;
+    FILE *open;                 /* the one being written (output_open), or NULL */
+    size_t open_index;
+    const char *const *inputs;  /* the run's inputs: no output may be one of them */
+    size_t input_count;
+    const char *folder;         /* a folder output_folder made (removed again if the run fails and it is empty) */
+} output_set;
+
+static int same_file(const struct stat *a, const struct stat *b)
+{
+    return a->st_dev == b->st_dev && a->st_ino == b->st_ino;
+}
+
+/* The input that is the same file as st, or NULL. */
+static const char *output_input_clash(const output_set *set, const struct stat *st)
+{
+    struct stat in;
+    size_t i;
+    for (i = 0; i < set->input_count; i++)
+        if (stat(set->inputs[i], &in) == 0 && same_file(&in, st)) return set->inputs[i];
+    return NULL;
+}
+
+/* The name of path after its last '/'. */
+static const char *base_name(const char *path)
+{
+    const char *slash = strrchr(path, '/');
+    return slash ? slash + 1 : path;
+}
+
+/* Whether outputs a and b are the same file: the same name in the same
+   folder, or one file under two names (hard links). */
+static int output_same(const output_file *a, const output_file *b)
+{
+    return (same_file(&a->folder, &b->folder) && strcmp(base_name(a->target), base_name(b->target)) == 0) ||
+           (a->exists && b->exists && same_file(&a->file, &b->file));
+}
+
+/* Adds path to the set: the checks above, then its temporary; 0, or 1
+   after a message on stderr. */
+static int output_add(output_set *set, const char *path)
+{
+    output_file *grown, *o;
+    struct stat link;
+    const char *clash;
+    size_t i, len;
+    int fd;
+    grown = (output_file *)realloc(set->file, (set->count + 1) * sizeof *set->file);
+    if (!grown) { fprintf(stderr, "%s: out of memory\n", path); return 1; }
+    set->file = grown;
+    o = &set->file[set->count++]; /* (output_abort frees what it holds) */
+    memset(o, 0, sizeof *o);
+    o->exists = stat(path, &o->file) == 0;
+    o->path = strdup(path);
+    o->target = o->exists && lstat(path, &link) == 0 && S_ISLNK(link.st_mode) ? realpath(path, NULL) : strdup(path);
+    if (!o->path || !o->target) { fprintf(stderr, "%s: out of memory\n", path); return 1; }
+    if (o->exists && S_ISDIR(o->file.st_mode)) { fprintf(stderr, "%s: cannot create: it is a folder\n", path); return 1; }
+    if (o->exists && !S_ISREG(o->file.st_mode)) return 0; /* a device or a FIFO (/dev/null): written in place */
+    if (o->exists && (clash = output_input_clash(set, &o->file)) != NULL) {
+        fprintf(stderr, "sqffd: the output %s is the input %s (the same file): give another output\n", path, clash);
+        return 1;
+    }
+    /* the temporary, FOLDER/.NAME.XXXXXX, made now: the folder exists and takes a file */
+    len = (size_t)(base_name(o->target) - o->target); /* the folder's part, its '/' included */
+    o->temp = (char *)malloc(strlen(o->target) + 10);
+    if (!o->temp) { fprintf(stderr, "%s: out of memory\n", path); return 1; }
+    sprintf(o->temp, "%.*s", (int)(len ? len : 1), len ? o->target : ".");
+    errno = 0;
+    fd = -1;
+    if (stat(o->temp, &o->folder) == 0) {
+        sprintf(o->temp, "%.*s.%s.XXXXXX", (int)len, o->target, base_name(o->target));
+        fd = mkstemp(o->temp);
+    }
+    if (fd < 0) {
+        fprintf(stderr, "%s: cannot create: %s\n", path, errno ? strerror(errno) : "unknown error");
+        free(o->temp);
+        o->temp = NULL;
+        return 1;
+    }
+    for (i = 0; i + 1 < set->count; i++)
+        if (output_same(&set->file[i], o)) {
+            fprintf(stderr, "sqffd: the outputs %s and %s are the same file: give each its own\n", set->file[i].path, path);
+            close(fd);
+            return 1;
+        }
+    if (!o->exists) { /* the mode a new file gets (mkstemp's is 0600); else the target's */
+        mode_t mask = umask(0);
+        umask(mask);
+        o->file.st_mode = 0666 & ~mask;
+    }
+    errno = 0;
+    if (fchmod(fd, o->file.st_mode & 07777) != 0 || close(fd) != 0) {
+        fprintf(stderr, "%s: cannot create: %s\n", path, errno ? strerror(errno) : "unknown error");
+        return 1;
+    }
+    return 0;
+}
+
+/* DIR/NAME into path (4096 bytes); 0 on success. */
+static int join_path(char *path, const char *dir, const char *name)
+{
+    int len = snprintf(path, 4096, "%s/%s", dir, name);
+    return len < 0 || len >= 4096;
+}
+
+/* DIR/NAME added to the set; 0, or 1 after a message. */
+static int output_add_in(output_set *set, const char *dir, const char *name)
+{
+    char path[4096];
+    if (join_path(path, dir, name)) {
+        fprintf(stderr, "%s: output path too long\n", dir);
+        return 1;
+    }
+    return output_add(set, path);
+}
+
+/* Closes the stream being written; 0, or 1 with a message in err. */
+static int output_close(output_set *set, char *err, size_t err_size)
+{
+    FILE *f = set->open;
+    int failed;
+    if (!f) return 0;
+    set->open = NULL;
+    errno = 0;
+    failed = fflush(f) != 0 || ferror(f);
+    failed |= fclose(f) != 0;
+    if (failed)
+        snprintf(err, err_size, "%s: write error: %s", set->file[set->open_index].path,
+                 errno ? strerror(errno) : "unknown error");
+    return failed;
+}
+
+/* The stream to write the output added as path (the last one closed);
+   NULL with a message in err. */
+static FILE *output_open(output_set *set, const char *path, char *err, size_t err_size)
+{
+    size_t i;
+    if (output_close(set, err, err_size)) return NULL;
+    for (i = 0; i < set->count && strcmp(set->file[i].path, path) != 0; i++) continue;
+    errno = 0;
+    if (i < set->count && (set->open = fopen(set->file[i].temp ? set->file[i].temp : set->file[i].target, "wb")) != NULL) {
+        set->open_index = i;
+        return set->open;
+    }
+    snprintf(err, err_size, "%s: cannot write: %s", path,
+             i == set->count ? "not an output (a bug)" : errno ? strerror(errno) : "unknown error");
+    return NULL;
+}
+
+/* Removes every temporary, and the folder output_folder made if it is empty. */
+static void output_abort(output_set *set)
+{
+    size_t i;
+    if (set->open) fclose(set->open);
+    set->open = NULL;
+    for (i = 0; i < set->count; i++) {
+        if (set->file[i].temp) unlink(set->file[i].temp);
+        free(set->file[i].path);
+        free(set->file[i].target);
+        free(set->file[i].temp);
+    }
+    if (set->folder) rmdir(set->folder);
+    free(set->file);
+    set->file = NULL;
+    set->count = 0;
+    set->folder = NULL;
+}
+
+/* Closes the last output written; when all were written whole, renames
+   each over its target. 0, or 1 after a message (the targets untouched,
+   the temporaries removed). */
+static int output_commit(output_set *set)
+{
+    char err[512];
+    size_t i;
+    int status = output_close(set, err, sizeof err);
+    if (status) fprintf(stderr, "%s\n", err);
+    for (i = 0; i < set->count && !status; i++) {
+        output_file *o = &set->file[i];
+        if (o->temp && rename(o->temp, o->target) != 0) {
+            fprintf(stderr, "%s: cannot replace: %s\n", o->path, strerror(errno));
+            status = 1;
+        }
+        if (!status) { free(o->temp); o->temp = NULL; }
+    }
+    if (!status) set->folder = NULL; /* (kept) */
+    output_abort(set);
+    return status;
+}
+
+/* The numbered outputs of a command in a folder: PREFIX NN SUFFIX, NN as
+   "%02lu" writes it (frame_00.ply ... frame_123.ply); 1 and the number in
+   *k when name is one. */
+static int numbered_name(const char *name, const char *prefix, const char *suffix, unsigned long *k)
+{
+    size_t lp = strlen(prefix), ls = strlen(suffix), len = strlen(name);
+    char canonical[64];
+    if (len <= lp + ls || len - lp - ls > 20 || strncmp(name, prefix, lp) != 0 || strcmp(name + len - ls, suffix) != 0 ||
+        name[lp] < '0' || name[lp] > '9')
+        return 0;
+    *k = strtoul(name + lp, NULL, 10);
+    snprintf(canonical, sizeof canonical, "%s%02lu%s", prefix, *k, suffix);
+    return strcmp(canonical, name) == 0;
+}
+
+/* A command's output folder: made if absent; none of the files in it that
+   bear the command's numbered names (each is written or removed by the
+   run: output_prune) may be an input. 0, or 1 after a message. */
+static int output_folder(output_set *set, const char *dir, const char *prefix, const char *suffix)
+{
+    struct stat st;
+    DIR *d;
+    struct dirent *e;
+    unsigned long k;
+    char path[4096];
+    const char *clash = NULL;
+    if (stat(dir, &st) != 0) {
+        if (mkdir(dir, 0777) != 0) {
+            fprintf(stderr, "%s: cannot make the output folder: %s\n", dir, strerror(errno));
+            return 1;
+        }
+        set->folder = dir;
+        return 0;
+    }
+    if (!S_ISDIR(st.st_mode)) {
+        fprintf(stderr, "%s: cannot make the output folder: a file of that name exists\n", dir);
+        return 1;
+    }
+    if (!(d = opendir(dir))) {
+        fprintf(stderr, "%s: cannot read the output folder: %s\n", dir, strerror(errno));
+        return 1;
+    }
+    while (!clash && (e = readdir(d)) != NULL)
+        if (numbered_name(e->d_name, prefix, suffix, &k) &&
+            (size_t)snprintf(path, sizeof path, "%s/%s", dir, e->d_name) < sizeof path && stat(path, &st) == 0)
+            clash = output_input_clash(set, &st);
+    closedir(d);
+    if (clash)
+        fprintf(stderr, "sqffd: the input %s is the output folder's %s, which this run replaces or removes: give "
+                        "another output folder\n", clash, base_name(path));
+    return clash != NULL;
+}
+
+/* After a run wrote count numbered files into dir: removes the ones an
+   earlier, longer run left (numbers count and up; no other file). */
+static void output_prune(const char *dir, const char *prefix, const char *suffix, size_t count)
+{
+    DIR *d = opendir(dir);
+    struct dirent *e;
+    unsigned long k;
+    char path[4096];
+    if (!d) return;
+    while ((e = readdir(d)) != NULL)
+        if (numbered_name(e->d_name, prefix, suffix, &k) && k >= count &&
+            (size_t)snprintf(path, sizeof path, "%s/%s", dir, e->d_name) < sizeof path)
+            unlink(path);
+    closedir(d);
 }
 
 /* ---- the option scanner shared by the commands --------------------------
@@ -244,7 +628,7 @@ static int scan_flag(const arg_scan *s, const cli_command *c)
 static int scan_model_option(arg_scan *s, const cli_command *c, sqffd_fit_options *o, int *status)
 {
     const char *v;
-    long n;
+    double n = 0.0;
 #define IS(x) (strcmp(s->name, x) == 0)
     *status = 0;
     if (IS("--robust") || IS("--no-taper")) {
@@ -257,26 +641,14 @@ static int scan_model_option(arg_scan *s, const cli_command *c, sqffd_fit_option
         return 0;
     v = scan_value(s, c);
     if (!v) *status = EXIT_USAGE;
-    else if (IS("--lattice")) {
-        if (parse_dims(v, 3, 2, SQFFD_MAX_LATTICE, o->lattice))
-            *status = usage_error(c, "%s: --lattice takes N or LxMxN, each 2..%d, not '%s'", c->name, SQFFD_MAX_LATTICE, v);
-    } else if (IS("--alpha")) {
-        if (parse_nonnegative(v, &o->alpha))
-            *status = usage_error(c, "%s: --alpha takes a finite number >= 0, not '%s'", c->name, v);
-    } else if (IS("--model-to-data")) {
-        if (parse_nonnegative(v, &o->model_to_data))
-            *status = usage_error(c, "%s: --model-to-data takes a finite number >= 0, not '%s'", c->name, v);
-    } else if (IS("--min-jacobian")) {
-        if (strcmp(v, "none") == 0) o->min_jacobian = -HUGE_VAL;
-        else if (parse_numbers(v, 1, &o->min_jacobian) || o->min_jacobian > 1.0)
-            *status = usage_error(c, "%s: --min-jacobian takes a number <= 1 or 'none', not '%s'", c->name, v);
-    } else if (parse_int(v, 0, 10000, &n)) {
-        *status = usage_error(c, "%s: %s takes a whole number 0..10000, not '%s'", c->name, s->name, v);
-    } else if (IS("--iterations")) {
-        o->max_iterations = (int)n;
-    } else {
-        o->coarse_iterations = (int)n;
-    }
+    else if (IS("--lattice")) *status = option_dims(c, s->name, v, 3, o->lattice);
+    else if (IS("--min-jacobian") && strcmp(v, "none") == 0) o->min_jacobian = -HUGE_VAL;
+    else if ((*status = option_number(c, s->name, v, &n)) != 0) return 1;
+    else if (IS("--alpha")) o->alpha = n;
+    else if (IS("--model-to-data")) o->model_to_data = n;
+    else if (IS("--min-jacobian")) o->min_jacobian = n;
+    else if (IS("--iterations")) o->max_iterations = (int)n;
+    else o->coarse_iterations = (int)n;
 #undef IS
     return 1;
 }
@@ -284,20 +656,25 @@ static int scan_model_option(arg_scan *s, const cli_command *c, sqffd_fit_option
 /* The model options' help lines, shared by fit and track (d: the command's defaults). */
 static void model_option_details(FILE *f, const sqffd_fit_options *d, const char *iterations_note)
 {
+    range_text_buffer r[6];
     fprintf(f,
-            "  --lattice N|LxMxN      FFD control points per axis, 2..%d (default %dx%dx%d)\n"
-            "  --alpha A              spring weight of the energy, >= 0 (default %g)\n"
-            "  --model-to-data W      weight of the model -> data term, >= 0 (default %g;\n"
+            "  --lattice N|LxMxN      FFD control points per axis, %s (default %dx%dx%d)\n"
+            "  --alpha A              spring weight of the energy, %s (default %g)\n"
+            "  --model-to-data W      weight of the model -> data term, %s (default %g;\n"
             "                         0: the data -> model distances alone)\n"
-            "  --min-jacobian J       no step leaves the lattice's Jacobian bound below J, <= 1\n"
+            "  --min-jacobian J       no step leaves the lattice's Jacobian bound below J, %s\n"
             "                         (default %g: the model cannot fold; 'none': no bound)\n"
-            "  --iterations K         FFD iterations at most, 0..10000 (default %d; %s)\n"
+            "  --iterations K         FFD iterations at most, %s (default %d;\n"
+            "                         %s)\n"
             "  --coarse-iterations K  of those, at most K first on a coarse grid (half the rows and\n"
-            "                         columns, %d points at most), 0..10000 (default %d; 0: none)\n"
+            "                         columns, %d points at most), %s (default %d; 0: none)\n"
             "  --robust               outlier-robust fit in both stages\n"
             "  --no-taper             superquadric without tapering (11 parameters, not 13)\n",
-            SQFFD_MAX_LATTICE, d->lattice[0], d->lattice[1], d->lattice[2], d->alpha, d->model_to_data,
-            d->min_jacobian, d->max_iterations, iterations_note, SQFFD_FIT_COARSE_POINTS, d->coarse_iterations);
+            range_text("fit", "--lattice", r[0]), d->lattice[0], d->lattice[1], d->lattice[2],
+            range_text("fit", "--alpha", r[1]), d->alpha, range_text("fit", "--model-to-data", r[2]), d->model_to_data,
+            range_text("fit", "--min-jacobian", r[3]), d->min_jacobian, range_text("fit", "--iterations", r[4]),
+            d->max_iterations, iterations_note, SQFFD_FIT_COARSE_POINTS, range_text("fit", "--coarse-iterations", r[5]),
+            d->coarse_iterations);
 }
 
 /* ---- inputs: point files and volumes ------------------------------------ */
@@ -306,6 +683,7 @@ static void model_option_details(FILE *f, const sqffd_fit_options *d, const char
 typedef struct input_args {
     int iso_auto;         /* Otsu's threshold (the default) */
     double iso;           /* else this level */
+    int iso_set;          /* --iso was given (auto or a level) */
     int label_set;        /* a label map: the surface of the voxels of this label */
     double label;
     size_t sample;        /* at most this many points (0: all); volumes default to VOLUME_SAMPLE */
@@ -338,7 +716,7 @@ typedef struct input_summary {
 static int scan_input_option(arg_scan *s, const cli_command *c, input_args *in, int *status)
 {
     const char *v;
-    long n;
+    double n = 0.0;
     *status = 0;
     if (strcmp(s->name, "--all-components") == 0 || strcmp(s->name, "--slice-shifts") == 0 ||
         strcmp(s->name, "--no-lids") == 0) {
@@ -353,6 +731,7 @@ static int scan_input_option(arg_scan *s, const cli_command *c, input_args *in, 
         *status = EXIT_USAGE;
     } else if (strcmp(s->name, "--iso") == 0) {
         char *end;
+        in->iso_set = 1;
         in->iso_auto = strcmp(v, "auto") == 0;
         if (!in->iso_auto) {
             errno = 0;
@@ -366,9 +745,7 @@ static int scan_input_option(arg_scan *s, const cli_command *c, input_args *in, 
             *status = usage_error(c, "%s: --label takes a voxel value (a label map's label), not '%s'", c->name, v);
         else if (!in->iso_auto) *status = usage_error(c, "%s: --iso and --label exclude each other", c->name);
         in->label_set = 1;
-    } else if (parse_int(v, 20, 100000000L, &n)) {
-        *status = usage_error(c, "%s: --sample takes a point count 20..100000000, not '%s'", c->name, v);
-    } else {
+    } else if ((*status = option_number(c, s->name, v, &n)) == 0) {
         in->sample = (size_t)n;
         in->sample_set = 1;
     }
@@ -377,11 +754,13 @@ static int scan_input_option(arg_scan *s, const cli_command *c, input_args *in, 
 
 static void input_option_details(FILE *f)
 {
+    range_text_buffer r;
     fprintf(f,
             "  --iso V|auto           volumes: the iso level (default auto: Otsu's threshold)\n"
             "  --label N              label maps (segmentations): the surface of the voxels labelled N\n"
             "                         (crossings at the voxel edges' midpoints), instead of --iso\n"
-            "  --sample N             keep N points evenly spread (volumes: default %d; point files: all)\n"
+            "  --sample N             keep N points evenly spread, %s (volumes: default %d;\n"
+            "                         point files: all)\n"
             "  --all-components       volumes: keep every piece of the iso-surface (default: the\n"
             "                         largest connected one, so specks and noise are dropped)\n"
             "  --slice-shifts         short-axis stacks (contours listed slice by slice): correct\n"
@@ -391,7 +770,7 @@ static void input_option_details(FILE *f)
             "  --no-lids              short-axis stacks: leave their ends open (default: each frame's\n"
             "                         outer contours filled in half a spacing beyond its outer\n"
             "                         slices, where Simpson's method ends, so the model closes there)\n",
-            VOLUME_SAMPLE);
+            range_text("fit", "--sample", r), VOLUME_SAMPLE);
 }
 
 /* How many of the frames, from the first, are short-axis stacks whose
@@ -575,6 +954,11 @@ static int read_input(const char *path, const input_args *in, int first_only, do
     if (!is_volume(path)) {
         double *points = NULL;
         sqffd_io_info info;
+        const char *volume_only = in->iso_set ? "--iso" : in->label_set ? "--label" : in->all_components ? "--all-components" : NULL;
+        if (volume_only) {
+            snprintf(err, err_size, "%s: a point file, and %s applies to volumes only (their iso-surface)", path, volume_only);
+            return 1;
+        }
         if (sqffd_io_read_file_info(path, &points, &n, &info, err, err_size)) return 1;
         sum->dropped_nan = info.dropped_nan;
         if (in->sample_set && in->sample < n) {
@@ -713,8 +1097,8 @@ static int fit_parse(int argc, char **argv, fit_args *a, int *help)
         else if (IS("--points")) a->points_output = v;
         else if (IS("--json")) a->json_output = v;
         else if (IS("--svg")) a->svg_output = v;
-        else if (parse_dims(v, 2, 4, 1024, a->mesh))
-            return usage_error(c, "fit: --mesh takes N or ExO, each 4..1024, not '%s'", v);
+        else if ((status = option_dims(c, s.name, v, 2, a->mesh)) != 0)
+            return status;
 #undef IS
     }
     if (!a->input) return usage_error(c, "fit: no INPUT file");
@@ -725,6 +1109,7 @@ static int fit_parse(int argc, char **argv, fit_args *a, int *help)
 static void fit_details(FILE *f)
 {
     sqffd_fit_options d = sqffd_fit_options_default();
+    range_text_buffer r;
     fprintf(f,
             "INPUT is a point file: PLY (ascii, binary little or big endian; vertex x y z read,\n"
             "other properties and elements skipped), PCD (ascii, binary, binary_compressed; points\n"
@@ -740,7 +1125,7 @@ static void fit_details(FILE *f)
     input_option_details(f);
     model_option_details(f, &d, "0: the superquadric alone");
     fprintf(f,
-            "  --mesh N|ExO           output mesh grid, eta x omega, 4..1024 (default 64x128)\n"
+            "  --mesh N|ExO           output mesh grid, eta x omega, each %s (default 64x128)\n"
             "  --points FILE.ply      also write the data points, each with a float 'error':\n"
             "                         its distance to the model surface\n"
             "  --vtk                  write the mesh as legacy VTK polydata (ParaView) instead of PLY\n"
@@ -750,7 +1135,11 @@ static void fit_details(FILE *f)
             "  --quiet                print nothing on success\n"
             "\n"
             "The error in the report is the RMS distance from the data points to the model\n"
-            "surface, relative to the diagonal of the data's bounding box.\n");
+            "surface, relative to the diagonal of the data's bounding box.\n"
+            "Every output is checked before the fit (none may be the input or another output)\n"
+            "and written whole or not at all: each to a temporary file beside it, all renamed\n"
+            "over their names only once every one is written.\n",
+            range_text("fit", "--mesh", r));
 }
 
 static void print_vec3(const char *label, const double *v)
@@ -794,7 +1183,8 @@ static void fit_report(const fit_args *a, const input_summary *in, size_t n, con
     printf("    after FFD      %.4f %%   (max %.4f %%)   lattice %dx%dx%d, alpha %g\n",
            100.0 * r->error.rms_relative, 100.0 * r->error.max_relative, ffd->dims[0], ffd->dims[1], ffd->dims[2],
            a->options.alpha);
-    printf("    jacobian       %.4f   (the lattice's smallest Bernstein bound: > 0, no fold)\n", r->min_jacobian);
+    printf("    jacobian       %.4f   (its lower bound: %s)\n", r->min_jacobian,
+           r->min_jacobian > 0.0 ? "> 0, no fold" : "<= 0, the model may fold");
     if (r->coarse_iterations > 0) printf("  iterations       %d coarse + %d", r->coarse_iterations, r->iterations);
     else printf("  iterations       %d", r->iterations);
     printf("%s\n", r->iterations == 0                ? " (the superquadric alone)"
@@ -849,6 +1239,8 @@ static int cmd_fit(int argc, char **argv)
     sqffd_io_scalar scalar;
     sqffd_slice_shifts shifts;
     sqffd_stack stack;
+    output_set out;
+    FILE *f;
     size_t lids = 0;
     int is_stack;
 
@@ -860,6 +1252,12 @@ static int cmd_fit(int argc, char **argv)
     }
     status = EXIT_BAD_INPUT;
     t[0] = seconds_now();
+    memset(&out, 0, sizeof out);
+    out.inputs = &a.input;
+    out.input_count = 1;
+    if (output_add(&out, a.output) || (a.points_output && output_add(&out, a.points_output)) ||
+        (a.json_output && output_add(&out, a.json_output)) || (a.svg_output && output_add(&out, a.svg_output)))
+        goto done;
     if (read_input(a.input, &a.in, 1, &frames, &counts, &frame_count, &input, err, sizeof err)) {
         fprintf(stderr, "%s\n", err);
         goto done;
@@ -871,6 +1269,10 @@ static int cmd_fit(int argc, char **argv)
     points = frames[0];
     n = counts[0];
     t[1] = seconds_now();
+    if (n < SQFFD_SQ_FIT_MIN_POINTS) {
+        fprintf(stderr, "%s: %lu points; at least %d are needed\n", a.input, (unsigned long)n, SQFFD_SQ_FIT_MIN_POINTS);
+        goto done;
+    }
 
     r = sqffd_fit_workspace_size(n, &a.options, &work_size);
     if (r == SQFFD_ERROR_TOO_LARGE) {
@@ -922,9 +1324,10 @@ static int cmd_fit(int argc, char **argv)
     }
     scalar.name = "error";
     scalar.values = vertex_error;
-    if (a.vtk ? sqffd_export_vtk(a.output, "sqffd model", vertices, nv, triangles, nt, &scalar, 1,
-                                 a.ascii ? SQFFD_EXPORT_VTK_ASCII : 0, err, sizeof err)
-              : sqffd_io_write_ply(a.output, vertices, nv, triangles, nt, &scalar, 1, a.ascii, err, sizeof err)) {
+    if (!(f = output_open(&out, a.output, err, sizeof err)) ||
+        (a.vtk ? sqffd_export_vtk_stream(f, a.output, "sqffd model", vertices, nv, triangles, nt, &scalar, 1,
+                                         a.ascii ? SQFFD_EXPORT_VTK_ASCII : 0, err, sizeof err)
+               : sqffd_io_write_ply_stream(f, a.output, vertices, nv, triangles, nt, &scalar, 1, a.ascii, err, sizeof err))) {
         fprintf(stderr, "%s\n", err);
         goto done;
     }
@@ -945,16 +1348,20 @@ static int cmd_fit(int argc, char **argv)
             goto done;
         }
         scalar.values = point_error;
-        if (sqffd_io_write_ply(a.points_output, points, n, NULL, 0, &scalar, 1, a.ascii, err, sizeof err)) {
+        if (!(f = output_open(&out, a.points_output, err, sizeof err)) ||
+            sqffd_io_write_ply_stream(f, a.points_output, points, n, NULL, 0, &scalar, 1, a.ascii, err, sizeof err)) {
             fprintf(stderr, "%s\n", err);
             goto done;
         }
     }
-    if ((a.json_output && sqffd_export_model_json(a.json_output, &model, &report, err, sizeof err)) ||
-        (a.svg_output && sqffd_export_svg_history(a.svg_output, &report, a.input, err, sizeof err))) {
+    if ((a.json_output && (!(f = output_open(&out, a.json_output, err, sizeof err)) ||
+                           sqffd_export_model_json_stream(f, a.json_output, &model, &report, err, sizeof err))) ||
+        (a.svg_output && (!(f = output_open(&out, a.svg_output, err, sizeof err)) ||
+                          sqffd_export_svg_history_stream(f, a.svg_output, &report, a.input, err, sizeof err)))) {
         fprintf(stderr, "%s\n", err);
         goto done;
     }
+    if (output_commit(&out)) goto done;
     t[3] = seconds_now();
     if (!a.quiet) fit_report(&a, &input, n, &model, &report, nv, nt, &mesh_stats, t);
     if (!a.quiet && lids)
@@ -963,6 +1370,7 @@ static int cmd_fit(int argc, char **argv)
     if (!a.quiet && a.in.slice_shifts) print_slice_shifts(&shifts);
     status = 0;
 done:
+    output_abort(&out);
     free_frames(frames, counts, frame_count);
     free(work);
     free(vertices);
@@ -1001,6 +1409,7 @@ typedef struct track_args {
     double mm_per_unit;          /* --mm-per-unit (default 1): the report's numbers are the model's times it */
     int unit;                    /* UNIT_GIVEN, UNIT_ASSUMED (a point file without --mm-per-unit), UNIT_VOLUMES */
     const char *json_output;     /* --json FILE */
+    output_set out;              /* the files written into output (track_outputs) */
 } track_args;
 
 enum { UNIT_VOLUMES, UNIT_ASSUMED, UNIT_GIVEN };
@@ -1076,7 +1485,7 @@ static int track_parse(int argc, char **argv, track_args *a, int *help)
     arg_scan s;
     const char *arg, *v;
     int kind, status;
-    long n;
+    double n = 0.0;
     memset(&s, 0, sizeof s);
     s.argc = argc;
     s.argv = argv;
@@ -1105,7 +1514,7 @@ static int track_parse(int argc, char **argv, track_args *a, int *help)
         if (!(v = scan_value(&s, c))) return EXIT_USAGE;
         if (IS("-o") || IS("--output")) a->output = v;
         else if (IS("--ed")) {
-            if (parse_int(v, 0, 1000000, &n)) return usage_error(c, "track: --ed takes a frame number, not '%s'", v);
+            if ((status = option_number(c, s.name, v, &n)) != 0) return status;
             a->motion.ed_frame = (size_t)n;
             a->ed_given = 1;
         } else if (IS("--septum") || IS("--apex")) {
@@ -1126,11 +1535,9 @@ static int track_parse(int argc, char **argv, track_args *a, int *help)
                       : strcmp(v, "slices") == 0 ? VOLUME_SLICES : -1;
             if (a->volume < 0) return usage_error(c, "track: --volume takes auto, closed or slices, not '%s'", v);
         } else if (IS("--low-motion")) {
-            if (parse_nonnegative(v, &a->motion.low_motion_fraction) || a->motion.low_motion_fraction > 1.0)
-                return usage_error(c, "track: --low-motion takes a fraction 0..1, not '%s'", v);
+            if ((status = option_number(c, s.name, v, &a->motion.low_motion_fraction)) != 0) return status;
         } else {
-            if (parse_int(v, 0, 10000, &n))
-                return usage_error(c, "track: --frame-iterations takes a whole number 0..10000, not '%s'", v);
+            if ((status = option_number(c, s.name, v, &n)) != 0) return status;
             a->options.frame_iterations = (int)n;
         }
 #undef IS
@@ -1164,6 +1571,8 @@ static void track_details(FILE *f)
             "                           volumes.csv    per frame: model volume (ml), error, iterations\n"
             "                         (the meshes in the input's units, as its points; the report,\n"
             "                         the CSV files and --json in mm and ml)\n"
+            "                         a reused DIR: the frame_NN.ply of an earlier run with more\n"
+            "                         frames are removed (no other file)\n"
             "  --ed N                 the end-diastolic frame (default: the frame of largest model\n"
             "                         volume; the report says when N is not it); end-systole is the\n"
             "                         frame of least model volume\n"
@@ -1202,18 +1611,19 @@ static void track_details(FILE *f)
             SQFFD_SQ_FIT_MIN_POINTS, TRACK_ERROR_RATIO, 100.0 * TRACK_ERROR_FLOOR);
 }
 
-/* DIR/NAME into path; 0 on success. */
-static int join_path(char *path, size_t size, const char *dir, const char *name)
+/* The files track writes into a->output (frame_NN.ply a frame, motion.ply
+   and the two tables) added to a->out, before the tracking; 0, or 1 after
+   a message. */
+static int track_outputs(track_args *a)
 {
-    int len = snprintf(path, size, "%s/%s", dir, name);
-    return len < 0 || (size_t)len >= size;
-}
-
-static int make_folder(const char *dir)
-{
-    struct stat st;
-    if (stat(dir, &st) == 0) return S_ISDIR(st.st_mode) ? 0 : 1;
-    return mkdir(dir, 0777) != 0;
+    char name[64];
+    size_t t;
+    for (t = 0; t < a->frame_count; t++) {
+        snprintf(name, sizeof name, "frame_%02lu.ply", (unsigned long)t);
+        if (output_add_in(&a->out, a->output, name)) return 1;
+    }
+    return output_add_in(&a->out, a->output, "motion.ply") || output_add_in(&a->out, a->output, "segments.csv") ||
+           output_add_in(&a->out, a->output, "volumes.csv");
 }
 
 /* What track_run leaves for the reports and the extra outputs. */
@@ -1300,7 +1710,8 @@ static void track_report(const track_args *a, const size_t *counts, const track_
         printf("  septum           not given (--septum X,Y,Z): the ED superquadric's first axis across the long axis\n"
                "                   (%.4g %.4g %.4g) stands in for it, so the segment names below are sectors counted\n"
                "                   from that axis, not anatomy\n", m->septum[0], m->septum[1], m->septum[2]);
-    printf("  median wall excursion ED -> ES  %.4g mm (inward along the normal)\n", to_mm(a, m->median_excursion));
+    printf("  median wall excursion ED -> ES  %.4g mm (%s along the normal)\n", to_mm(a, m->median_excursion),
+           m->median_excursion >= 0.0 ? "inward" : "negative: outward");
     printf("  segment                  area mm^2  displacement mm  excursion mm  low-motion area  hypokinetic (area >= %g %%)\n",
            100.0 * a->motion.hypokinetic_share);
     for (k = 0; k < SQFFD_SEGMENTS; k++)
@@ -1315,8 +1726,9 @@ static void track_report(const track_args *a, const size_t *counts, const track_
     printf("  time             %.1f ms\n", 1e3 * res->seconds);
 }
 
-/* The outputs of track: the frames' meshes, motion.ply, the two tables. */
-static int track_write(const track_args *a, const sqffd_model *models, const sqffd_fit_report *reports,
+/* The outputs of track into a->out (track_outputs): the frames' meshes,
+   motion.ply, the two tables. */
+static int track_write(track_args *a, const sqffd_model *models, const sqffd_fit_report *reports,
                        const sqffd_motion_outputs *out, size_t nv, const sqffd_motion_report *m)
 {
     char path[4096], name[64], err[512];
@@ -1336,9 +1748,11 @@ static int track_write(const track_args *a, const sqffd_model *models, const sqf
     sqffd_model_mesh(models, models->grid[0], models->grid[1], NULL, triangles);
     for (t = 0; t < a->frame_count; t++) {
         snprintf(name, sizeof name, "frame_%02lu.ply", (unsigned long)t);
-        if (join_path(path, sizeof path, a->output, name) ||
-            sqffd_io_write_ply(path, out->trajectories + 3 * nv * t, nv, triangles, nt, NULL, 0, a->ascii, err, sizeof err)) {
-            fprintf(stderr, "%s\n", join_path(path, sizeof path, a->output, name) ? "output path too long" : err);
+        join_path(path, a->output, name); /* (track_outputs checked its length) */
+        if (!(f = output_open(&a->out, path, err, sizeof err)) ||
+            sqffd_io_write_ply_stream(f, path, out->trajectories + 3 * nv * t, nv, triangles, nt, NULL, 0, a->ascii, err,
+                                      sizeof err)) {
+            fprintf(stderr, "%s\n", err);
             goto done;
         }
     }
@@ -1350,14 +1764,16 @@ static int track_write(const track_args *a, const sqffd_model *models, const sqf
     scalars[1].name = "excursion"; scalars[1].values = out->excursion;
     scalars[2].name = "low_motion"; scalars[2].values = flags;
     scalars[3].name = "segment"; scalars[3].values = segments;
-    if (join_path(path, sizeof path, a->output, "motion.ply") ||
-        sqffd_io_write_ply(path, out->trajectories + 3 * nv * m->ed_frame, nv, triangles, nt, scalars, 4, a->ascii, err,
-                           sizeof err)) {
+    join_path(path, a->output, "motion.ply");
+    if (!(f = output_open(&a->out, path, err, sizeof err)) ||
+        sqffd_io_write_ply_stream(f, path, out->trajectories + 3 * nv * m->ed_frame, nv, triangles, nt, scalars, 4,
+                                  a->ascii, err, sizeof err)) {
         fprintf(stderr, "%s\n", err);
         goto done;
     }
-    if (join_path(path, sizeof path, a->output, "segments.csv") || !(f = fopen(path, "w"))) {
-        fprintf(stderr, "%s: cannot write: %s\n", path, strerror(errno));
+    join_path(path, a->output, "segments.csv");
+    if (!(f = output_open(&a->out, path, err, sizeof err))) {
+        fprintf(stderr, "%s\n", err);
         goto done;
     }
     fprintf(f, "segment,name,area_mm2,mean_displacement_mm,mean_excursion_mm,low_motion_share,hypokinetic\n");
@@ -1365,9 +1781,9 @@ static int track_write(const track_args *a, const sqffd_model *models, const sqf
         fprintf(f, "%d,%s,%.9g,%.9g,%.9g,%.9g,%d\n", k + 1, segment_names[k], to_mm2(a, m->segments[k].area),
                 to_mm(a, m->segments[k].mean_displacement), to_mm(a, m->segments[k].mean_excursion),
                 m->segments[k].low_motion_share, m->segments[k].hypokinetic);
-    if (fclose(f)) goto done;
-    if (join_path(path, sizeof path, a->output, "volumes.csv") || !(f = fopen(path, "w"))) {
-        fprintf(stderr, "%s: cannot write: %s\n", path, strerror(errno));
+    join_path(path, a->output, "volumes.csv");
+    if (!(f = output_open(&a->out, path, err, sizeof err))) {
+        fprintf(stderr, "%s\n", err);
         goto done;
     }
     fprintf(f, "frame,file,volume_ml,error_relative,iterations,error_mm,stop\n");
@@ -1375,8 +1791,7 @@ static int track_write(const track_args *a, const sqffd_model *models, const sqf
         fprintf(f, "%lu,%s,%.9g,%.9g,%d,%.9g,%s\n", (unsigned long)t, a->frames[t], to_ml(a, out->volumes[t]),
                 reports[t].error.rms_relative, reports[t].coarse_iterations + reports[t].iterations,
                 to_mm(a, reports[t].error.rms), stop_reason(reports + t));
-    if (fclose(f)) goto done;
-    status = 0;
+    status = 0; /* (write errors show in output_commit) */
 done:
     free(triangles);
     free(flags);
@@ -1475,10 +1890,6 @@ static int track_run(track_args *a, double **points, size_t *counts, track_resul
     int status = EXIT_BAD_INPUT;
     double start;
     memset(res, 0, sizeof *res);
-    if (make_folder(a->output)) {
-        fprintf(stderr, "%s: cannot make the output folder (or it is a file)\n", a->output);
-        return status;
-    }
     res->models = (sqffd_model *)malloc(frames * sizeof *res->models);
     res->reports = (sqffd_fit_report *)malloc(frames * sizeof *res->reports);
     res->out.volumes = (double *)malloc(frames * sizeof(double));
@@ -1559,14 +1970,14 @@ done:
 /* The report as JSON ("format": "sqffd-track", "version": 1): what
    track_report prints, in mm and ml; numbers as %.17g, null where not
    finite. 0, or 1 with a message in err. */
-static int track_json(const track_args *a, const size_t *counts, const track_result *res, char *err, size_t err_size)
+static int track_json(track_args *a, const size_t *counts, const track_result *res, char *err, size_t err_size)
 {
     const sqffd_motion_report *m = &res->motion;
     const double *sd = a->motion.septum_direction;
     FILE *f;
     size_t t;
     int k;
-    if (sqffd_export__create(a->json_output, &f, err, err_size)) return 1;
+    if (!(f = output_open(&a->out, a->json_output, err, err_size))) return 1;
     fprintf(f, "{\n  \"format\": \"sqffd-track\",\n  \"version\": 1,\n  \"library_version\": \"%s\",\n  \"inputs\": [",
             SQFFD_VERSION_STRING);
     for (t = 0; t < a->input_count; t++) {
@@ -1626,7 +2037,7 @@ static int track_json(const track_args *a, const size_t *counts, const track_res
         fprintf(f, ", \"hypokinetic\": %s}%s\n", g->hypokinetic ? "true" : "false", k + 1 < SQFFD_SEGMENTS ? "," : "");
     }
     fputs("  ]\n}\n", f);
-    return sqffd_export__close(f, a->json_output, sqffd_export__flush(f, a->json_output, err, err_size), err, err_size);
+    return sqffd_export__flush(f, a->json_output, err, err_size);
 }
 
 /* Every frame holds what a lone fit needs (sqffd_fit_check_data); 0, or 1
@@ -1673,6 +2084,9 @@ static int cmd_track(int argc, char **argv)
         return status;
     }
     status = EXIT_BAD_INPUT;
+    a.out.inputs = a.inputs;
+    a.out.input_count = a.input_count;
+    if (output_folder(&a.out, a.output, "frame_", ".ply")) goto done;
     for (i = 0; i < a.input_count; i++) { /* every frame of every input, in order */
         double **got = NULL;
         size_t *got_counts = NULL, got_count = 0, total = a.frame_count;
@@ -1717,14 +2131,18 @@ static int cmd_track(int argc, char **argv)
                              (unsigned long)a.motion.ed_frame, (unsigned long)a.frame_count);
         goto done;
     }
+    if (track_outputs(&a) || (a.json_output && output_add(&a.out, a.json_output))) goto done;
     if (check_frames(&a, points, counts) || (status = track_stacks(&a, points, counts)) != 0) goto done;
     status = track_run(&a, points, counts, &res);
     if (status == 0 && a.json_output && track_json(&a, counts, &res, err, sizeof err)) {
         fprintf(stderr, "%s\n", err);
         status = EXIT_BAD_INPUT;
     }
+    if (status == 0 && output_commit(&a.out)) status = EXIT_BAD_INPUT;
+    if (status == 0) output_prune(a.output, "frame_", ".ply", a.frame_count);
     if (status == 0 && !a.quiet) track_report(&a, counts, &res);
 done:
+    output_abort(&a.out);
     free_frames(points, counts, a.frame_count);
     track_result_free(&res);
     free(a.stacks);
@@ -1743,6 +2161,7 @@ static const double phantom_septum[3] = {-1.0, 0.0, 0.0};
 static void phantom_details(FILE *f)
 {
     phantom_lv p = phantom_lv_default();
+    range_text_buffer r[4];
     fprintf(f,
             "A synthetic left ventricle (examples/sqffd_phantom.h: a closed cavity, apex down\n"
             "along -z, a lid at the base for the valve plane) beating through one cycle, end-\n"
@@ -1755,17 +2174,21 @@ static void phantom_details(FILE *f)
             "command to run (its septum is -x).\n"
             "\n"
             "  -o, --output DIR       output folder (required)\n"
-            "  --frames N             frames over the cycle, 2..1000 (default 16)\n"
-            "  --points N             points per frame, 20..10000000 (default 6000)\n"
+            "  --frames N             frames over the cycle, %s (default 16)\n"
+            "  --points N             points per frame, %s (default 6000)\n"
             "  --noise S              noise standard deviation as a fraction of the ventricle's\n"
-            "                         bounding-box diagonal (default 0.01)\n"
+            "                         bounding-box diagonal, %s (default 0.01)\n"
             "  --low-motion U,THETA,RADIUS,FACTOR\n"
             "                         the hypokinetic zone: centre (u 0..1 from apex to base,\n"
             "                         theta in radians), angular radius, motion factor 0..1\n"
             "                         (default %g,%g,%g,%g; factor 1: none)\n"
-            "  --seed N               random seed (default 1)\n"
-            "  --quiet                print nothing on success\n",
-            p.low_motion[0], p.low_motion[1], p.low_motion[2], p.low_motion_factor);
+            "  --seed N               random seed, %s (default 1)\n"
+            "  --quiet                print nothing on success\n"
+            "A reused DIR: the points_NN.ply of an earlier run with more frames are removed\n"
+            "(no other file).\n",
+            range_text("phantom", "--frames", r[0]), range_text("phantom", "--points", r[1]),
+            range_text("phantom", "--noise", r[2]), p.low_motion[0], p.low_motion[1], p.low_motion[2], p.low_motion_factor,
+            range_text("phantom", "--seed", r[3]));
 }
 
 static int cmd_phantom(int argc, char **argv)
@@ -1775,10 +2198,11 @@ static int cmd_phantom(int argc, char **argv)
     arg_scan s;
     const char *arg, *v, *output = NULL;
     long frames = 16, count = 6000, seed = 1, k, i;
-    double noise = 0.01, zone[4], *points = NULL, *labels = NULL;
+    double noise = 0.01, zone[4], *points = NULL, *labels = NULL, n = 0.0;
     unsigned char *label = NULL;
     char path[4096], name[64], err[512];
     sqffd_io_scalar scalar;
+    output_set out;
     FILE *f;
     int kind, quiet = 0, status;
     memset(&s, 0, sizeof s);
@@ -1799,16 +2223,12 @@ static int cmd_phantom(int argc, char **argv)
             return usage_error(c, "phantom: unknown option '%s'", s.argv[s.i]);
         if (!(v = scan_value(&s, c))) return EXIT_USAGE;
         if (IS("-o") || IS("--output")) output = v;
-        else if (IS("--frames")) {
-            if (parse_int(v, 2, 1000, &frames)) return usage_error(c, "phantom: --frames takes 2..1000, not '%s'", v);
-        } else if (IS("--points")) {
-            if (parse_int(v, 20, 10000000, &count))
-                return usage_error(c, "phantom: --points takes 20..10000000, not '%s'", v);
-        } else if (IS("--noise")) {
-            if (parse_nonnegative(v, &noise) || noise > 0.5)
-                return usage_error(c, "phantom: --noise takes a fraction 0..0.5, not '%s'", v);
-        } else if (IS("--seed")) {
-            if (parse_int(v, 0, 2000000000L, &seed)) return usage_error(c, "phantom: --seed takes a whole number, not '%s'", v);
+        else if (!IS("--low-motion")) {
+            if ((status = option_number(c, s.name, v, &n)) != 0) return status;
+            if (IS("--frames")) frames = (long)n;
+            else if (IS("--points")) count = (long)n;
+            else if (IS("--noise")) noise = n;
+            else seed = (long)n;
         } else {
             if (parse_numbers(v, 4, zone) || zone[0] < 0.0 || zone[0] > 1.0 || zone[2] < 0.0 || zone[2] > 3.2 ||
                 zone[3] < 0.0 || zone[3] > 1.0)
@@ -1821,34 +2241,43 @@ static int cmd_phantom(int argc, char **argv)
     }
     if (!output) return usage_error(c, "phantom: no output folder (-o DIR)");
     status = EXIT_BAD_INPUT;
-    if (make_folder(output)) {
-        fprintf(stderr, "%s: cannot make the output folder (or it is a file)\n", output);
-        return status;
+    memset(&out, 0, sizeof out);
+    if (output_folder(&out, output, "points_", ".ply") || output_add_in(&out, output, "truth.csv")) goto done;
+    for (k = 0; k < frames; k++) {
+        snprintf(name, sizeof name, "points_%02ld.ply", k);
+        if (output_add_in(&out, output, name)) goto done;
     }
     points = (double *)malloc(3 * (size_t)count * sizeof *points);
     labels = (double *)malloc((size_t)count * sizeof *labels);
     label = (unsigned char *)malloc((size_t)count);
-    if (!points || !labels || !label || join_path(path, sizeof path, output, "truth.csv") || !(f = fopen(path, "w"))) {
-        fprintf(stderr, "%s: cannot write truth.csv\n", output);
+    if (!points || !labels || !label) {
+        fprintf(stderr, "sqffd phantom: out of memory\n");
+        goto done;
+    }
+    join_path(path, output, "truth.csv");
+    if (!(f = output_open(&out, path, err, sizeof err))) {
+        fprintf(stderr, "%s\n", err);
         goto done;
     }
     fprintf(f, "frame,phase,volume\n");
+    for (k = 0; k < frames; k++)
+        fprintf(f, "%ld,%.9g,%.9g\n", k, (double)k / (double)frames, phantom_lv_volume(&p, (double)k / (double)frames));
     for (k = 0; k < frames; k++) {
-        double phase = (double)k / (double)frames;
-        fprintf(f, "%ld,%.9g,%.9g\n", k, phase, phantom_lv_volume(&p, phase));
-        phantom_lv_frame(&p, phase, (size_t)count, noise, (uint64_t)seed * 1000003u + (uint64_t)k, points, label);
+        phantom_lv_frame(&p, (double)k / (double)frames, (size_t)count, noise, (uint64_t)seed * 1000003u + (uint64_t)k,
+                         points, label);
         for (i = 0; i < count; i++) labels[i] = label[i];
         scalar.name = "label";
         scalar.values = labels;
         snprintf(name, sizeof name, "points_%02ld.ply", k);
-        if (join_path(path, sizeof path, output, name) ||
-            sqffd_io_write_ply(path, points, (size_t)count, NULL, 0, &scalar, 1, 0, err, sizeof err)) {
+        join_path(path, output, name);
+        if (!(f = output_open(&out, path, err, sizeof err)) ||
+            sqffd_io_write_ply_stream(f, path, points, (size_t)count, NULL, 0, &scalar, 1, 0, err, sizeof err)) {
             fprintf(stderr, "%s\n", err);
-            fclose(f);
             goto done;
         }
     }
-    if (fclose(f)) goto done;
+    if (output_commit(&out)) goto done;
+    output_prune(output, "points_", ".ply", (size_t)frames);
     if (!quiet) {
         double edv = phantom_lv_volume(&p, 0.0), ef = phantom_lv_ejection_fraction(&p, (int)frames);
         printf("sqffd phantom: %ld frames of %ld points (noise %g of the %.4g diagonal) -> %s\n", frames, count, noise,
@@ -1861,6 +2290,7 @@ static int cmd_phantom(int argc, char **argv)
     }
     status = 0;
 done:
+    output_abort(&out);
     free(points);
     free(labels);
     free(label);
@@ -1980,14 +2410,16 @@ static int cmd_demo(int argc, char **argv)
     track_args a;
     track_result res;
     sqffd_model start;
-    double *points[DEMO_FRAMES], alpha[4], table[4], t0 = seconds_now();
+    double *points[DEMO_FRAMES] = {NULL}, alpha[4], table[4], t0 = seconds_now();
     size_t counts[DEMO_FRAMES], t;
     const char *frames[DEMO_FRAMES];
     char path[4096], err[512];
+    FILE *f = NULL;
     int k, status = EXIT_BAD_INPUT;
     static const char *const written[] = {"frame_00.ply ... frame_15.ply", "motion.ply", "segments.csv",
                                           "volumes.csv", "model.json", "fig3_error.svg", "table1_alpha.svg",
                                           "volumes.svg", "bullseye.svg"};
+    enum { DEMO_TRACK_FILES = 4, DEMO_FILES = sizeof written / sizeof written[0] }; /* written[4...]: the demo's own */
     track_args_default(&a);
     a.unit = UNIT_GIVEN; /* the phantom is in mm */
     a.output = "sqffd_demo";
@@ -2004,6 +2436,9 @@ static int cmd_demo(int argc, char **argv)
     a.frames = frames;
     a.frame_count = DEMO_FRAMES;
     memset(&res, 0, sizeof res);
+    if (output_folder(&a.out, a.output, "frame_", ".ply") || track_outputs(&a)) goto done;
+    for (k = DEMO_TRACK_FILES; k < DEMO_FILES; k++)
+        if (output_add_in(&a.out, a.output, written[k])) goto done;
     for (t = 0; t < DEMO_FRAMES; t++) {
         points[t] = (double *)malloc(3 * DEMO_POINTS * sizeof(double));
         counts[t] = DEMO_POINTS;
@@ -2025,21 +2460,30 @@ static int cmd_demo(int argc, char **argv)
         fprintf(stderr, "sqffd demo: the alpha table failed\n");
         goto done;
     }
-    if ((join_path(path, sizeof path, a.output, "model.json") == 0 &&
-         sqffd_export_model_json(path, &res.models[0], &res.reports[0], err, sizeof err) == 0 &&
-         join_path(path, sizeof path, a.output, "fig3_error.svg") == 0 &&
-         sqffd_export_svg_history(path, &res.reports[0], "Frame 0: the error per FFD iteration (Fig. 3)", err, sizeof err) == 0 &&
-         join_path(path, sizeof path, a.output, "table1_alpha.svg") == 0 &&
-         sqffd_export_svg_alpha(path, alpha, table, 4, "Frame 0: the error against alpha (Table 1)", err, sizeof err) == 0 &&
-         join_path(path, sizeof path, a.output, "volumes.svg") == 0 &&
-         sqffd_export_svg_volumes(path, res.out.volumes, DEMO_FRAMES, &res.motion, "mm^3", "Model volume over the cycle",
-                                  err, sizeof err) == 0 &&
-         join_path(path, sizeof path, a.output, "bullseye.svg") == 0 &&
-         sqffd_export_svg_bullseye(path, &res.motion, 1, "Inward excursion, ED to ES (17 segments)", "mm", err,
-                                   sizeof err) == 0) == 0) {
-        fprintf(stderr, "%s\n", err);
-        goto done;
+    for (k = DEMO_TRACK_FILES; k < DEMO_FILES; k++) { /* in written[]'s order */
+        int failed;
+        join_path(path, a.output, written[k]);
+        if (!(f = output_open(&a.out, path, err, sizeof err))) failed = 1;
+        else if (k == DEMO_TRACK_FILES) failed = sqffd_export_model_json_stream(f, path, &res.models[0], &res.reports[0], err, sizeof err);
+        else if (k == DEMO_TRACK_FILES + 1)
+            failed = sqffd_export_svg_history_stream(f, path, &res.reports[0], "Frame 0: the error per FFD iteration (Fig. 3)",
+                                                     err, sizeof err);
+        else if (k == DEMO_TRACK_FILES + 2)
+            failed = sqffd_export_svg_alpha_stream(f, path, alpha, table, 4, "Frame 0: the error against alpha (Table 1)", err,
+                                                   sizeof err);
+        else if (k == DEMO_TRACK_FILES + 3)
+            failed = sqffd_export_svg_volumes_stream(f, path, res.out.volumes, DEMO_FRAMES, &res.motion, "mm^3",
+                                                     "Model volume over the cycle", err, sizeof err);
+        else
+            failed = sqffd_export_svg_bullseye_stream(f, path, &res.motion, 1, "Inward excursion, ED to ES (17 segments)",
+                                                      "mm", err, sizeof err);
+        if (failed) {
+            fprintf(stderr, "%s\n", err);
+            goto done;
+        }
     }
+    if (output_commit(&a.out)) goto done;
+    output_prune(a.output, "frame_", ".ply", DEMO_FRAMES);
     if (!a.quiet) {
         const sqffd_fit_report *r0 = &res.reports[0];
         printf("Fig. 3 (frame 0): the error per FFD iteration, %% of the diagonal\n  iteration");
@@ -2058,6 +2502,7 @@ static int cmd_demo(int argc, char **argv)
     }
     status = 0;
 done:
+    output_abort(&a.out);
     for (t = 0; t < DEMO_FRAMES; t++) free(points[t]);
     track_result_free(&res);
     return status;
@@ -2078,7 +2523,7 @@ static int cmd_help(int argc, char **argv)
     return 0;
 }
 
-int main(int argc, char **argv)
+static int run(int argc, char **argv)
 {
     const cli_command *c;
     if (argc < 2) {
@@ -2101,4 +2546,17 @@ int main(int argc, char **argv)
         return EXIT_USAGE;
     }
     return c->run(argc - 1, argv + 1);
+}
+
+/* A report that did not reach standard output (a full disk, a closed pipe)
+   is a failure: exit status 1 (the output files, already in place, stay). */
+int main(int argc, char **argv)
+{
+    int status = run(argc, argv), failed;
+    errno = 0;
+    failed = fflush(stdout) != 0 || ferror(stdout);
+    failed |= fclose(stdout) != 0;
+    if (!failed) return status;
+    fprintf(stderr, "sqffd: standard output: write error: %s\n", errno ? strerror(errno) : "unknown error");
+    return status ? status : EXIT_BAD_INPUT;
 }

@@ -62,21 +62,21 @@ expect 2 "unknown option '--lattic'" fit "$DATA" -o "$TMP/x.ply" --lattic 5
 expect 2 "takes no value" fit "$DATA" -o "$TMP/x.ply" --robust=1
 expect 2 "unknown option" fit "$DATA" -o "$TMP/x.ply" --alpa=1
 for v in 1 9 0x5 5x5 5x5x5x5 5x1x5 -5 " 5" 5.0 abc ""; do
-    expect 2 "--lattice takes" fit "$DATA" -o "$TMP/x.ply" --lattice "$v"
+    expect 2 "--lattice must be" fit "$DATA" -o "$TMP/x.ply" --lattice "$v"
 done
 for v in -1 nan inf 1e400 "" 0.1x; do
-    expect 2 "--alpha takes" fit "$DATA" -o "$TMP/x.ply" --alpha "$v"
+    expect 2 "--alpha must be" fit "$DATA" -o "$TMP/x.ply" --alpha "$v"
 done
 for v in -1 nan inf ""; do
-    expect 2 "--model-to-data takes" fit "$DATA" -o "$TMP/x.ply" --model-to-data "$v"
+    expect 2 "--model-to-data must be" fit "$DATA" -o "$TMP/x.ply" --model-to-data "$v"
 done
 for v in 10001 2.5 30x -3 ""; do
-    expect 2 "--iterations takes" fit "$DATA" -o "$TMP/x.ply" --iterations "$v"
+    expect 2 "--iterations must be" fit "$DATA" -o "$TMP/x.ply" --iterations "$v"
 done
 for v in 10001 -1 ""; do
-    expect 2 "--coarse-iterations takes" fit "$DATA" -o "$TMP/x.ply" --coarse-iterations "$v"
+    expect 2 "--coarse-iterations must be" fit "$DATA" -o "$TMP/x.ply" --coarse-iterations "$v"
 done
-expect 2 "--mesh takes" fit "$DATA" -o "$TMP/x.ply" --mesh 3
+expect 2 "--mesh must be" fit "$DATA" -o "$TMP/x.ply" --mesh 3
 
 # bad input: exit 1 and "FILE: what is wrong"
 expect 1 "$TMP/missing.ply: cannot open" fit "$TMP/missing.ply" -o "$TMP/x.ply"
@@ -87,7 +87,7 @@ expect 1 "$TMP/short.xyz: line 2: expected 3 numbers" fit "$TMP/short.xyz" -o "$
 : >"$TMP/empty.xyz"
 expect 1 "$TMP/empty.xyz: file is empty" fit "$TMP/empty.xyz" -o "$TMP/x.ply"
 printf '1 2 3\n4 5 6\n' >"$TMP/two.xyz"
-expect 1 "$TMP/two.xyz: fit failed: " fit "$TMP/two.xyz" -o "$TMP/x.ply"
+expect 1 "$TMP/two.xyz: 2 points; at least 13 are needed" fit "$TMP/two.xyz" -o "$TMP/x.ply"
 # files of formats sqffd does not read: one line that names the format (fit and info alike)
 zeros() { head -c "$1" /dev/zero; }
 foreign() { # FILE 'TEXT': both commands exit 1 with "FILE: TEXT" as their only line
@@ -123,10 +123,10 @@ foreign "$TMP/binary.xyz" "not a text point file (binary byte 0x01 at line 3)"
 expect 0 "(the superquadric alone)" fit "$DATA" -o "$TMP/sq.ply" --iterations 0 --mesh 8
 expect 0 "after FFD" fit "$DATA" -o "$TMP/m2d.ply" --model-to-data 0 --iterations 2 --mesh 8
 # the Jacobian floor: its bound in the report, 'none' lifts it, anything but a number <= 1 is a usage error
-expect 0 "(the lattice's smallest Bernstein bound" fit "$DATA" -o "$TMP/j.ply" --iterations 3 --mesh 8
+expect 0 "(its lower bound: > 0, no fold)" fit "$DATA" -o "$TMP/j.ply" --iterations 3 --mesh 8
 expect 0 "after FFD" fit "$DATA" -o "$TMP/j.ply" --min-jacobian none --iterations 3 --mesh 8
 for v in 1.5 nan abc ""; do
-    expect 2 "--min-jacobian takes" fit "$DATA" -o "$TMP/x.ply" --min-jacobian "$v"
+    expect 2 "--min-jacobian must be" fit "$DATA" -o "$TMP/x.ply" --min-jacobian "$v"
 done
 expect 0 "iterations       3 coarse + 2 (iteration cap: not converged)" fit "$DATA" -o "$TMP/c.ply" --iterations 5 --coarse-iterations 3 --mesh 8
 expect 0 "iterations       5 (iteration cap: not converged)" fit "$DATA" -o "$TMP/c.ply" --iterations 5 --coarse-iterations 0 --mesh 8
@@ -155,8 +155,8 @@ expect 2 "at least two are needed" track "$DATA" -o "$TMP/t"
 expect 2 "no output folder" track "$DATA" "$DATA"
 expect 2 "--septum takes" track "$DATA" "$DATA" -o "$TMP/t" --septum 1,2
 expect 2 "--ed 5: there are 2 frames" track "$DATA" "$DATA" -o "$TMP/t" --ed 5
-expect 2 "--low-motion takes" track "$DATA" "$DATA" -o "$TMP/t" --low-motion 2
-expect 2 "--frames takes" phantom -o "$TMP/ph" --frames 1
+expect 2 "--low-motion must be" track "$DATA" "$DATA" -o "$TMP/t" --low-motion 2
+expect 2 "--frames must be" phantom -o "$TMP/ph" --frames 1
 expect 2 "--low-motion takes" phantom -o "$TMP/ph" --low-motion 0.5,1,2
 expect 2 "no output folder" phantom --frames 4
 expect 1 "$TMP/missing.ply: cannot open" track "$DATA" "$TMP/missing.ply" -o "$TMP/t"
@@ -349,7 +349,7 @@ grep -q '<svg' "$TMP/brain.svg" && tail -c 20 "$TMP/brain.svg" | grep -q '</svg>
 expect 0 "iso-surface      level 60," fit "$BRAIN" -o "$TMP/b60.ply" --iso 60 --sample 500 --all-components --iterations 1
 grep -q "crossing points, 500 kept" "$TMP/out" && ok || bad "--iso 60 --sample 500 --all-components not reported"
 expect 2 "--iso takes" fit "$BRAIN" -o "$TMP/x.ply" --iso abc
-expect 2 "--sample takes" fit "$BRAIN" -o "$TMP/x.ply" --sample 5
+expect 2 "--sample must be" fit "$BRAIN" -o "$TMP/x.ply" --sample 5
 expect 1 "no voxel crosses the iso level" fit "$BRAIN" -o "$TMP/x.ply" --iso 1000
 expect 0 "dims        128 x 128 x 62, 1 frame" info "$BRAIN"
 for word in "NIfTI-1" "spacing" "values      0 .. 255" "affine"; do grep -q "$word" "$TMP/out" && ok || bad "info lacks '$word'"; done
@@ -386,6 +386,106 @@ done
 check_ply "$TMP/demo/motion.ply"
 [ "$(grep -c 'id="segment-' "$TMP/demo/bullseye.svg")" -eq 17 ] && ok || bad "bullseye.svg does not hold 17 segments"
 grep -q "Table 1" "$TMP/out" && grep -q "Fig. 3" "$TMP/out" && ok || bad "demo report lacks Table 1 or Fig. 3"
+
+# ---- nothing the user owns is lost or half-written
+# an ellipsoid's points (a golden-angle spiral): 400, and 25 for the option boundaries
+spiral() { awk -v n="$1" 'BEGIN { for (i = 0; i < n; i++) { z = 1 - 2 * (i + 0.5) / n; r = sqrt(1 - z * z); a = i * 2.399963
+    printf "%.9g %.9g %.9g\n", 2 * r * cos(a), r * sin(a), 3 * z } }'; }
+spiral 400 >"$TMP/ell.xyz"
+spiral 25 >"$TMP/e25.xyz"
+mkdir "$TMP/own" && cp "$TMP/ell.xyz" "$TMP/own/scan.xyz" && cp "$TMP/ell.xyz" "$TMP/own/keep.xyz" || exit 1
+ln -s scan.xyz "$TMP/own/link.ply" && ln "$TMP/own/scan.xyz" "$TMP/own/hard.ply" || exit 1
+# the output is the input: by name, through a symbolic link, through a hard link; the input intact, one line
+for o in scan.xyz link.ply hard.ply; do
+    expect 1 "the output $TMP/own/$o is the input $TMP/own/scan.xyz (the same file)" fit "$TMP/own/scan.xyz" -o "$TMP/own/$o" --iterations 1 --mesh 8
+    [ "$(wc -l <"$TMP/err")" -eq 1 ] && ok || bad "fit -o $o (the input): more than one line"
+    cmp -s "$TMP/own/scan.xyz" "$TMP/own/keep.xyz" && ok || bad "fit -o $o overwrote its input"
+done
+expect 1 "is the input" fit "$TMP/own/scan.xyz" -o "$TMP/x.ply" --json "$TMP/own/hard.ply" --iterations 1 --mesh 8
+[ ! -e "$TMP/x.ply" ] && ok || bad "a refused --json left the mesh written"
+# two outputs that are one file
+expect 1 "the outputs $TMP/own/o.ply and $TMP/own/./o.ply are the same file" fit "$TMP/own/scan.xyz" -o "$TMP/own/o.ply" --points "$TMP/own/./o.ply"
+cp "$TMP/own/keep.xyz" "$TMP/own/a.ply" && ln "$TMP/own/a.ply" "$TMP/own/b.ply"
+expect 1 "are the same file" fit "$TMP/ell.xyz" -o "$TMP/own/a.ply" --svg "$TMP/own/b.ply"
+# outputs are checked before the input is read and fitted: with a bad output, a missing input or one too small
+# for a fit is not reached, and nothing is written
+expect 1 "$TMP/no/dir/out.ply: cannot create: No such file or directory" fit "$TMP/missing.xyz" -o "$TMP/no/dir/out.ply"
+expect 1 "$TMP/no/x.json: cannot create" fit "$TMP/two.xyz" -o "$TMP/own/o.ply" --json "$TMP/no/x.json"
+[ ! -e "$TMP/own/o.ply" ] && ok || bad "--json to a bad path left the mesh written"
+mkdir "$TMP/own/d"
+expect 1 "$TMP/own/d: cannot create: it is a folder" fit "$DATA" -o "$TMP/own/o.ply" --svg "$TMP/own/d" --points "$TMP/own/p.ply"
+# a failed run leaves an existing output as it was, and no temporary beside it
+cp "$TMP/own/keep.xyz" "$TMP/own/o.ply"
+expect 1 "cannot create" fit "$TMP/ell.xyz" -o "$TMP/own/o.ply" --json "$TMP/no/x.json" --iterations 1 --mesh 8
+cmp -s "$TMP/own/o.ply" "$TMP/own/keep.xyz" && ok || bad "a failed run changed an existing output"
+[ -z "$(ls -A "$TMP/own" | grep '^\.')" ] && ok || bad "temporaries left: $(ls -A "$TMP/own" | grep '^\.')"
+# a successful run replaces it whole, keeps a symbolic link (writes its target) and the file's mode
+chmod 640 "$TMP/own/o.ply" && ln -s o.ply "$TMP/own/to_o.ply"
+expect 0 "" fit "$TMP/ell.xyz" -o "$TMP/own/to_o.ply" --json "$TMP/own/m.json" --iterations 1 --mesh 8 --quiet
+[ -L "$TMP/own/to_o.ply" ] && check_ply "$TMP/own/o.ply" && ok || bad "fit -o LINK did not write the link's target"
+[ "$(stat -c %a "$TMP/own/o.ply" 2>/dev/null || echo 640)" = 640 ] && ok || bad "fit changed the mode of the file it replaced"
+[ -z "$(ls -A "$TMP/own" | grep '^\.')" ] && ok || bad "temporaries left after a run"
+# /dev/null as an output is written in place (twice is fine)
+expect 0 "" fit "$TMP/ell.xyz" -o /dev/null --points /dev/null --iterations 1 --mesh 8 --quiet
+# a report that cannot be written is an error
+if [ -w /dev/full ]; then
+    "$SQFFD" fit "$TMP/ell.xyz" -o "$TMP/own/full.ply" --iterations 1 --mesh 8 >/dev/full 2>"$TMP/err"
+    [ $? -eq 1 ] && grep -q "standard output: write error" "$TMP/err" && ok || bad "fit > /dev/full: not exit 1 with a write error"
+    "$SQFFD" --help >/dev/full 2>/dev/null && bad "sqffd --help > /dev/full exits 0" || ok
+fi
+# a reused output folder: the numbered files of an earlier, longer run are removed, no other file
+expect 0 "" phantom -o "$TMP/re" --frames 6 --points 500 --quiet
+expect 0 "" phantom -o "$TMP/re" --frames 4 --points 500 --quiet
+[ "$(ls "$TMP/re" | tr '\n' ' ')" = "points_00.ply points_01.ply points_02.ply points_03.ply truth.csv " ] && ok ||
+    bad "phantom into a reused folder: $(ls "$TMP/re" | tr '\n' ' ')"
+mkdir "$TMP/retr" && for f in frame_00.ply frame_04.ply frame_05.ply frame_123.ply frame_5.ply frame_007.ply notes.txt; do
+    echo x >"$TMP/retr/$f"; done
+expect 0 "" track "$TMP/re/points_00.ply" "$TMP/re/points_01.ply" "$TMP/re/points_02.ply" -o "$TMP/retr" --iterations 2 --frame-iterations 1 --quiet
+[ "$(ls "$TMP/retr" | tr '\n' ' ')" = "frame_00.ply frame_007.ply frame_01.ply frame_02.ply frame_5.ply motion.ply notes.txt segments.csv volumes.csv " ] &&
+    ok || bad "track into a reused folder: $(ls "$TMP/retr" | tr '\n' ' ')"
+check_ply "$TMP/retr/frame_00.ply"
+# an input among the files track replaces or removes there is refused before anything is read
+cp "$TMP/re/points_03.ply" "$TMP/retr/frame_09.ply"
+expect 1 "the input $TMP/retr/frame_09.ply is the output folder's frame_09.ply" track "$TMP/re/points_00.ply" "$TMP/retr/frame_09.ply" -o "$TMP/retr"
+[ -e "$TMP/retr/frame_09.ply" ] && ok || bad "track removed its own input"
+expect 1 "$TMP/no/dir: cannot make the output folder" track "$TMP/missing.ply" "$DATA" -o "$TMP/no/dir"
+expect 2 "at least two are needed" track "$DATA" -o "$TMP/newdir"
+[ ! -e "$TMP/newdir" ] && ok || bad "a failed track left the folder it made"
+
+# ---- the numeric options: the ends of each range work, beyond them a usage error names the option and the range
+expect 2 "--alpha must be 0 or in [1e-9, 1e12], not '1e18'" fit "$DATA" -o "$TMP/x.ply" --alpha 1e18
+for v in 1e307 2e12 1e-10 -0.5; do expect 2 "--alpha must be 0 or in [1e-9, 1e12]" fit "$DATA" -o "$TMP/x.ply" --alpha "$v"; done
+for v in 1e20 100.5; do expect 2 "--model-to-data must be in [0, 100]" fit "$DATA" -o "$TMP/x.ply" --model-to-data "$v"; done
+expect 2 "--min-jacobian must be in [-1e6, 1] or 'none', not '1.5'" fit "$DATA" -o "$TMP/x.ply" --min-jacobian 1.5
+expect 2 "--iterations must be a whole number in [0, 10000], not '10001'" fit "$DATA" -o "$TMP/x.ply" --iterations 10001
+expect 2 "--frame-iterations must be a whole number in [0, 10000]" track "$DATA" "$DATA" -o "$TMP/t" --frame-iterations -1
+expect 2 "--noise must be in [0, 0.5], not '0.6'" phantom -o "$TMP/ph" --noise 0.6
+for pts in e25 ell; do
+    for lat in 2 8; do
+        for a in 0 1e-9 1e12; do
+            for w in 0 100; do
+                expect 0 "" fit "$TMP/$pts.xyz" -o "$TMP/x.ply" --alpha $a --model-to-data $w --lattice $lat --iterations 8 --mesh 8 --quiet
+            done
+        done
+    done
+    expect 0 "" fit "$TMP/$pts.xyz" -o "$TMP/x.ply" --min-jacobian -1e6 --lattice 8 --iterations 8 --mesh 8 --quiet
+    expect 0 "" fit "$TMP/$pts.xyz" -o "$TMP/x.ply" --min-jacobian 1 --iterations 8 --mesh 8 --quiet
+done
+expect 0 "" fit "$DATA" -o "$TMP/x.ply" --alpha 1e12 --robust --iterations 8 --mesh 8 --quiet
+expect 0 "" track "$TMP/e25.xyz" "$TMP/ell.xyz" -o "$TMP/tb" --alpha 1e-9 --model-to-data 100 --lattice 8 --iterations 8 --quiet
+expect 0 "" track "$TMP/e25.xyz" "$TMP/ell.xyz" -o "$TMP/tb" --alpha 1e12 --lattice 2 --iterations 8 --quiet
+
+# ---- messages
+expect 1 "$TMP/ell.xyz: a point file, and --iso applies to volumes only" fit "$TMP/ell.xyz" -o "$TMP/x.ply" --iso 3
+expect 1 "$TMP/ell.xyz: a point file, and --label applies to volumes only" track "$TMP/ell.xyz" "$TMP/ell.xyz" -o "$TMP/t" --label 1
+expect 1 "--all-components applies to volumes only" fit "$TMP/ell.xyz" -o "$TMP/x.ply" --all-components
+head -n 12 "$TMP/ell.xyz" >"$TMP/twelve.xyz"
+expect 1 "$TMP/twelve.xyz: 12 points; at least 13 are needed" fit "$TMP/twelve.xyz" -o "$TMP/x.ply"
+# the note beside the Jacobian bound follows its sign (this fit folds the lattice)
+expect 0 "jacobian" fit "$TMP/ell.xyz" -o "$TMP/x.ply" --min-jacobian none --alpha 0 --lattice 8 --iterations 40 --mesh 8
+awk '$1 == "jacobian" { n++; if (($2 > 0) != ($0 ~ /> 0, no fold/) || ($2 <= 0) != ($0 ~ /<= 0, the model may fold/)) bad = 1 }
+    END { exit bad || n != 1 }' "$TMP/out" && ok || bad "the Jacobian's note does not follow its sign: $(grep jacobian "$TMP/out")"
+grep -q "jacobian  *-" "$TMP/out" && ok || bad "the folding fit's Jacobian bound is not negative: $(grep jacobian "$TMP/out")"
 
 echo "cli: $passed passed, $failed failed"
 [ "$failed" -eq 0 ]

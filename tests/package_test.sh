@@ -67,6 +67,21 @@ $CC -std=c99 -Wall -Wextra -Werror -o "$T/consumer_pc" "$T/consumer/main.c" $fla
     || fail "$CC main.c $flags" "$T/pc.log"
 "$T/consumer_pc" > "$T/pc_run.log" 2>&1 || fail "consumer built with pkg-config flags" "$T/pc_run.log"
 
+# ---- a prefix with a blank: make install quotes it; sqffd.pc escapes it, as pkg-config prints it (a shell that
+# parses the flags, as make's recipes do, reads it back whole)
+B="$T/blank dest"
+make --no-print-directory install DESTDIR="$B" PREFIX="/opt/my tools" > "$T/install_blank.log" 2>&1 \
+    || fail "make install PREFIX=\"/opt/my tools\"" "$T/install_blank.log"
+cmp -s sqffd.h "$B/opt/my tools/include/sqffd.h" && [ -x "$B/opt/my tools/bin/sqffd" ] \
+    || fail "make install PREFIX=\"/opt/my tools\": sqffd.h or sqffd not in place" "$T/install_blank.log"
+BPC="$B/opt/my tools/lib/pkgconfig/sqffd.pc"
+grep -qx 'prefix=/opt/my\\ tools' "$BPC" || fail "sqffd.pc: the prefix's blank is not escaped" "$BPC"
+# the flags as a build with DESTDIR as its root sees them: ${includedir} is DESTDIR (blanks escaped) + the prefix's
+grep -qx 'Cflags: -I${includedir}' "$BPC" && grep -qx 'includedir=${prefix}/include' "$BPC" || fail "sqffd.pc: Cflags" "$BPC"
+bflags="-I$(printf '%s' "$B" | sed 's/ /\\ /g')$(sed -n 's/^prefix=//p' "$BPC")/include"
+eval "$CC -std=c99 -Wall -Wextra -Werror -o \"\$T/consumer_blank\" \"\$T/consumer/main.c\" $bflags -lm" > "$T/blank.log" 2>&1 \
+    || fail "$CC main.c $bflags (a prefix with a blank)" "$T/blank.log"
+
 # ---- CMake: add_subdirectory, FetchContent, find_package after cmake --install
 if ! command -v cmake >/dev/null 2>&1; then
     echo "package test: cmake not installed, CMake half skipped"
