@@ -1113,10 +1113,13 @@ static void fit_details(FILE *f)
     fprintf(f,
             "INPUT is a point file: PLY (ascii, binary little or big endian; vertex x y z read,\n"
             "other properties and elements skipped), PCD (ascii, binary, binary_compressed; points\n"
-            "with NaN coordinates, PCL's invalid depth, dropped and counted), OFF, OBJ vertices, or\n"
-            "XYZ (x y z per line, extra columns ignored, '#' comments), any of them gzip-compressed\n"
-            "(.gz); or a volume: NIfTI-1 (.nii, .nii.gz, .hdr/.img), MetaImage (.mha, .mhd) or NRRD\n"
-            "(.nrrd, .nhdr), whose iso-surface gives the points (a 4-D volume: its first frame).\n"
+            "with NaN coordinates, PCL's invalid depth, dropped and counted), OFF, OBJ vertices,\n"
+            "legacy VTK POINTS (POLYDATA, UNSTRUCTURED_GRID, STRUCTURED_GRID; ASCII or BINARY), STL\n"
+            "(ASCII or binary; the triangles' vertices, each shared vertex once), or XYZ (x y z per\n"
+            "line, extra columns ignored, '#' comments), any of them gzip-compressed (.gz); or a\n"
+            "volume: NIfTI-1 (.nii, .nii.gz, .hdr/.img), MetaImage (.mha, .mhd), NRRD (.nrrd, .nhdr)\n"
+            "or legacy VTK STRUCTURED_POINTS (.vtk), whose iso-surface gives the points (a 4-D\n"
+            "volume: its first frame).\n"
             "The format is found from the content, then the extension.\n"
             "\n"
             "  -o, --output OUT.ply   the model surface as a triangle mesh (required), with a\n"
@@ -2353,7 +2356,12 @@ static int cmd_info(int argc, char **argv)
             }
         printf("%s\n  format      %s", argv[1], sqffd_io_format_name(io.format));
         if (io.format == SQFFD_IO_PCD) printf("%s%s, %s", pcd->version[0] ? " " : "", pcd->version, pcd->encoding);
+        if (io.format == SQFFD_IO_VTK) printf("%s%s %s", io.vtk_version[0] ? " " : "", io.vtk_version, io.vtk_dataset);
+        if (io.format == SQFFD_IO_VTK || io.format == SQFFD_IO_STL) printf(", %s", io.binary ? "binary" : "ASCII");
         printf("%s\n", io.gzip ? ", gzip-compressed" : "");
+        if (io.format == SQFFD_IO_STL)
+            printf("  triangles   %lu (%lu vertices, %lu distinct: the points)\n", (unsigned long)io.stl_triangles,
+                   3 * (unsigned long)io.stl_triangles, (unsigned long)n);
         if (io.format == SQFFD_IO_PCD) {
             printf("  fields      %s\n", pcd->fields);
             printf("  layout      %llu x %llu (%s)\n", (unsigned long long)pcd->width, (unsigned long long)pcd->height,

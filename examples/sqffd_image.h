@@ -10,8 +10,9 @@
      MetaImage  .mha (data attached, raw or zlib) and .mhd + its data file
      NRRD       .nrrd (data attached) and .nhdr + its data file; raw, gzip
                 and ascii encodings
-   Voxel types: int8, uint8, int16, uint16, int32, float32, float64; other
-   types are refused by name. Dimensions: MetaImage and NRRD 3 or 4; NIfTI
+     VTK        legacy .vtk STRUCTURED_POINTS, ASCII or BINARY (big endian)
+   Voxel types: int8, uint8, int16, uint16, int32, float32, float64 (and
+   VTK's unsigned_int, widened to float64); other types are refused by name. Dimensions: MetaImage and NRRD 3 or 4; NIfTI
    dim[0] 1 to 7 as long as dim[5..dim[0]] are 1 (a 2-D image is one slice,
    dims past dim[0] are ignored, as the format says). Value scaling: NIfTI
    scl_slope/scl_inter (a zero or non-finite slope means none, as nibabel);
@@ -42,6 +43,8 @@
      NRRD       the "space" the file names (LPS for 3D Slicer's files, RAS,
                 scanner-xyz...): world = space origin + the space directions
                 as columns; without space directions, diag(spacings).
+     VTK        world = ORIGIN + DIRECTION diag(SPACING) (i, j, k), VTK's
+                defaults (0, the identity, 1) for what the file leaves out.
    A 4-D image's frames follow one another in the buffer (frame_stride
    apart); a NRRD's non-spatial axis may be any one of its four, marked by
    "none" in space directions (the last axis without them). */
@@ -93,26 +96,10 @@ typedef struct sqffd_image {
 
 /* ---- text ---------------------------------------------------------------- */
 
-static inline int sqffd_image__lower(int c)
-{
-    return c >= 'A' && c <= 'Z' ? c - 'A' + 'a' : c;
-}
-
-/* Whether [text, text + len) is `word`, ignoring case. */
-static inline int sqffd_image__is(const char *text, size_t len, const char *word)
-{
-    size_t i;
-    if (strlen(word) != len) return 0;
-    for (i = 0; i < len; i++)
-        if (sqffd_image__lower((unsigned char)text[i]) != sqffd_image__lower((unsigned char)word[i])) return 0;
-    return 1;
-}
-
 /* Whether `name` ends in `suffix`, ignoring case. */
 static inline int sqffd_image__has_suffix(const char *name, const char *suffix)
 {
-    size_t n = name ? strlen(name) : 0, m = strlen(suffix);
-    return n >= m && sqffd_image__is(name + n - m, m, suffix);
+    return sqffd_io__has_extension(name, name ? strlen(name) : 0, suffix);
 }
 
 static inline int sqffd_image__is_blank(char c)
@@ -162,7 +149,7 @@ static inline int sqffd_image__number(const char *text, size_t len, int allow_na
     char buf[64];
     char *stop;
     double v;
-    if (allow_nan && sqffd_image__is(text, len, "nan")) { *out = NAN; return 0; }
+    if (allow_nan && sqffd_io__is(text, len, "nan")) { *out = NAN; return 0; }
     if (len == 0 || len >= sizeof buf) return 1;
     memcpy(buf, text, len);
     buf[len] = '\0';
@@ -309,6 +296,7 @@ typedef struct sqffd_image__layout {
     const char *data_file;  /* a separate data file the header names (not NUL-terminated), or NULL */
     size_t data_file_len;
     int pair;               /* a NIfTI .hdr: the data are in the .img beside it */
+    int uint32;             /* uint32 voxels (VTK unsigned_int; type says int32): widened to float64 on load */
 } sqffd_image__layout;
 
 static inline void sqffd_image__layout_init(sqffd_image__layout *layout)
@@ -408,7 +396,7 @@ static inline int sqffd_image__ascii(const char *text, size_t size, const sqffd_
             static const double lowest[] = {0, -128, 0, -32768, -2147483648.0};
             static const double highest[] = {255, 127, 65535, 32767, 2147483647.0};
             int t = (int)layout->type;
-            if (v != floor(v) || v < lowest[t] || v > highest[t])
+            if (v != floor(v) || v < (layout->uint32 ? 0 : lowest[t]) || v > (layout->uint32 ? 4294967295.0 : highest[t]))
                 return sqffd_io__fail(err, err_size, name,
                                          "data: value %llu, %s, is not a whole number in the type's range",
                                          (unsigned long long)i, sqffd_io__quote(tok, len, q));
@@ -417,7 +405,10 @@ static inline int sqffd_image__ascii(const char *text, size_t size, const sqffd_
             case SQFFD_VOXEL_I8: { int8_t x = (int8_t)v; memcpy(out + i, &x, 1); break; }
             case SQFFD_VOXEL_U16: { uint16_t x = (uint16_t)v; memcpy(out + 2 * i, &x, 2); break; }
             case SQFFD_VOXEL_I16: { int16_t x = (int16_t)v; memcpy(out + 2 * i, &x, 2); break; }
-            default: { int32_t x = (int32_t)v; memcpy(out + 4 * i, &x, 4); break; }
+            default:
+                if (layout->uint32) { uint32_t x = (uint32_t)v; memcpy(out + 4 * i, &x, 4); }
+                else { int32_t x = (int32_t)v; memcpy(out + 4 * i, &x, 4); }
+                break;
             }
         }
     }
@@ -434,7 +425,7 @@ static inline int sqffd_image__load(const unsigned char *src, size_t src_size, c
                                     const sqffd_image__layout *layout, unsigned char **owner, sqffd_image *image,
                                     char *err, size_t err_size)
 {
-    size_t pos = layout->start, avail, a, i;
+    size_t pos = layout->start, avail, a, i, element = layout->element_size;
     unsigned char *voxels = NULL;
     ptrdiff_t strides[4];
     int axis;
@@ -520,12 +511,29 @@ static inline int sqffd_image__load(const unsigned char *src, size_t src_size, c
     if (layout->encoding != SQFFD_IMAGE__ASCII && layout->element_size > 1 &&
         layout->big_endian != sqffd_image__native_big_endian())
         sqffd_image__swap(voxels, layout->total / layout->element_size, layout->element_size);
+    if (layout->uint32) { /* each value widened in place, from the last (it never overwrites one not yet read) */
+        unsigned char *wide = (unsigned char *)realloc(voxels, 2 * layout->total);
+        if (!wide) {
+            free(voxels);
+            return sqffd_io__fail(err, err_size, name, "out of memory for %llu bytes of voxels",
+                                  2 * (unsigned long long)layout->total);
+        }
+        for (i = layout->total / 4; i-- > 0;) {
+            uint32_t x;
+            double d;
+            memcpy(&x, wide + 4 * i, 4);
+            d = (double)x;
+            memcpy(wide + 8 * i, &d, 8);
+        }
+        voxels = wide;
+        element = 8;
+    }
 
-    strides[0] = (ptrdiff_t)layout->element_size;
+    strides[0] = (ptrdiff_t)element;
     for (a = 1; a < 4; a++) strides[a] = strides[a - 1] * (ptrdiff_t)layout->dims[a - 1];
     image->buffer = voxels;
     image->volume.data = voxels;
-    image->volume.type = layout->type;
+    image->volume.type = layout->uint32 ? SQFFD_VOXEL_F64 : layout->type;
     for (axis = 0, a = 0; axis < 4; axis++) {
         if (axis == layout->frame_axis) continue;
         image->volume.dims[a] = layout->dims[axis];
@@ -736,7 +744,7 @@ static inline int sqffd_image__mha_key(const char *key, size_t len, const char *
         {"ElementDataFile", SQFFD_IMAGE__MHA_DATA_FILE}};
     size_t i;
     for (i = 0; i < sizeof keys / sizeof keys[0]; i++)
-        if (sqffd_image__is(key, len, keys[i].name)) {
+        if (sqffd_io__is(key, len, keys[i].name)) {
             *spelled = keys[i].name;
             return keys[i].key;
         }
@@ -755,7 +763,7 @@ static inline int sqffd_image__looks_metaimage(const char *text, size_t size)
         if (!eq) return 0;
         e = eq;
         sqffd_image__trim(&s, &e);
-        return sqffd_image__is(s, (size_t)(e - s), "ObjectType") || sqffd_image__is(s, (size_t)(e - s), "NDims");
+        return sqffd_io__is(s, (size_t)(e - s), "ObjectType") || sqffd_io__is(s, (size_t)(e - s), "NDims");
     }
     return 0;
 }
@@ -766,8 +774,8 @@ static inline int sqffd_image__bool(const sqffd_image__value *v, int *out, const
 {
     size_t len = (size_t)(v->e - v->s);
     char q[32];
-    if (sqffd_image__is(v->s, len, "true") || sqffd_image__is(v->s, len, "1")) *out = 1;
-    else if (sqffd_image__is(v->s, len, "false") || sqffd_image__is(v->s, len, "0")) *out = 0;
+    if (sqffd_io__is(v->s, len, "true") || sqffd_io__is(v->s, len, "1")) *out = 1;
+    else if (sqffd_io__is(v->s, len, "false") || sqffd_io__is(v->s, len, "0")) *out = 0;
     else
         return sqffd_io__fail(err, err_size, name, "%s = %s: expected True or False", v->key,
                                  sqffd_io__quote(v->s, len, q));
@@ -824,7 +832,7 @@ static inline int sqffd_image__metaimage(const char *text, size_t size, const ch
     sqffd_image__set_text(image->format, sizeof image->format, "MetaImage");
     layout->start = (size_t)(p - text);
 
-    if (v[SQFFD_IMAGE__MHA_OBJECT].key && !sqffd_image__is(v[SQFFD_IMAGE__MHA_OBJECT].s,
+    if (v[SQFFD_IMAGE__MHA_OBJECT].key && !sqffd_io__is(v[SQFFD_IMAGE__MHA_OBJECT].s,
                                                           (size_t)(v[SQFFD_IMAGE__MHA_OBJECT].e - v[SQFFD_IMAGE__MHA_OBJECT].s),
                                                           "Image"))
         return sqffd_io__fail(err, err_size, name, "ObjectType = %s: not an image",
@@ -849,7 +857,7 @@ static inline int sqffd_image__metaimage(const char *text, size_t size, const ch
         const sqffd_image__value *t = &v[SQFFD_IMAGE__MHA_TYPE];
         size_t i, len = (size_t)(t->e - t->s);
         for (i = 0; i < sizeof types / sizeof types[0]; i++)
-            if (sqffd_image__is(t->s, len, types[i].name)) break;
+            if (sqffd_io__is(t->s, len, types[i].name)) break;
         if (i == sizeof types / sizeof types[0])
             return sqffd_io__fail(err, err_size, name,
                                      "ElementType %s is not supported (MET_UCHAR, MET_CHAR, MET_USHORT, MET_SHORT, "
@@ -941,13 +949,13 @@ static inline int sqffd_image__metaimage(const char *text, size_t size, const ch
         const sqffd_image__value *f = &v[SQFFD_IMAGE__MHA_DATA_FILE];
         size_t len = (size_t)(f->e - f->s);
         if (len == 0) return sqffd_io__fail(err, err_size, name, "ElementDataFile is empty");
-        if (sqffd_image__is(f->s, len, "LIST"))
+        if (sqffd_io__is(f->s, len, "LIST"))
             return sqffd_io__fail(err, err_size, name, "ElementDataFile = LIST (one file per slice) is not supported");
         if (memchr(f->s, '%', len))
             return sqffd_io__fail(err, err_size, name,
                                      "ElementDataFile = %s: a file-name pattern (one file per slice) is not supported",
                                      sqffd_io__quote(f->s, len, q));
-        if (!sqffd_image__is(f->s, len, "LOCAL")) {
+        if (!sqffd_io__is(f->s, len, "LOCAL")) {
             layout->data_file = f->s;
             layout->data_file_len = len;
             layout->start = 0;
@@ -988,7 +996,7 @@ static inline int sqffd_image__nrrd_field(const char *field, size_t len, const c
         {"byteskip", SQFFD_IMAGE__NRRD_BYTE_SKIP}};
     size_t i;
     for (i = 0; i < sizeof fields / sizeof fields[0]; i++)
-        if (sqffd_image__is(field, len, fields[i].name)) {
+        if (sqffd_io__is(field, len, fields[i].name)) {
             *spelled = fields[i].name;
             return fields[i].field;
         }
@@ -1014,7 +1022,7 @@ static inline int sqffd_image__nrrd_type(const char *s, size_t len, sqffd_image_
         {"float", SQFFD_VOXEL_F32, "float"},            {"double", SQFFD_VOXEL_F64, "double"}};
     size_t i;
     for (i = 0; i < sizeof types / sizeof types[0]; i++)
-        if (sqffd_image__is(s, len, types[i].name)) {
+        if (sqffd_io__is(s, len, types[i].name)) {
             layout->type = (sqffd_voxel_type)types[i].type;
             layout->element_size = sqffd_image__type_size(layout->type);
             sqffd_image__set_text(image->stored_type, sizeof image->stored_type, types[i].canonical);
@@ -1105,9 +1113,9 @@ static inline int sqffd_image__nrrd(const char *text, size_t size, const char *n
     if (!v[SQFFD_IMAGE__NRRD_ENCODING].key) return sqffd_io__fail(err, err_size, name, "no encoding field");
     s = v[SQFFD_IMAGE__NRRD_ENCODING].s;
     len = (size_t)(v[SQFFD_IMAGE__NRRD_ENCODING].e - s);
-    if (sqffd_image__is(s, len, "raw")) layout->encoding = SQFFD_IMAGE__RAW;
-    else if (sqffd_image__is(s, len, "gzip") || sqffd_image__is(s, len, "gz")) layout->encoding = SQFFD_IMAGE__GZIP;
-    else if (sqffd_image__is(s, len, "ascii") || sqffd_image__is(s, len, "text") || sqffd_image__is(s, len, "txt"))
+    if (sqffd_io__is(s, len, "raw")) layout->encoding = SQFFD_IMAGE__RAW;
+    else if (sqffd_io__is(s, len, "gzip") || sqffd_io__is(s, len, "gz")) layout->encoding = SQFFD_IMAGE__GZIP;
+    else if (sqffd_io__is(s, len, "ascii") || sqffd_io__is(s, len, "text") || sqffd_io__is(s, len, "txt"))
         layout->encoding = SQFFD_IMAGE__ASCII;
     else
         return sqffd_io__fail(err, err_size, name, "encoding %s is not supported (raw, gzip and ascii are)",
@@ -1115,8 +1123,8 @@ static inline int sqffd_image__nrrd(const char *text, size_t size, const char *n
     if (v[SQFFD_IMAGE__NRRD_ENDIAN].key) {
         s = v[SQFFD_IMAGE__NRRD_ENDIAN].s;
         len = (size_t)(v[SQFFD_IMAGE__NRRD_ENDIAN].e - s);
-        if (sqffd_image__is(s, len, "big")) layout->big_endian = 1;
-        else if (!sqffd_image__is(s, len, "little"))
+        if (sqffd_io__is(s, len, "big")) layout->big_endian = 1;
+        else if (!sqffd_io__is(s, len, "little"))
             return sqffd_io__fail(err, err_size, name, "endian %s: expected little or big",
                                      sqffd_io__quote(s, len, q));
     } else if (layout->element_size > 1 && layout->encoding != SQFFD_IMAGE__ASCII)
@@ -1157,7 +1165,7 @@ static inline int sqffd_image__nrrd(const char *text, size_t size, const char *n
         s = v[SQFFD_IMAGE__NRRD_SPACE].s;
         len = (size_t)(v[SQFFD_IMAGE__NRRD_SPACE].e - s);
         for (i = 0; i < sizeof spaces3 / sizeof spaces3[0]; i++)
-            if (sqffd_image__is(s, len, spaces3[i])) break;
+            if (sqffd_io__is(s, len, spaces3[i])) break;
         if (i == sizeof spaces3 / sizeof spaces3[0])
             return sqffd_io__fail(err, err_size, name, "space %s: only 3-D spaces are supported",
                                      sqffd_io__quote(s, len, q));
@@ -1177,7 +1185,7 @@ static inline int sqffd_image__nrrd(const char *text, size_t size, const char *n
         int spatial = 0;
         for (a = 0; a < (int)dimension; a++) {
             while (d < de && sqffd_image__is_blank(*d)) d++;
-            if (de - d >= 4 && sqffd_image__is(d, 4, "none") && (de - d == 4 || sqffd_image__is_blank(d[4]))) {
+            if (de - d >= 4 && sqffd_io__is(d, 4, "none") && (de - d == 4 || sqffd_image__is_blank(d[4]))) {
                 layout->frame_axis = a;
                 d += 4;
                 continue;
@@ -1234,7 +1242,7 @@ static inline int sqffd_image__nrrd(const char *text, size_t size, const char *n
         const char *f = v[SQFFD_IMAGE__NRRD_DATA_FILE].s, *fe = v[SQFFD_IMAGE__NRRD_DATA_FILE].e;
         len = (size_t)(fe - f);
         if (len == 0) return sqffd_io__fail(err, err_size, name, "data file is empty");
-        if (sqffd_image__is(f, len > 4 ? 4 : len, "LIST") && (len == 4 || sqffd_image__is_blank(f[4])))
+        if (sqffd_io__is(f, len > 4 ? 4 : len, "LIST") && (len == 4 || sqffd_image__is_blank(f[4])))
             return sqffd_io__fail(err, err_size, name, "data file: LIST (several data files) is not supported");
         for (s = f; s < fe; s++)
             if (sqffd_image__is_blank(*s) || *s == '%')
@@ -1250,12 +1258,124 @@ static inline int sqffd_image__nrrd(const char *text, size_t size, const char *n
     return 0;
 }
 
+/* ---- legacy VTK ---------------------------------------------------------- */
+
+/* A legacy VTK STRUCTURED_POINTS dataset, ASCII or BINARY (sqffd_io.h reads
+   the header, the value types, and skips what is not read: FIELD data,
+   CELL_DATA, other attributes, METADATA): DIMENSIONS nx ny nz, SPACING (or
+   its old name ASPECT_RATIO), ORIGIN and DIRECTION (VTK 9's 3 x 3 matrix,
+   row by row) in any order before the voxels, which are the first
+   one-component SCALARS of POINT_DATA, x fastest, big-endian in a BINARY
+   file. Voxel (i, j, k) is at ORIGIN + DIRECTION diag(SPACING) (i, j, k)
+   (defaults: 0, the identity, 1). Types: unsigned_char, char, unsigned_short,
+   short, int, float, double, and unsigned_int (widened to float64). */
+static inline int sqffd_image__vtk(const char *text, size_t size, const char *name, sqffd_image *image,
+                                   sqffd_image__layout *layout, char *err, size_t err_size)
+{
+    static const struct { int io; sqffd_voxel_type voxel; const char *text; } types[] = {
+        {SQFFD_IO__U8, SQFFD_VOXEL_U8, "unsigned_char"},   {SQFFD_IO__I8, SQFFD_VOXEL_I8, "char"},
+        {SQFFD_IO__U16, SQFFD_VOXEL_U16, "unsigned_short"}, {SQFFD_IO__I16, SQFFD_VOXEL_I16, "short"},
+        {SQFFD_IO__I32, SQFFD_VOXEL_I32, "int"},           {SQFFD_IO__U32, SQFFD_VOXEL_I32, "unsigned_int"},
+        {SQFFD_IO__F32, SQFFD_VOXEL_F32, "float"},         {SQFFD_IO__F64, SQFFD_VOXEL_F64, "double"}};
+    sqffd_io__vtk v;
+    double spacing[3] = {1, 1, 1}, origin[3] = {0, 0, 0}, direction[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+    int dims_at = 0, geometry = 0, type, k, r;
+    uint64_t components, dims[3] = {0, 0, 0};
+    size_t t;
+    const char *tok;
+    size_t len;
+    char what[48], q[32];
+    if (sqffd_io__vtk_header(text, size, &v, name, err, err_size)) return 1;
+    if (strcmp(v.dataset, "STRUCTURED_POINTS") != 0)
+        return sqffd_io__fail(err, err_size, name, "DATASET %s holds points, not a volume (a volume is "
+                              "STRUCTURED_POINTS)", v.dataset);
+    for (;;) {
+        if (!sqffd_io__token(&v.t, &tok, &len))
+            return sqffd_io__fail(err, err_size, name, "no SCALARS in POINT_DATA: no voxel values");
+        snprintf(what, sizeof what, "%.*s (line %llu)", (int)(len < 24 ? len : 24), tok, v.t.line);
+        if (sqffd_io__is(tok, len, "DIMENSIONS")) {
+            for (k = 0; k < 3; k++) {
+                if (sqffd_io__vtk_count(&v, &dims[k], what, name, err, err_size)) return 1;
+                if (dims[k] < 1 || dims[k] > (uint64_t)SQFFD_IMAGE_MAX_BYTES)
+                    return sqffd_io__fail(err, err_size, name, "%s: %llu is not a size from 1 to %llu", what,
+                                          (unsigned long long)dims[k], (unsigned long long)SQFFD_IMAGE_MAX_BYTES);
+            }
+            dims_at = 1;
+        } else if (sqffd_io__is(tok, len, "SPACING") || sqffd_io__is(tok, len, "ASPECT_RATIO")) {
+            for (k = 0; k < 3; k++) {
+                if (sqffd_io__vtk_value(&v, NULL, &spacing[k], what, name, err, err_size)) return 1;
+                if (spacing[k] == 0) return sqffd_io__fail(err, err_size, name, "%s: a spacing of 0", what);
+            }
+            geometry |= 1;
+        } else if (sqffd_io__is(tok, len, "ORIGIN")) {
+            for (k = 0; k < 3; k++)
+                if (sqffd_io__vtk_value(&v, NULL, &origin[k], what, name, err, err_size)) return 1;
+            geometry |= 1;
+        } else if (sqffd_io__is(tok, len, "DIRECTION")) {
+            for (k = 0; k < 9; k++)
+                if (sqffd_io__vtk_value(&v, NULL, &direction[k], what, name, err, err_size)) return 1;
+            geometry |= 2;
+        } else if (sqffd_io__is(tok, len, "SCALARS") && v.section == 'P') {
+            break;
+        } else if ((r = sqffd_io__vtk_skip(&v, tok, len, name, err, err_size)) != 0) {
+            if (r == 2)
+                return sqffd_io__fail(err, err_size, name, "line %llu: unknown keyword %s in DATASET "
+                                      "STRUCTURED_POINTS", v.t.line, sqffd_io__quote(tok, len, q));
+            return 1;
+        }
+    }
+    if (sqffd_io__vtk_scalars(&v, &type, &components, what, name, err, err_size)) return 1;
+    if (!dims_at) return sqffd_io__fail(err, err_size, name, "%s: no DIMENSIONS before the voxels", what);
+    if (components != 1)
+        return sqffd_io__fail(err, err_size, name, "%s: %llu components a voxel; one is read", what,
+                              (unsigned long long)components);
+    for (t = 0; t < sizeof types / sizeof types[0] && types[t].io != type; t++) {}
+    if (t == sizeof types / sizeof types[0])
+        return sqffd_io__fail(err, err_size, name, "%s: 64-bit integer voxels are not read (unsigned_char, char, "
+                              "unsigned_short, short, int, unsigned_int, float and double are)", what);
+    sqffd_image__set_text(image->format, sizeof image->format, "VTK");
+    sqffd_image__set_text(image->stored_type, sizeof image->stored_type, types[t].text);
+    layout->type = types[t].voxel;
+    layout->uint32 = type == SQFFD_IO__U32;
+    layout->element_size = layout->uint32 ? 8 : sqffd_image__type_size(layout->type); /* the widened size, checked */
+    for (k = 0; k < 3; k++) layout->dims[k] = (size_t)dims[k];
+    if (sqffd_image__total(layout, name, err, err_size)) return 1;
+    if (layout->uint32) {
+        layout->element_size = 4;
+        layout->total /= 2;
+    }
+    if (v.tuples != (uint64_t)layout->dims[0] * layout->dims[1] * layout->dims[2])
+        return sqffd_io__fail(err, err_size, name, "POINT_DATA %llu, but DIMENSIONS %llu x %llu x %llu make %llu "
+                              "points", (unsigned long long)v.tuples, (unsigned long long)dims[0],
+                              (unsigned long long)dims[1], (unsigned long long)dims[2],
+                              (unsigned long long)(layout->dims[0] * layout->dims[1] * layout->dims[2]));
+    sqffd_io__vtk_data_start(&v);
+    layout->start = (size_t)(v.t.p - text);
+    layout->encoding = v.binary ? SQFFD_IMAGE__RAW : SQFFD_IMAGE__ASCII;
+    layout->big_endian = image->big_endian = v.binary; /* BINARY is big-endian */
+    memset(image->volume.affine, 0, sizeof image->volume.affine);
+    for (r = 0; r < 3; r++) {
+        for (k = 0; k < 3; k++) image->volume.affine[4 * r + k] = direction[3 * r + k] * spacing[k];
+        image->volume.affine[4 * r + 3] = origin[r];
+        image->spacing[r] = spacing[r];
+    }
+    image->volume.affine[15] = 1;
+    for (r = 0; r < 12; r++)
+        if (!isfinite(image->volume.affine[r]))
+            return sqffd_io__fail(err, err_size, name, "DIRECTION x SPACING holds a value that is not finite");
+    sqffd_image__set_text(image->affine_source, sizeof image->affine_source,
+                          geometry & 2 ? "DIRECTION, SPACING, ORIGIN" : geometry ? "SPACING and ORIGIN" : "none");
+    return 0;
+}
+
 /* ---- format detection ---------------------------------------------------- */
 
-enum { SQFFD_IMAGE__UNKNOWN = 0, SQFFD_IMAGE__NIFTI = 1, SQFFD_IMAGE__METAIMAGE = 2, SQFFD_IMAGE__NRRD_FORMAT = 3 };
+enum { SQFFD_IMAGE__UNKNOWN = 0, SQFFD_IMAGE__NIFTI = 1, SQFFD_IMAGE__METAIMAGE = 2, SQFFD_IMAGE__NRRD_FORMAT = 3,
+       SQFFD_IMAGE__VTK = 4 };
 
 /* The format of `size` bytes by content (a NIfTI-1 sizeof_hdr, or NIfTI-2's;
-   the NRRD magic; a first MetaImage key), else by the name's extension. */
+   the NRRD magic; VTK's first line; a first MetaImage key), else by the
+   name's extension. */
 static inline int sqffd_image__detect(const unsigned char *data, size_t size, const char *name)
 {
     if (size >= 4) {
@@ -1263,6 +1383,7 @@ static inline int sqffd_image__detect(const unsigned char *data, size_t size, co
         if (le == 348 || be == 348 || le == 540 || be == 540) return SQFFD_IMAGE__NIFTI;
         if (memcmp(data, "NRRD", 4) == 0) return SQFFD_IMAGE__NRRD_FORMAT;
     }
+    if (sqffd_io__vtk_magic(data, size)) return SQFFD_IMAGE__VTK;
     if (sqffd_image__looks_metaimage((const char *)data, size)) return SQFFD_IMAGE__METAIMAGE;
     if (sqffd_image__has_suffix(name, ".nii") || sqffd_image__has_suffix(name, ".nii.gz") ||
         sqffd_image__has_suffix(name, ".hdr") || sqffd_image__has_suffix(name, ".hdr.gz"))
@@ -1288,8 +1409,9 @@ static inline int sqffd_image__header(const unsigned char *data, size_t size, co
     case SQFFD_IMAGE__METAIMAGE:
         return sqffd_image__metaimage((const char *)data, size, name, image, layout, err, err_size);
     case SQFFD_IMAGE__NRRD_FORMAT: return sqffd_image__nrrd((const char *)data, size, name, image, layout, err, err_size);
+    case SQFFD_IMAGE__VTK: return sqffd_image__vtk((const char *)data, size, name, image, layout, err, err_size);
     default:
-        return sqffd_io__fail(err, err_size, name, "not a NIfTI-1, MetaImage or NRRD file");
+        return sqffd_io__fail(err, err_size, name, "not a NIfTI-1, MetaImage, NRRD or VTK file");
     }
 }
 
@@ -1495,9 +1617,10 @@ static inline sqffd_volume sqffd_image_frame(const sqffd_image *image, size_t t)
 
 /* Whether a file is one of these formats, from its name (may be NULL) and
    its first bytes: the NIfTI-1 magic "n+1"/"ni1" at byte 344 after a
-   sizeof_hdr of 348, "NRRD000", a first line "ObjectType = " or "NDims = ";
-   gzip files and anything unrecognised by the extension (.nii, .nii.gz,
-   .hdr, .img, .mha, .mhd, .nrrd, .nhdr). */
+   sizeof_hdr of 348, "NRRD000", a first line "ObjectType = " or "NDims = ",
+   a VTK header whose DATASET is STRUCTURED_POINTS (other VTK files, .vtk
+   too, hold points); gzip files and anything unrecognised by the extension
+   (.nii, .nii.gz, .hdr, .img, .mha, .mhd, .nrrd, .nhdr). */
 static inline int sqffd_image_is_volume_file(const char *path, const void *head, size_t head_size)
 {
     const unsigned char *h = (const unsigned char *)head;
@@ -1508,6 +1631,10 @@ static inline int sqffd_image_is_volume_file(const char *path, const void *head,
         (memcmp(h + 344, "n+1", 4) == 0 || memcmp(h + 344, "ni1", 4) == 0))
         return 1;
     if (h && head_size >= 8 && memcmp(h, "NRRD000", 7) == 0) return 1;
+    if (h && sqffd_io__vtk_magic(h, head_size)) {
+        sqffd_io__vtk v;
+        return !sqffd_io__vtk_header(h, head_size, &v, NULL, NULL, 0) && strcmp(v.dataset, "STRUCTURED_POINTS") == 0;
+    }
     if (h && sqffd_image__looks_metaimage((const char *)h, head_size)) return 1;
     for (i = 0; i < sizeof extensions / sizeof extensions[0]; i++)
         if (sqffd_image__has_suffix(path, extensions[i])) return 1;

@@ -4,8 +4,10 @@
    (stdio, stdlib) and sqffd_inflate.h beside it. Independent of sqffd.h.
 
    Reading: XYZ, PLY (ascii, binary_little_endian, binary_big_endian), OFF,
-   the vertices of Wavefront OBJ, and PCD (the Point Cloud Library's format:
-   ascii, binary, binary_compressed).
+   the vertices of Wavefront OBJ, PCD (the Point Cloud Library's format:
+   ascii, binary, binary_compressed), the POINTS of legacy VTK POLYDATA,
+   UNSTRUCTURED_GRID and STRUCTURED_GRID files (ASCII and BINARY), and the
+   vertices of STL (ASCII and binary), each shared vertex once.
    Every reader takes a memory buffer and its size, checks every count and
    offset against that size before using or allocating anything, and returns
      0  with *points = malloc'd x y z triples (free() them) and *count, or
@@ -17,7 +19,7 @@
    (sqffd_io_read_points_info, sqffd_io_read_file_info). gzip-compressed input (any of these formats) is decompressed
    first, with sqffd_inflate.h, up to SQFFD_IO_MAX_FILE_SIZE bytes (the
    format then comes from the content, or the name without its .gz).
-   A file of a format no reader here takes (DICOM, INRIMAGE, STL, Analyze
+   A file of a format no reader here takes (DICOM, INRIMAGE, Analyze
    7.5, HDF5, zip) is refused with one sentence that names it and says what
    to do (sqffd_io_foreign_format); binary bytes in what would be read as
    XYZ make it "not a text point file".
@@ -54,7 +56,9 @@ typedef enum sqffd_io_format {
     SQFFD_IO_PLY = 1,
     SQFFD_IO_OFF = 2,
     SQFFD_IO_OBJ = 3,
-    SQFFD_IO_PCD = 4
+    SQFFD_IO_PCD = 4,
+    SQFFD_IO_VTK = 5,
+    SQFFD_IO_STL = 6
 } sqffd_io_format;
 
 /* A PCD file's header, as sqffd_io_read_pcd read it. */
@@ -73,6 +77,10 @@ typedef struct sqffd_io_info {
     int gzip;                /* the file was gzip-compressed */
     size_t dropped_nan;      /* PCD points left out for a NaN coordinate (invalid depth); other formats refuse NaN */
     sqffd_io_pcd_header pcd; /* format SQFFD_IO_PCD: its header */
+    int binary;              /* VTK, STL: binary (else ASCII) */
+    char vtk_version[8];     /* VTK: the header's version ("3.0", "5.1", ...) */
+    char vtk_dataset[24];    /* VTK: POLYDATA, UNSTRUCTURED_GRID or STRUCTURED_GRID */
+    size_t stl_triangles;    /* STL: the triangles, whose 3 vertices each, merged, are the points */
 } sqffd_io_info;
 
 /* One per-vertex scalar for the writer: `name` becomes a float property. */
@@ -157,6 +165,20 @@ static inline int sqffd_io__parse_count(const char *text, size_t len, uint64_t *
 static inline int sqffd_io__is_space(char c)
 {
     return c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == '\v' || c == '\f';
+}
+
+/* Whether [text, text + len) is `word`, ignoring the case of ASCII letters. */
+static inline int sqffd_io__is(const char *text, size_t len, const char *word)
+{
+    size_t i;
+    if (strlen(word) != len) return 0;
+    for (i = 0; i < len; i++) {
+        int a = (unsigned char)text[i], b = (unsigned char)word[i];
+        if (a >= 'A' && a <= 'Z') a += 'a' - 'A';
+        if (b >= 'A' && b <= 'Z') b += 'a' - 'A';
+        if (a != b) return 0;
+    }
+    return 1;
 }
 
 /* A cursor over text, for the line-oriented formats (XYZ, OFF, PLY header)
@@ -1470,6 +1492,685 @@ static inline int sqffd_io_read_pcd(const void *data, size_t size, const char *n
     return sqffd_io__finish(&pts, points, count, name, err, err_size);
 }
 
+/* ---- legacy VTK ---------------------------------------------------------- */
+
+/* The legacy VTK format (VTK's "File Formats" chapter): a line "# vtk
+   DataFile Version x.y", a title line, ASCII or BINARY, "DATASET TYPE",
+   then keyword sections in any order, each keyword line followed by its
+   values: white-space separated numbers (ASCII), or big-endian binary
+   values right after the keyword line's line break (BINARY). Keywords and
+   type names are read in any case, as VTK does. The parts below are shared
+   with the STRUCTURED_POINTS volume reader of sqffd_image.h: the header,
+   the value types, reading or skipping a block of values, and skipping
+   the sections neither reader takes (FIELD data, attributes, cells,
+   METADATA), checked against the file's size as they go. */
+
+typedef struct sqffd_io__vtk {
+    sqffd_io__text t;  /* the cursor, at the next keyword */
+    const char *start; /* the file's first byte */
+    int binary;
+    int major;         /* the version's major number: 5 and later write cells as OFFSETS and CONNECTIVITY */
+    char version[8];   /* "3.0", "5.1", ... ("" when the line gives none) */
+    char dataset[24];  /* STRUCTURED_POINTS, POLYDATA, ... as VTK spells them */
+    int section;       /* 0 before any attribute section, else 'P' (POINT_DATA) or 'C' (CELL_DATA) */
+    uint64_t tuples;   /* the current attribute section's count */
+} sqffd_io__vtk;
+
+/* Whether data start with VTK's first line, "# vtk DataFile Version" (any case). */
+static inline int sqffd_io__vtk_magic(const void *data, size_t size)
+{
+    return size >= 22 && sqffd_io__is((const char *)data, 22, "# vtk DataFile Version");
+}
+
+/* The next token of the file, or a message that it ends before `what`. */
+static inline int sqffd_io__vtk_word(sqffd_io__vtk *v, const char **tok, size_t *len, const char *what,
+                                     const char *name, char *err, size_t err_size)
+{
+    *tok = v->t.end; /* set either way: the callers' compilers see every path */
+    *len = 0;
+    if (sqffd_io__token(&v->t, tok, len)) return 0;
+    return sqffd_io__fail(err, err_size, name, "file ends before %s (line %llu)", what, v->t.line);
+}
+
+/* The next token as a count (a whole number below 2^64) into *count, or,
+   count NULL, as a finite number into *number. */
+static inline int sqffd_io__vtk_value(sqffd_io__vtk *v, uint64_t *count, double *number, const char *what,
+                                      const char *name, char *err, size_t err_size)
+{
+    const char *tok;
+    size_t len;
+    char q[32];
+    if (sqffd_io__vtk_word(v, &tok, &len, what, name, err, err_size)) return 1;
+    if (count ? sqffd_io__parse_count(tok, len, count) != 0
+              : sqffd_io__parse_double(tok, len, number) != SQFFD_IO__NUMBER)
+        return sqffd_io__fail(err, err_size, name, "line %llu: %s: %s is not a %s", v->t.line, what,
+                              sqffd_io__quote(tok, len, q), count ? "count" : "finite number");
+    return 0;
+}
+
+static inline int sqffd_io__vtk_count(sqffd_io__vtk *v, uint64_t *count, const char *what, const char *name, char *err,
+                                      size_t err_size)
+{
+    return sqffd_io__vtk_value(v, count, NULL, what, name, err, err_size);
+}
+
+/* Reads the header: the version line, the title line, ASCII or BINARY and
+   "DATASET TYPE"; v is then at the first section's keyword. */
+static inline int sqffd_io__vtk_header(const void *data, size_t size, sqffd_io__vtk *v, const char *name, char *err,
+                                       size_t err_size)
+{
+    static const char *const datasets[] = {"STRUCTURED_POINTS", "STRUCTURED_GRID", "UNSTRUCTURED_GRID", "POLYDATA",
+                                           "RECTILINEAR_GRID"};
+    const char *text = (const char *)data, *s, *e, *tok, *nl;
+    size_t len, i;
+    char q[32];
+    memset(v, 0, sizeof *v);
+    v->start = text;
+    if (!sqffd_io__vtk_magic(data, size))
+        return sqffd_io__fail(err, err_size, name, "not a legacy VTK file: the first line is not '# vtk DataFile "
+                              "Version x.y'");
+    nl = (const char *)memchr(text, '\n', size);
+    s = text + 22;
+    e = nl ? nl : text + size;
+    if (sqffd_io__line_token(&s, e, &tok, &len)) {
+        snprintf(v->version, sizeof v->version, "%.*s", (int)(len < 7 ? len : 7), tok);
+        v->major = tok[0] >= '0' && tok[0] <= '9' ? tok[0] - '0' : 0;
+    }
+    nl = nl ? (const char *)memchr(nl + 1, '\n', (size_t)(text + size - nl - 1)) : NULL; /* the title line's end */
+    if (!nl) return sqffd_io__fail(err, err_size, name, "file ends inside the header (after the title line)");
+    v->t.p = nl + 1;
+    v->t.end = text + size;
+    v->t.line = 3;
+    if (sqffd_io__vtk_word(v, &tok, &len, "ASCII or BINARY", name, err, err_size)) return 1;
+    if (sqffd_io__is(tok, len, "BINARY")) v->binary = 1;
+    else if (!sqffd_io__is(tok, len, "ASCII"))
+        return sqffd_io__fail(err, err_size, name, "line %llu: expected ASCII or BINARY, found %s", v->t.line,
+                              sqffd_io__quote(tok, len, q));
+    if (sqffd_io__vtk_word(v, &tok, &len, "the DATASET line", name, err, err_size)) return 1;
+    if (sqffd_io__is(tok, len, "FIELD"))
+        return sqffd_io__fail(err, err_size, name, "a VTK data object (FIELD data only): no DATASET, no points");
+    if (!sqffd_io__is(tok, len, "DATASET"))
+        return sqffd_io__fail(err, err_size, name, "line %llu: expected DATASET, found %s", v->t.line,
+                              sqffd_io__quote(tok, len, q));
+    if (sqffd_io__vtk_word(v, &tok, &len, "the dataset type", name, err, err_size)) return 1;
+    for (i = 0; i < sizeof datasets / sizeof datasets[0]; i++)
+        if (sqffd_io__is(tok, len, datasets[i])) {
+            snprintf(v->dataset, sizeof v->dataset, "%s", datasets[i]);
+            return 0;
+        }
+    return sqffd_io__fail(err, err_size, name, "line %llu: unknown DATASET type %s", v->t.line,
+                          sqffd_io__quote(tok, len, q));
+}
+
+/* A VTK value type (SQFFD_IO__I8 ... SQFFD_IO__U64) from its name; -1 with a
+   message for names VTK has that carry no number this reader can size
+   (bit, string, a binary long), or that VTK does not have. */
+static inline int sqffd_io__vtk_type(const sqffd_io__vtk *v, const char *tok, size_t len, const char *name,
+                                     char *err, size_t err_size)
+{
+    /* vtkIdType: VTK writes it as int in legacy files */
+    static const struct { const char *name; int type; } types[] = {
+        {"unsigned_char", SQFFD_IO__U8}, {"char", SQFFD_IO__I8},          {"signed_char", SQFFD_IO__I8},
+        {"unsigned_short", SQFFD_IO__U16}, {"short", SQFFD_IO__I16},      {"unsigned_int", SQFFD_IO__U32},
+        {"int", SQFFD_IO__I32},          {"vtkIdType", SQFFD_IO__I32},    {"float", SQFFD_IO__F32},
+        {"double", SQFFD_IO__F64},       {"vtktypeint64", SQFFD_IO__I64}, {"vtktypeuint64", SQFFD_IO__U64},
+        {"long", SQFFD_IO__I64},         {"unsigned_long", SQFFD_IO__U64}};
+    size_t i;
+    char q[32];
+    for (i = 0; i < sizeof types / sizeof types[0]; i++)
+        if (sqffd_io__is(tok, len, types[i].name)) {
+            if (!v->binary || len < 4 || !sqffd_io__is(tok + len - 4, 4, "long")) return types[i].type;
+            sqffd_io__fail(err, err_size, name, "line %llu: binary %s values: their size is the writing platform's "
+                           "(write vtktypeint64)", v->t.line, sqffd_io__quote(tok, len, q));
+            return -1;
+        }
+    sqffd_io__fail(err, err_size, name, "line %llu: value type %s is not read (unsigned_char, char, unsigned_short, "
+                   "short, unsigned_int, int, float, double, vtktypeint64 are)", v->t.line,
+                   sqffd_io__quote(tok, len, q));
+    return -1;
+}
+
+/* Moves a binary file's cursor past the rest of the keyword line: the
+   values start after its line break. */
+static inline void sqffd_io__vtk_data_start(sqffd_io__vtk *v)
+{
+    const char *nl;
+    if (!v->binary) return;
+    nl = (const char *)memchr(v->t.p, '\n', (size_t)(v->t.end - v->t.p));
+    v->t.p = nl ? nl + 1 : v->t.end;
+    v->t.line++;
+}
+
+/* Moves to the values of the block `what` (for messages) and checks that
+   the bytes left can hold `count` values of `type`: as many times its size
+   (binary), at least a character and a separator each (ASCII). */
+static inline int sqffd_io__vtk_room(sqffd_io__vtk *v, int type, uint64_t count, const char *what, const char *name,
+                                     char *err, size_t err_size)
+{
+    size_t left, item = sqffd_io__type_size(type);
+    sqffd_io__vtk_data_start(v);
+    left = (size_t)(v->t.end - v->t.p);
+    if (v->binary && count > (uint64_t)(left / item))
+        return sqffd_io__fail(err, err_size, name, "%s: %llu values of %u bytes, the file holds %llu bytes after "
+                              "line %llu", what, (unsigned long long)count, (unsigned)item, (unsigned long long)left,
+                              v->t.line - 1);
+    if (!v->binary && count > (uint64_t)(left / 2 + 1))
+        return sqffd_io__fail(err, err_size, name, "%s: %llu values, the file holds %llu bytes after line %llu", what,
+                              (unsigned long long)count, (unsigned long long)left, v->t.line);
+    return 0;
+}
+
+/* Reads (out not NULL: into out, every value finite) or skips the `count`
+   values of `type` sqffd_io__vtk_room found room for. A float value read
+   from ASCII is rounded to float, as the binary file would hold it. */
+static inline int sqffd_io__vtk_read(sqffd_io__vtk *v, int type, uint64_t count, double *out, const char *what,
+                                     const char *name, char *err, size_t err_size)
+{
+    size_t i;
+    if (v->binary) {
+        size_t item = sqffd_io__type_size(type);
+        const unsigned char *p = (const unsigned char *)v->t.p;
+        if (out)
+            for (i = 0; i < (size_t)count; i++) {
+                out[i] = sqffd_io__ply_load(p + i * item, type, 1);
+                if (!isfinite(out[i]))
+                    return sqffd_io__fail(err, err_size, name, "%s: value %llu is not finite (%g)", what,
+                                          (unsigned long long)i, out[i]);
+            }
+        for (i = 0; i < (size_t)count * item; i++) v->t.line += p[i] == '\n'; /* line numbers stay the file's */
+        v->t.p += (size_t)count * item;
+        return 0;
+    }
+    for (i = 0; i < (size_t)count; i++) {
+        const char *tok;
+        size_t len;
+        char q[32];
+        int r;
+        if (!sqffd_io__token(&v->t, &tok, &len))
+            return sqffd_io__fail(err, err_size, name, "%s: file ends after %llu of %llu values", what,
+                                  (unsigned long long)i, (unsigned long long)count);
+        if (!out) continue;
+        r = sqffd_io__parse_double(tok, len, &out[i]);
+        if (r == SQFFD_IO__NUMBER && type == SQFFD_IO__F32) {
+            out[i] = (double)sqffd_io__to_float(out[i]);
+            if (!isfinite(out[i])) r = SQFFD_IO__NOT_FINITE;
+        }
+        if (r != SQFFD_IO__NUMBER)
+            return sqffd_io__fail(err, err_size, name, "%s: value %llu (line %llu), %s, is not a finite number", what,
+                                  (unsigned long long)i, v->t.line, sqffd_io__quote(tok, len, q));
+    }
+    return 0;
+}
+
+/* sqffd_io__vtk_room, then sqffd_io__vtk_read. */
+static inline int sqffd_io__vtk_values(sqffd_io__vtk *v, int type, uint64_t count, double *out, const char *what,
+                                       const char *name, char *err, size_t err_size)
+{
+    return sqffd_io__vtk_room(v, type, count, what, name, err, err_size) ||
+           sqffd_io__vtk_read(v, type, count, out, what, name, err, err_size);
+}
+
+/* Skips `count` x `per` values of `type` (the product checked for overflow). */
+static inline int sqffd_io__vtk_skip_values(sqffd_io__vtk *v, int type, uint64_t count, uint64_t per,
+                                            const char *what, const char *name, char *err, size_t err_size)
+{
+    if (per && count > UINT64_MAX / per)
+        return sqffd_io__fail(err, err_size, name, "%s: %llu x %llu values overflow", what, (unsigned long long)count,
+                              (unsigned long long)per);
+    return sqffd_io__vtk_values(v, type, count * per, NULL, what, name, err, err_size);
+}
+
+/* Skips `count` x `per` values of the type named by the next token. */
+static inline int sqffd_io__vtk_skip_typed(sqffd_io__vtk *v, uint64_t count, uint64_t per, const char *what,
+                                           const char *name, char *err, size_t err_size)
+{
+    const char *tok;
+    size_t len;
+    int type;
+    if (sqffd_io__vtk_word(v, &tok, &len, "a value type", name, err, err_size)) return 1;
+    type = sqffd_io__vtk_type(v, tok, len, name, err, err_size);
+    return type < 0 || sqffd_io__vtk_skip_values(v, type, count, per, what, name, err, err_size);
+}
+
+/* The rest of a SCALARS line and its LOOKUP_TABLE line: "name type
+   [components] LOOKUP_TABLE table" (VTK requires the table's name). */
+static inline int sqffd_io__vtk_scalars(sqffd_io__vtk *v, int *type, uint64_t *components, const char *what,
+                                        const char *name, char *err, size_t err_size)
+{
+    const char *w, *type_name;
+    size_t wl, type_len;
+    char q[32];
+    *components = 1;
+    if (sqffd_io__vtk_word(v, &w, &wl, "the SCALARS name", name, err, err_size) ||
+        sqffd_io__vtk_word(v, &type_name, &type_len, "the SCALARS type", name, err, err_size) ||
+        sqffd_io__vtk_word(v, &w, &wl, "LOOKUP_TABLE", name, err, err_size))
+        return 1;
+    if (!sqffd_io__is(w, wl, "LOOKUP_TABLE")) {
+        if (sqffd_io__parse_count(w, wl, components) || *components == 0)
+            return sqffd_io__fail(err, err_size, name, "%s: %s is neither a component count nor LOOKUP_TABLE", what,
+                                  sqffd_io__quote(w, wl, q));
+        if (sqffd_io__vtk_word(v, &w, &wl, "LOOKUP_TABLE", name, err, err_size)) return 1;
+        if (!sqffd_io__is(w, wl, "LOOKUP_TABLE"))
+            return sqffd_io__fail(err, err_size, name, "%s: expected LOOKUP_TABLE, found %s", what,
+                                  sqffd_io__quote(w, wl, q));
+    }
+    if (sqffd_io__vtk_word(v, &w, &wl, "the lookup table's name", name, err, err_size)) return 1;
+    *type = sqffd_io__vtk_type(v, type_name, type_len, name, err, err_size);
+    return *type < 0;
+}
+
+/* Skips the section whose keyword [tok, tok + len) was just read, when it
+   is one neither reader takes values from: FIELD data, the attributes of
+   POINT_DATA and CELL_DATA (SCALARS with their LOOKUP_TABLE, COLOR_SCALARS,
+   LOOKUP_TABLE, VECTORS, NORMALS, TEXTURE_COORDINATES, TENSORS, TENSORS6,
+   GLOBAL_IDS, PEDIGREE_IDS), the cells (VERTICES, LINES, POLYGONS,
+   TRIANGLE_STRIPS, CELLS: in files of version 5 and later as OFFSETS and
+   CONNECTIVITY arrays; CELL_TYPES) and METADATA (lines up to a blank one).
+   POINT_DATA and CELL_DATA set the section. Returns 0, 1 after a message,
+   or 2 when the keyword is none of these (nothing read). */
+static inline int sqffd_io__vtk_skip(sqffd_io__vtk *v, const char *tok, size_t len, const char *name, char *err,
+                                     size_t err_size)
+{
+    static const char *const cells[] = {"VERTICES", "LINES", "POLYGONS", "TRIANGLE_STRIPS", "CELLS"};
+    /* name [components] type, then tuples x components values; 0 components: given on the line */
+    static const struct { const char *name; unsigned components; } arrays[] = {
+        {"VECTORS", 3}, {"NORMALS", 3}, {"TENSORS", 9}, {"TENSORS6", 6}, {"GLOBAL_IDS", 1}, {"PEDIGREE_IDS", 1},
+        {"TEXTURE_COORDINATES", 0}};
+    char what[48], q[32];
+    const char *w;
+    size_t wl, i;
+    uint64_t n, m;
+    int type = 0, colours = sqffd_io__is(tok, len, "COLOR_SCALARS"), table = sqffd_io__is(tok, len, "LOOKUP_TABLE");
+    snprintf(what, sizeof what, "%.*s (line %llu)", (int)(len < 24 ? len : 24), tok, v->t.line);
+    if (sqffd_io__is(tok, len, "POINT_DATA") || sqffd_io__is(tok, len, "CELL_DATA")) {
+        v->section = tok[0] == 'P' || tok[0] == 'p' ? 'P' : 'C';
+        return sqffd_io__vtk_count(v, &v->tuples, what, name, err, err_size);
+    }
+    if (sqffd_io__is(tok, len, "METADATA")) { /* the rest of its line, then lines up to a blank one */
+        const char *s = v->t.p, *e;
+        int first = 1, blank;
+        do {
+            e = (const char *)memchr(s, '\n', (size_t)(v->t.end - s));
+            if (!e) return sqffd_io__fail(err, err_size, name, "%s: file ends before the blank line that ends it", what);
+            while (s < e && sqffd_io__is_space(*s)) s++;
+            blank = s == e && !first;
+            first = 0;
+            s = e + 1;
+            v->t.line++;
+        } while (!blank);
+        v->t.p = s;
+        return 0;
+    }
+    if (sqffd_io__is(tok, len, "FIELD")) {
+        uint64_t count, a;
+        if (sqffd_io__vtk_word(v, &w, &wl, "the FIELD's name", name, err, err_size) ||
+            sqffd_io__vtk_count(v, &count, what, name, err, err_size))
+            return 1;
+        for (a = 0; a < count; a++) {
+            if (sqffd_io__vtk_word(v, &w, &wl, "a FIELD array", name, err, err_size)) return 1;
+            if (sqffd_io__is(w, wl, "NULL_ARRAY")) continue;
+            snprintf(what, sizeof what, "FIELD array %s", sqffd_io__quote(w, wl, q));
+            if (sqffd_io__vtk_count(v, &n, what, name, err, err_size) ||
+                sqffd_io__vtk_count(v, &m, what, name, err, err_size) ||
+                sqffd_io__vtk_skip_typed(v, n, m, what, name, err, err_size))
+                return 1;
+        }
+        return 0;
+    }
+    if (sqffd_io__is(tok, len, "CELL_TYPES"))
+        return sqffd_io__vtk_count(v, &n, what, name, err, err_size) ||
+               sqffd_io__vtk_values(v, SQFFD_IO__I32, n, NULL, what, name, err, err_size);
+    for (i = 0; i < sizeof cells / sizeof cells[0]; i++) {
+        if (!sqffd_io__is(tok, len, cells[i])) continue;
+        if (sqffd_io__vtk_count(v, &n, what, name, err, err_size) ||
+            sqffd_io__vtk_count(v, &m, what, name, err, err_size))
+            return 1;
+        if (v->major < 5) return sqffd_io__vtk_values(v, SQFFD_IO__I32, m, NULL, what, name, err, err_size);
+        if (sqffd_io__vtk_word(v, &w, &wl, "OFFSETS", name, err, err_size)) return 1;
+        if (!sqffd_io__is(w, wl, "OFFSETS"))
+            return sqffd_io__fail(err, err_size, name, "%s: expected OFFSETS (a version %s file), found %s", what,
+                                  v->version, sqffd_io__quote(w, wl, q));
+        if (sqffd_io__vtk_skip_typed(v, n, 1, what, name, err, err_size) ||
+            sqffd_io__vtk_word(v, &w, &wl, "CONNECTIVITY", name, err, err_size))
+            return 1;
+        if (!sqffd_io__is(w, wl, "CONNECTIVITY"))
+            return sqffd_io__fail(err, err_size, name, "%s: expected CONNECTIVITY, found %s", what,
+                                  sqffd_io__quote(w, wl, q));
+        return sqffd_io__vtk_skip_typed(v, m, 1, what, name, err, err_size);
+    }
+    if (table) /* LOOKUP_TABLE name size: size RGBA colours */
+        return sqffd_io__vtk_word(v, &w, &wl, "the lookup table's name", name, err, err_size) ||
+               sqffd_io__vtk_count(v, &n, what, name, err, err_size) ||
+               sqffd_io__vtk_skip_values(v, v->binary ? SQFFD_IO__U8 : SQFFD_IO__F32, n, 4, what, name, err,
+                                         err_size);
+    if (!colours && !sqffd_io__is(tok, len, "SCALARS")) {
+        for (i = 0; i < sizeof arrays / sizeof arrays[0] && !sqffd_io__is(tok, len, arrays[i].name); i++) {}
+        if (i == sizeof arrays / sizeof arrays[0]) return 2;
+    }
+    if (!v->section) return sqffd_io__fail(err, err_size, name, "%s: an attribute before POINT_DATA or CELL_DATA", what);
+    if (colours) /* COLOR_SCALARS name components: bytes in binary files, floats in ASCII */
+        return sqffd_io__vtk_word(v, &w, &wl, "the COLOR_SCALARS name", name, err, err_size) ||
+               sqffd_io__vtk_count(v, &n, what, name, err, err_size) ||
+               sqffd_io__vtk_skip_values(v, v->binary ? SQFFD_IO__U8 : SQFFD_IO__F32, v->tuples, n, what, name, err,
+                                         err_size);
+    if (sqffd_io__is(tok, len, "SCALARS"))
+        return sqffd_io__vtk_scalars(v, &type, &n, what, name, err, err_size) ||
+               sqffd_io__vtk_skip_values(v, type, v->tuples, n, what, name, err, err_size);
+    n = arrays[i].components;
+    return sqffd_io__vtk_word(v, &w, &wl, "the attribute's name", name, err, err_size) ||
+           (n == 0 && sqffd_io__vtk_count(v, &n, what, name, err, err_size)) ||
+           sqffd_io__vtk_skip_typed(v, v->tuples, n, what, name, err, err_size);
+}
+
+/* Legacy VTK points: the POINTS of a POLYDATA, UNSTRUCTURED_GRID or
+   STRUCTURED_GRID dataset (ASCII or big-endian BINARY, any numeric type;
+   a float read from ASCII is rounded to float). The sections before POINTS
+   are skipped (sqffd_io__vtk_skip), a STRUCTURED_GRID's DIMENSIONS must
+   multiply to the point count, and the file is not read past the points.
+   A STRUCTURED_POINTS dataset is a volume: sqffd_image.h reads it.
+   info (may be NULL) gets the version, the dataset and the encoding. */
+static inline int sqffd_io_read_vtk(const void *data, size_t size, const char *name, double **points, size_t *count,
+                                    sqffd_io_info *info, char *err, size_t err_size)
+{
+    sqffd_io__points pts = {NULL, 0, 0};
+    sqffd_io__vtk v;
+    const char *tok;
+    size_t len;
+    uint64_t n, dims[3] = {0, 0, 0};
+    char q[32], what[48];
+    int type, k, has_dims = 0;
+    *points = NULL;
+    *count = 0;
+    if (sqffd_io__vtk_header(data, size, &v, name, err, err_size)) return 1;
+    if (strcmp(v.dataset, "STRUCTURED_POINTS") == 0)
+        return sqffd_io__fail(err, err_size, name, "DATASET STRUCTURED_POINTS is a volume, not points (read it as a "
+                              "volume, with an iso level or a label)");
+    if (strcmp(v.dataset, "RECTILINEAR_GRID") == 0)
+        return sqffd_io__fail(err, err_size, name, "DATASET RECTILINEAR_GRID is not read (the POINTS of POLYDATA, "
+                              "UNSTRUCTURED_GRID and STRUCTURED_GRID are)");
+    for (;;) {
+        int r;
+        if (!sqffd_io__token(&v.t, &tok, &len))
+            return sqffd_io__fail(err, err_size, name, "DATASET %s without POINTS: no points", v.dataset);
+        snprintf(what, sizeof what, "%.*s (line %llu)", (int)(len < 24 ? len : 24), tok, v.t.line);
+        if (sqffd_io__is(tok, len, "DIMENSIONS") && strcmp(v.dataset, "STRUCTURED_GRID") == 0) {
+            for (k = 0; k < 3; k++)
+                if (sqffd_io__vtk_count(&v, &dims[k], what, name, err, err_size)) return 1;
+            has_dims = 1;
+            continue;
+        }
+        if (sqffd_io__is(tok, len, "POINTS")) break;
+        r = sqffd_io__vtk_skip(&v, tok, len, name, err, err_size);
+        if (r == 1) return 1;
+        if (r == 2)
+            return sqffd_io__fail(err, err_size, name, "line %llu: unknown keyword %s in DATASET %s", v.t.line,
+                                  sqffd_io__quote(tok, len, q), v.dataset);
+    }
+    if (sqffd_io__vtk_count(&v, &n, what, name, err, err_size) ||
+        sqffd_io__vtk_word(&v, &tok, &len, "the POINTS type", name, err, err_size))
+        return 1;
+    type = sqffd_io__vtk_type(&v, tok, len, name, err, err_size);
+    if (type < 0) return 1;
+    if (n == 0) return sqffd_io__fail(err, err_size, name, "%s: 0 points", what);
+    if (has_dims && (dims[0] == 0 || dims[1] == 0 || dims[1] > UINT64_MAX / dims[0] || dims[2] > UINT64_MAX / (dims[0] * dims[1]) ||
+                     dims[0] * dims[1] * dims[2] != n))
+        return sqffd_io__fail(err, err_size, name, "DIMENSIONS %llu x %llu x %llu do not make the %llu POINTS",
+                              (unsigned long long)dims[0], (unsigned long long)dims[1], (unsigned long long)dims[2],
+                              (unsigned long long)n);
+    /* the room first: the allocation is bounded by the file's size */
+    if (n > UINT64_MAX / 3 || sqffd_io__vtk_room(&v, type, 3 * n, what, name, err, err_size)) {
+        if (n > UINT64_MAX / 3) sqffd_io__fail(err, err_size, name, "%s: %llu points overflow", what, (unsigned long long)n);
+        return 1;
+    }
+    if (sqffd_io__reserve(&pts, (size_t)n))
+        return sqffd_io__fail(err, err_size, name, "out of memory for %llu points", (unsigned long long)n);
+    if (sqffd_io__vtk_read(&v, type, 3 * n, pts.xyz, what, name, err, err_size)) {
+        free(pts.xyz);
+        return 1;
+    }
+    pts.count = (size_t)n;
+    if (info) {
+        info->format = SQFFD_IO_VTK;
+        info->binary = v.binary;
+        memcpy(info->vtk_version, v.version, sizeof v.version);
+        memcpy(info->vtk_dataset, v.dataset, sizeof v.dataset);
+    }
+    return sqffd_io__finish(&pts, points, count, name, err, err_size);
+}
+
+/* ---- STL ----------------------------------------------------------------- */
+
+/* STL, binary: an 80-byte header, a uint32 triangle count, then per
+   triangle a normal and three vertices (12 little-endian floats) and a
+   2-byte attribute: 84 + 50 n bytes. ASCII: "solid NAME", then facets
+   "facet normal nx ny nz / outer loop / vertex x y z (3 times) / endloop /
+   endfacet", then "endsolid NAME" (several solids may follow one another);
+   coordinates are floats in both (ASCII ones are rounded to float, so both
+   versions of a file give the same points).
+   Binary files may start with "solid" too: a file is read as ASCII when
+   its first word is "solid" and it is all text (no control byte other than
+   white space), as binary otherwise (a binary STL's zero attribute bytes
+   and float bytes are not text). */
+
+/* Whether a file of `size` bytes has the size of a binary STL whose count
+   (bytes 80-83) is at least 1. A text file's bytes 80-83 give a count far
+   beyond the file size limit, so no text file matches. */
+static inline int sqffd_io__stl_binary_size(const unsigned char *b, size_t size)
+{
+    return size >= 134 && (uint64_t)sqffd_gz__load32_le(b + 80) * 50 + 84 == size;
+}
+
+/* Whether the first word is "solid" (after any white space). */
+static inline int sqffd_io__stl_solid(const unsigned char *b, size_t size)
+{
+    size_t i = 0;
+    while (i < size && sqffd_io__is_space((char)b[i])) i++;
+    return size - i >= 5 && memcmp(b + i, "solid", 5) == 0 && (size - i == 5 || sqffd_io__is_space((char)b[i + 5]));
+}
+
+/* Whether every byte is text: no control byte other than white space. */
+static inline int sqffd_io__all_text(const unsigned char *b, size_t size)
+{
+    size_t i;
+    for (i = 0; i < size; i++)
+        if ((b[i] < 32 && !sqffd_io__is_space((char)b[i])) || b[i] == 127) return 0;
+    return 1;
+}
+
+/* Whether point a comes before point b: x, then y, then z. */
+static inline int sqffd_io__xyz_less(const double *a, const double *b)
+{
+    return a[0] < b[0] || (a[0] == b[0] && (a[1] < b[1] || (a[1] == b[1] && a[2] < b[2])));
+}
+
+/* Merges equal points (the same x, y and z; -0 equals 0), keeping each
+   one's first occurrence, in the order of first occurrences: a stable
+   merge sort of the indices by coordinates (O(n log n)), then each run of
+   equal points keeps its first index. 0, or 1 when out of memory. */
+static inline int sqffd_io__merge_equal(sqffd_io__points *pts)
+{
+    size_t n = pts->count, width, lo, i, kept = 0;
+    size_t *order, *other, *swap;
+    unsigned char *keep;
+    const double *xyz = pts->xyz;
+    if (n > (size_t)-1 / (2 * sizeof(size_t))) return 1;
+    order = (size_t *)malloc(2 * n * sizeof *order + 1);
+    keep = (unsigned char *)calloc(n + 1, 1);
+    if (!order || !keep) {
+        free(order);
+        free(keep);
+        return 1;
+    }
+    other = order + n;
+    for (i = 0; i < n; i++) order[i] = i;
+    for (width = 1; width < n; width *= 2) {
+        for (lo = 0; lo < n; lo += 2 * width) {
+            size_t mid = lo + width < n ? lo + width : n, hi = mid + width < n ? mid + width : n;
+            size_t a = lo, b = mid, out = lo;
+            while (a < mid && b < hi) /* stable: the left run wins ties */
+                other[out++] = sqffd_io__xyz_less(xyz + 3 * order[b], xyz + 3 * order[a]) ? order[b++] : order[a++];
+            while (a < mid) other[out++] = order[a++];
+            while (b < hi) other[out++] = order[b++];
+        }
+        swap = order;
+        order = other;
+        other = swap;
+    }
+    for (i = 0; i < n; i++)
+        if (i == 0 || sqffd_io__xyz_less(xyz + 3 * order[i - 1], xyz + 3 * order[i])) keep[order[i]] = 1;
+    for (i = 0; i < n; i++)
+        if (keep[i]) {
+            memmove(pts->xyz + 3 * kept, pts->xyz + 3 * i, 3 * sizeof(double));
+            kept++;
+        }
+    pts->count = kept;
+    free(order < other ? order : other); /* the block's start */
+    free(keep);
+    return 0;
+}
+
+/* The vertices of an ASCII STL into pts (3 a facet); *triangles counts the facets. */
+static inline int sqffd_io__stl_ascii(const void *data, size_t size, sqffd_io__points *pts, size_t *triangles,
+                                      const char *name, char *err, size_t err_size)
+{
+    sqffd_io__text t;
+    const char *tok, *nl;
+    size_t len;
+    char q[32];
+    int k, c;
+    t.p = (const char *)data;
+    t.end = t.p + size;
+    t.line = 1;
+    *triangles = 0;
+    while (sqffd_io__token(&t, &tok, &len)) { /* "solid NAME": the name is the rest of the line */
+        if (!sqffd_io__is(tok, len, "solid"))
+            return sqffd_io__fail(err, err_size, name, "line %llu: expected solid, found %s", t.line,
+                                  sqffd_io__quote(tok, len, q));
+        nl = (const char *)memchr(t.p, '\n', (size_t)(t.end - t.p));
+        t.p = nl ? nl : t.end;
+        for (;;) {
+            unsigned long long facet_line;
+            if (!sqffd_io__token(&t, &tok, &len))
+                return sqffd_io__fail(err, err_size, name, "file ends before endsolid (after %llu facets)",
+                                      (unsigned long long)*triangles);
+            if (sqffd_io__is(tok, len, "endsolid")) {
+                nl = (const char *)memchr(t.p, '\n', (size_t)(t.end - t.p));
+                t.p = nl ? nl : t.end;
+                break;
+            }
+            if (!sqffd_io__is(tok, len, "facet"))
+                return sqffd_io__fail(err, err_size, name, "line %llu: expected facet or endsolid, found %s", t.line,
+                                      sqffd_io__quote(tok, len, q));
+            facet_line = t.line;
+            if (pts->count + 3 > pts->capacity && sqffd_io__reserve(pts, pts->capacity ? 2 * pts->capacity : 3072))
+                return sqffd_io__fail(err, err_size, name, "out of memory at line %llu", t.line);
+            /* normal nx ny nz outer loop, 3 x (vertex x y z), endloop endfacet; the normal is not used */
+            for (k = 0; k < 18; k++) {
+                static const char *const words[18] = {"normal", NULL, NULL, NULL, "outer", "loop",
+                                                      "vertex", NULL, NULL, NULL, "vertex", NULL, NULL, NULL,
+                                                      "vertex", NULL, NULL, NULL};
+                double value;
+                int r;
+                if (!sqffd_io__token(&t, &tok, &len))
+                    return sqffd_io__fail(err, err_size, name, "file ends inside facet %llu (line %llu)",
+                                          (unsigned long long)*triangles, facet_line);
+                if (words[k]) {
+                    if (!sqffd_io__is(tok, len, words[k]))
+                        return sqffd_io__fail(err, err_size, name, "facet %llu (line %llu): expected %s, found %s",
+                                              (unsigned long long)*triangles, t.line, words[k],
+                                              sqffd_io__quote(tok, len, q));
+                    continue;
+                }
+                r = sqffd_io__parse_double(tok, len, &value);
+                if (k > 3 && r == SQFFD_IO__NUMBER && !isfinite((double)sqffd_io__to_float(value)))
+                    r = SQFFD_IO__NOT_FINITE; /* beyond float */
+                if (r == SQFFD_IO__NOT_NUMBER || (k > 3 && r != SQFFD_IO__NUMBER))
+                    return sqffd_io__fail(err, err_size, name, "facet %llu (line %llu): %s is not a %snumber",
+                                          (unsigned long long)*triangles, t.line, sqffd_io__quote(tok, len, q),
+                                          r == SQFFD_IO__NOT_FINITE ? "finite " : "");
+                if (k > 3) pts->xyz[3 * pts->count + (size_t)(k - 7) / 4 * 3 + (size_t)(k - 7) % 4] =
+                    (double)sqffd_io__to_float(value);
+            }
+            for (c = 0; c < 2; c++) {
+                if (!sqffd_io__token(&t, &tok, &len))
+                    return sqffd_io__fail(err, err_size, name, "file ends inside facet %llu (line %llu)",
+                                          (unsigned long long)*triangles, facet_line);
+                if (!sqffd_io__is(tok, len, c ? "endfacet" : "endloop"))
+                    return sqffd_io__fail(err, err_size, name, "facet %llu (line %llu): expected %s, found %s (a "
+                                          "facet has 3 vertices)", (unsigned long long)*triangles, t.line,
+                                          c ? "endfacet" : "endloop", sqffd_io__quote(tok, len, q));
+            }
+            pts->count += 3;
+            (*triangles)++;
+        }
+    }
+    return 0;
+}
+
+/* The vertices of a binary STL into pts; *triangles gets the count. */
+static inline int sqffd_io__stl_binary(const unsigned char *b, size_t size, sqffd_io__points *pts, size_t *triangles,
+                                       const char *name, char *err, size_t err_size)
+{
+    uint64_t n;
+    size_t i;
+    if (size < 84)
+        return sqffd_io__fail(err, err_size, name, "binary STL of %llu bytes: shorter than its 84-byte header",
+                              (unsigned long long)size);
+    n = sqffd_gz__load32_le(b + 80);
+    if (n * 50 + 84 != size)
+        return sqffd_io__fail(err, err_size, name, "binary STL: %llu triangles take 84 + 50 x %llu = %llu bytes, the "
+                              "file has %llu", (unsigned long long)n, (unsigned long long)n,
+                              (unsigned long long)(n * 50 + 84), (unsigned long long)size);
+    if (sqffd_io__reserve(pts, 3 * (size_t)n))
+        return sqffd_io__fail(err, err_size, name, "out of memory for %llu triangles", (unsigned long long)n);
+    for (i = 0; i < 9 * (size_t)n; i++) { /* vertex coordinate i % 9 of triangle i / 9, after its normal */
+        double value = sqffd_io__le_f32(b + 84 + 50 * (i / 9) + 12 + 4 * (i % 9));
+        if (!isfinite(value))
+            return sqffd_io__fail(err, err_size, name, "triangle %llu: vertex %d: %c is not finite (%g)",
+                                  (unsigned long long)(i / 9), (int)(i % 9) / 3, 'x' + (int)(i % 3), value);
+        pts->xyz[i] = value;
+    }
+    pts->count = 3 * (size_t)n;
+    *triangles = (size_t)n;
+    return 0;
+}
+
+/* STL, ASCII or binary (see above): the triangles' vertices, equal ones
+   merged (sqffd_io__merge_equal: each point once, in the order of first
+   use). A file without triangles is an error, and so is a vertex with a
+   NaN or infinite coordinate (normals are not read: any number goes).
+   info (may be NULL) gets the encoding and the triangle count. */
+static inline int sqffd_io_read_stl(const void *data, size_t size, const char *name, double **points, size_t *count,
+                                    sqffd_io_info *info, char *err, size_t err_size)
+{
+    const unsigned char *b = (const unsigned char *)data;
+    sqffd_io__points pts = {NULL, 0, 0};
+    size_t triangles = 0;
+    int ascii = sqffd_io__stl_solid(b, size) && sqffd_io__all_text(b, size);
+    *points = NULL;
+    *count = 0;
+    if (ascii ? sqffd_io__stl_ascii(data, size, &pts, &triangles, name, err, err_size)
+              : sqffd_io__stl_binary(b, size, &pts, &triangles, name, err, err_size)) {
+        free(pts.xyz);
+        return 1;
+    }
+    if (triangles == 0) {
+        free(pts.xyz);
+        return sqffd_io__fail(err, err_size, name, "%s STL without triangles", ascii ? "ASCII" : "binary");
+    }
+    if (sqffd_io__merge_equal(&pts)) {
+        free(pts.xyz);
+        return sqffd_io__fail(err, err_size, name, "out of memory merging %llu vertices",
+                              (unsigned long long)pts.count);
+    }
+    if (info) {
+        info->format = SQFFD_IO_STL;
+        info->binary = !ascii;
+        info->stl_triangles = triangles;
+    }
+    return sqffd_io__finish(&pts, points, count, name, err, err_size);
+}
+
 /* ---- format detection and files ------------------------------------------ */
 
 /* A file in a format these readers and sqffd_image.h do not take, told by
@@ -1477,16 +2178,12 @@ static inline int sqffd_io_read_pcd(const void *data, size_t size, const char *n
    DICOM ("DICM" at byte 128), INRIMAGE ("#INRIMAGE-4#{"), HDF5 (its
    signature at byte 0: MINC 2, .h5), a zip archive ("PK\3\4"), Analyze 7.5
    (a 348-byte header, either byte order, without NIfTI-1's magic at byte
-   344), STL (binary: an 80-byte header and a triangle count that gives the
-   size exactly, at least one; ASCII: "solid" as the first word). None of
-   these can be a supported file: the supported formats' content starts
-   otherwise, and a text file's bytes 80-83 give a count far beyond the size
-   limit. A gzip stream is none of them (NULL): its content is told once
-   inflated. */
+   344). None of these can be a supported file: the supported formats'
+   content starts otherwise. A gzip stream is none of them (NULL): its
+   content is told once inflated. */
 static inline const char *sqffd_io_foreign_format(const void *data, size_t size)
 {
     const unsigned char *b = (const unsigned char *)data;
-    size_t i = 0;
     if (size >= 2 && b[0] == 0x1f && b[1] == 0x8b) return NULL;
     if (size >= 132 && memcmp(b + 128, "DICM", 4) == 0)
         return "DICOM is not read by sqffd; convert it to NIfTI (e.g. with dcm2niix)";
@@ -1500,31 +2197,22 @@ static inline const char *sqffd_io_foreign_format(const void *data, size_t size)
         memcmp(b + 344, "n+1", 4) != 0 && memcmp(b + 344, "ni1", 4) != 0)
         return "Analyze 7.5 (a .hdr without the NIfTI-1 magic) is not read by sqffd; convert it to NIfTI (e.g. with "
                "nibabel or fslchfiletype)";
-    while (i < size && sqffd_io__is_space((char)b[i])) i++;
-    if ((size >= 134 && (uint64_t)sqffd_gz__load32_le(b + 80) * 50 + 84 == size) ||
-        (size - i >= 5 && memcmp(b + i, "solid", 5) == 0 && (size - i == 5 || sqffd_io__is_space((char)b[i + 5]))))
-        return "STL is not read by sqffd; convert it to PLY, OFF or OBJ (e.g. with MeshLab or meshio)";
     return NULL;
 }
 
-/* Whether the first n characters of name end in ext (lower case), any case. */
+/* Whether the first n characters of name end in ext, in any case. */
 static inline int sqffd_io__has_extension(const char *name, size_t n, const char *ext)
 {
-    size_t m = strlen(ext), i;
-    if (n < m) return 0;
-    for (i = 0; i < m; i++) {
-        char c = name[n - m + i];
-        if (c >= 'A' && c <= 'Z') c = (char)(c - 'A' + 'a');
-        if (c != ext[i]) return 0;
-    }
-    return 1;
+    size_t m = strlen(ext);
+    return n >= m && sqffd_io__is(name + n - m, m, ext);
 }
 
 /* The format of a file: by content (the PLY magic line; the "# .PCD"
-   comment PCL writes first, or VERSION or FIELDS as the first keyword; an
-   OFF keyword or an OBJ statement as the first word), else by the name's
-   extension (.ply, .pcd, .off, .obj; a final .gz is skipped: x.ply.gz is
-   PLY), else XYZ. */
+   comment PCL writes first; VTK's "# vtk DataFile Version" line; the size
+   of a binary STL, or "solid" as the first word; VERSION or FIELDS as the
+   first keyword; an OFF keyword or an OBJ statement as the first word),
+   else by the name's extension (.ply, .pcd, .off, .obj, .vtk, .stl; a final
+   .gz is skipped: x.ply.gz is PLY), else XYZ. */
 static inline sqffd_io_format sqffd_io_detect(const void *data, size_t size, const char *name)
 {
     const char *text = (const char *)data, *s, *e, *tok;
@@ -1533,6 +2221,10 @@ static inline sqffd_io_format sqffd_io_detect(const void *data, size_t size, con
     int other_dimension;
     if (size >= 4 && memcmp(text, "ply", 3) == 0 && (text[3] == '\n' || text[3] == '\r')) return SQFFD_IO_PLY;
     if (size >= 6 && memcmp(text, "# .PCD", 6) == 0) return SQFFD_IO_PCD;
+    if (sqffd_io__vtk_magic(data, size)) return SQFFD_IO_VTK;
+    if (sqffd_io__stl_binary_size((const unsigned char *)data, size) ||
+        sqffd_io__stl_solid((const unsigned char *)data, size))
+        return SQFFD_IO_STL;
     t.p = text;
     t.end = text + size;
     t.line = 0;
@@ -1547,18 +2239,21 @@ static inline sqffd_io_format sqffd_io_detect(const void *data, size_t size, con
     if (sqffd_io__has_extension(name, name_len, ".pcd")) return SQFFD_IO_PCD;
     if (sqffd_io__has_extension(name, name_len, ".off")) return SQFFD_IO_OFF;
     if (sqffd_io__has_extension(name, name_len, ".obj")) return SQFFD_IO_OBJ;
+    if (sqffd_io__has_extension(name, name_len, ".vtk")) return SQFFD_IO_VTK;
+    if (sqffd_io__has_extension(name, name_len, ".stl")) return SQFFD_IO_STL;
     return SQFFD_IO_XYZ;
 }
 
-/* The format's name: "XYZ", "PLY", "OFF", "OBJ" or "PCD". */
+/* The format's name: "XYZ", "PLY", "OFF", "OBJ", "PCD", "VTK" or "STL". */
 static inline const char *sqffd_io_format_name(sqffd_io_format format)
 {
-    static const char *const names[] = {"XYZ", "PLY", "OFF", "OBJ", "PCD"};
+    static const char *const names[] = {"XYZ", "PLY", "OFF", "OBJ", "PCD", "VTK", "STL"};
     return (unsigned)format < sizeof names / sizeof names[0] ? names[format] : "unknown";
 }
 
 /* Reads plain (not compressed) points in the detected format; info (not
-   NULL) gets the format, and from the PCD reader its header and drops. */
+   NULL) gets the format, and from the PCD, VTK and STL readers what they
+   tell. */
 static inline int sqffd_io__read_detected(const void *data, size_t size, const char *name, double **points,
                                           size_t *count, sqffd_io_info *info, char *err, size_t err_size)
 {
@@ -1571,6 +2266,8 @@ static inline int sqffd_io__read_detected(const void *data, size_t size, const c
     case SQFFD_IO_OFF: return sqffd_io_read_off(data, size, name, points, count, err, err_size);
     case SQFFD_IO_OBJ: return sqffd_io_read_obj(data, size, name, points, count, err, err_size);
     case SQFFD_IO_PCD: return sqffd_io_read_pcd(data, size, name, points, count, info, err, err_size);
+    case SQFFD_IO_VTK: return sqffd_io_read_vtk(data, size, name, points, count, info, err, err_size);
+    case SQFFD_IO_STL: return sqffd_io_read_stl(data, size, name, points, count, info, err, err_size);
     default: return sqffd_io_read_xyz(data, size, name, points, count, err, err_size);
     }
 }

@@ -1,5 +1,5 @@
 /* libFuzzer target: the bytes go to sqffd_image_read_memory under each
-   single-file name (.nii, .nii.gz, .mha, .nrrd; the name only matters when
+   single-file name (.nii, .nii.gz, .mha, .nrrd, .vtk; the name only matters when
    the content does not tell the format). Checks the reader's contract beyond
    "no crash": success means dims and frames of at least 1, a finite affine,
    and every voxel of every frame readable through the views (all summed, so
@@ -71,5 +71,6 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     check_reader(data, size, "fuzz.nii.gz");
     check_reader(data, size, "fuzz.mha");
     check_reader(data, size, "fuzz.nrrd");
+    check_reader(data, size, "fuzz.vtk");
     return 0;
 }

@@ -103,10 +103,6 @@ if command -v gzip >/dev/null 2>&1; then
 fi
 { printf '#INRIMAGE-4#{\nXDIM=64\nYDIM=64\nZDIM=64\nVDIM=1\nTYPE=unsigned fixed\nPIXSIZE=8 bits\n##}\n'; zeros 64; } >"$TMP/skull.inr"
 foreign "$TMP/skull.inr" "INRIMAGE is not read by sqffd"
-printf 'solid part\n facet normal 0 0 1\n  outer loop\n   vertex 0 0 0\n   vertex 1 0 0\n   vertex 0 1 0\n  endloop\n endfacet\nendsolid part\n' >"$TMP/ascii.stl"
-foreign "$TMP/ascii.stl" "STL is not read by sqffd; convert it to PLY, OFF or OBJ"
-{ printf 'solid but binary'; zeros 64; printf '\002\000\000\000'; zeros 100; } >"$TMP/binary.stl"
-foreign "$TMP/binary.stl" "STL is not read by sqffd"
 { printf '\134\001\000\000'; zeros 344; } >"$TMP/analyze.hdr"
 zeros 48 >"$TMP/analyze.img"
 foreign "$TMP/analyze.hdr" "Analyze 7.5 (a .hdr without the NIfTI-1 magic) is not read by sqffd; convert it to NIfTI"
@@ -337,6 +333,48 @@ expect 1 "$TMP/huge.pcd: header says 307200 points of 12 bytes each, file holds 
 printf 'FIELDS x y z\nPOINTS 2\nDATA ascii\nnan 1 2\n3 nan 4\n' >"$TMP/holes.pcd"
 expect 1 "$TMP/holes.pcd: all 2 points have NaN coordinates (invalid depth)" fit "$TMP/holes.pcd" -o "$TMP/x.ply"
 
+# STL: ASCII and binary (a binary header may start with "solid"), shared vertices merged; broken files: one line
+printf 'solid part\n facet normal 0 0 1\n  outer loop\n   vertex 0 0 0\n   vertex 1 0 0\n   vertex 0 1 0\n  endloop\n endfacet\nendsolid part\n' >"$TMP/ascii.stl"
+expect 0 "triangles   1 (3 vertices, 3 distinct: the points)" info "$TMP/ascii.stl"
+grep -q "format      STL, ASCII" "$TMP/out" && ok || bad "info ascii.stl: $(cat "$TMP/out")"
+{ printf 'solid but binary'; zeros 64; printf '\002\000\000\000'; zeros 100; } >"$TMP/binary.stl"
+expect 0 "triangles   2 (6 vertices, 1 distinct: the points)" info "$TMP/binary.stl"
+grep -q "format      STL, binary" "$TMP/out" && ok || bad "info binary.stl: $(cat "$TMP/out")"
+{ printf 'solid but binary'; zeros 64; printf '\003\000\000\000'; zeros 100; } >"$TMP/short.stl"
+foreign "$TMP/short.stl" "binary STL: 3 triangles take 84 + 50 x 3 = 234 bytes, the file has 184"
+sed 's/vertex 1 0 0/vertex nan 0 0/' "$TMP/ascii.stl" >"$TMP/nan.stl"
+foreign "$TMP/nan.stl" "facet 0 (line 5): 'nan' is not a finite number"
+printf 'solid empty\nendsolid empty\n' >"$TMP/empty.stl"
+foreign "$TMP/empty.stl" "ASCII STL without triangles"
+# a UV sphere of radius 10: 16 rings of 24 vertices between the poles, 720 triangles, 362 distinct vertices
+awk 'function v(i, j,  t, p) { if (i == 0) return "0 0 10"; if (i == 16) return "0 0 -10"
+        t = 3.14159265358979 * i / 16; p = 2 * 3.14159265358979 * (j % 24) / 24
+        return sprintf("%.6f %.6f %.6f", 10 * sin(t) * cos(p), 10 * sin(t) * sin(p), 10 * cos(t)) }
+     function f(a, b, c) { printf " facet normal 0 0 0\n  outer loop\n   vertex %s\n   vertex %s\n   vertex %s\n  endloop\n endfacet\n", a, b, c }
+     BEGIN { print "solid sphere"
+             for (i = 0; i < 16; i++) for (j = 0; j < 24; j++) {
+                 if (i > 0) f(v(i, j), v(i, j + 1), v(i + 1, j + 1))
+                 if (i < 15) f(v(i, j), v(i + 1, j + 1), v(i + 1, j)) }
+             print "endsolid sphere" }' >"$TMP/sphere.stl"
+expect 0 "triangles   720 (2160 vertices, 362 distinct: the points)" info "$TMP/sphere.stl"
+expect 0 "points read      362" fit "$TMP/sphere.stl" -o "$TMP/sphere.ply" --iterations 3 --mesh 8
+# legacy VTK points: POLYDATA; broken files: one line
+printf '# vtk DataFile Version 3.0\nhuge\nASCII\nDATASET POLYDATA\nPOINTS 1000000000000 float\n0 0 0\n' >"$TMP/huge.vtk"
+foreign "$TMP/huge.vtk" "POINTS (line 5): 3000000000000 values, the file holds 7 bytes after line 5"
+printf '# vtk DataFile Version 3.0\nnan\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 1 double\n0 nan 0\n' >"$TMP/nan.vtk"
+foreign "$TMP/nan.vtk" "POINTS (line 5): value 1 (line 6), 'nan', is not a finite number"
+# a legacy VTK volume: an ASCII STRUCTURED_POINTS ball, through --iso and --label
+awk 'BEGIN { print "# vtk DataFile Version 3.0\nball\nASCII\nDATASET STRUCTURED_POINTS\nDIMENSIONS 16 16 16"
+             print "SPACING 1 1 2\nORIGIN 0 0 0\nPOINT_DATA 4096\nSCALARS label unsigned_char\nLOOKUP_TABLE default"
+             for (k = 0; k < 16; k++) for (j = 0; j < 16; j++) for (i = 0; i < 16; i++)
+                 print ((i - 7.5) ^ 2 + (j - 7.5) ^ 2 + (k - 7.5) ^ 2 < 36 ? 3 : 0) }' >"$TMP/ball.vtk"
+expect 0 "format      VTK," info "$TMP/ball.vtk"
+grep -q "spacing     1 x 1 x 2" "$TMP/out" && grep -q "values      0 .. 3" "$TMP/out" && ok || bad "info ball.vtk: $(cat "$TMP/out")"
+expect 0 "volume           VTK, 1 frame" fit "$TMP/ball.vtk" -o "$TMP/ball.ply" --iso 1.5 --iterations 2 --mesh 8
+expect 0 "volume           VTK, 1 frame" fit "$TMP/ball.vtk" -o "$TMP/ball.ply" --label 3 --iterations 2 --mesh 8
+sed 's/^DIMENSIONS 16 16 16$/DIMENSIONS 16 16 17/' "$TMP/ball.vtk" >"$TMP/ball17.vtk"
+foreign "$TMP/ball17.vtk" "POINT_DATA 4096, but DIMENSIONS 16 x 16 x 17 make 4352 points"
+
 # volumes: fit on a NIfTI iso-surface, info, the outputs re-read
 BRAIN=tests/data/KmeansTest_T1UCharRaw.nii.gz
 expect 0 "iso-surface      level" fit "$BRAIN" -o "$TMP/brain.vtk" --vtk --ascii --json "$TMP/brain.json" --svg "$TMP/brain.svg" --iterations 5
@@ -344,6 +382,11 @@ grep -q "of the largest component, 6000 kept" "$TMP/out" && ok || bad "fit on a 
 head -n 1 "$TMP/brain.vtk" | grep -q '^# vtk DataFile Version' && grep -q '^DATASET POLYDATA$' "$TMP/brain.vtk" &&
     grep -q '^POINTS 8194 ' "$TMP/brain.vtk" && grep -q '^POLYGONS 16384 65536$' "$TMP/brain.vtk" &&
     grep -q '^SCALARS error float 1$' "$TMP/brain.vtk" && ok || bad "brain.vtk: not the VTK polydata expected"
+# sqffd's own VTK read back: the mesh's vertices are the points
+expect 0 "format      VTK 3.0 POLYDATA, ASCII" info "$TMP/brain.vtk"
+grep -q "points      8194" "$TMP/out" && ok || bad "info brain.vtk: not 8194 points: $(cat "$TMP/out")"
+expect 0 "points read      8194" fit "$TMP/brain.vtk" -o "$TMP/brain2.vtk" --vtk --iterations 2
+expect 0 "format      VTK 3.0 POLYDATA, binary" info "$TMP/brain2.vtk"
 grep -q '"format": *"sqffd-model"' "$TMP/brain.json" && grep -q '"control"' "$TMP/brain.json" && ok || bad "brain.json lacks its format or control points"
 grep -q '<svg' "$TMP/brain.svg" && tail -c 20 "$TMP/brain.svg" | grep -q '</svg>' && ok || bad "brain.svg is not a whole SVG"
 expect 0 "iso-surface      level 60," fit "$BRAIN" -o "$TMP/b60.ply" --iso 60 --sample 500 --all-components --iterations 1

@@ -4,6 +4,7 @@
 #include "test.h"
 #include "test_bytes.h"
 #include "../examples/sqffd_io.h"
+#include "../examples/sqffd_export.h"
 
 /* ---- a growing byte buffer and a PLY encoder independent of the reader ---- */
 
@@ -148,6 +149,19 @@ static void expect_points(const void *data, size_t size, const char *name, const
 }
 #define EXPECT_POINTS(text, name, want, n) expect_points(text, strlen(text), name, want, n, __FILE__, __LINE__)
 
+/* Reads the first len bytes of data from a malloc'd copy of exactly len
+   bytes, so ASan sees any overread (a truncation test's reader). */
+static int read_prefix(const void *data, size_t len, const char *name, double **points, size_t *count, char *err,
+                       size_t err_size)
+{
+    unsigned char *copy = (unsigned char *)malloc(len ? len : 1);
+    int r;
+    if (len) memcpy(copy, data, len);
+    r = sqffd_io_read_points(copy, len, name, points, count, err, err_size);
+    free(copy);
+    return r;
+}
+
 /* ---- cases ---------------------------------------------------------------- */
 
 static void test_io_bunny(void)
@@ -193,21 +207,16 @@ static void test_io_ply_truncated(void)
         mixed_ply(&b, format, "\n");
         full = b.size;
         for (len = 0; len < full; len++) {
-            /* a malloc'd copy of exactly len bytes, so ASan sees any overread */
-            unsigned char *copy = (unsigned char *)malloc(len ? len : 1);
             double *points;
             size_t count;
             char err[256];
-            int r;
-            memcpy(copy, b.data, len);
-            r = sqffd_io_read_points(copy, len, "cut.ply", &points, &count, err, sizeof err);
+            int r = read_prefix(b.data, len, "cut.ply", &points, &count, err, sizeof err);
             if (format != ASCII) CHECK_MSG(r == 1, "%s prefix of %lu bytes read as %lu points", format_names[format],
                                            (unsigned long)len, (unsigned long)count);
             if (r == 0) {
                 CHECK(count <= MIXED_N);
                 free(points);
             }
-            free(copy);
         }
     }
     free(b.data);
@@ -461,7 +470,6 @@ static void test_io_detect(void)
 static void test_io_foreign_formats(void)
 {
     static const char dicom_message[] = "DICOM is not read by sqffd; convert it to NIfTI (e.g. with dcm2niix)";
-    static const char stl_message[] = "STL is not read by sqffd; convert it to PLY, OFF or OBJ (e.g. with MeshLab or meshio)";
     static const char analyze_message[] = "Analyze 7.5 (a .hdr without the NIfTI-1 magic) is not read by sqffd; "
                                           "convert it to NIfTI (e.g. with nibabel or fslchfiletype)";
     static const double one[] = {1, 2, 3};
@@ -478,19 +486,8 @@ static void test_io_foreign_formats(void)
                  "INRIMAGE is not read by sqffd; convert it to NIfTI, MetaImage or NRRD");
     EXPECT_ERROR("#INRIMAGE-4#\n", "skull.inr", "holds no points"); /* a comment line: not the header */
 
-    EXPECT_ERROR("solid cube\n facet normal 0 0 1\n", "cube.stl", stl_message);
-    EXPECT_ERROR("\r\n  solid\n", "cube.xyz", stl_message);
-    EXPECT_ERROR("solid", "cube.xyz", stl_message);
     EXPECT_ERROR("solidity 1 2\n", "cube.xyz", "line 1: expected a number, found 'solidity'");
     memset(b, 0, sizeof b);
-    memcpy(b, "solid but binary", 16);
-    b[80] = 2; /* two 50-byte triangles after the 84-byte header */
-    expect_error(b, 184, "cube.stl", stl_message, __FILE__, __LINE__);
-    memcpy(b, "binary", 6);
-    expect_error(b, 184, "cube.stl", stl_message, __FILE__, __LINE__);
-    expect_error(b, 183, "cube.stl", "not a text point file", __FILE__, __LINE__); /* the count does not fit */
-    b[80] = 0; /* no triangle: no STL */
-    expect_error(b, 84, "cube.stl", "not a text point file", __FILE__, __LINE__);
     b[0] = 0x1f; b[1] = 0x8b; b[80] = 2; /* a gzip stream sized like an STL: inflated, not named STL (fuzz_io) */
     expect_error(b, 184, "cube.stl", "gzip-compressed data", __FILE__, __LINE__);
 
@@ -630,6 +627,437 @@ static void test_io_writer_points_file(void)
     remove(path);
 }
 
+
+/* ---- STL -------------------------------------------------------------------- */
+
+/* A float's 4 bytes, little endian (binary STL) or big endian (binary VTK). */
+static void put_f32(bytes *b, float f, int big_endian)
+{
+    unsigned char raw[4];
+    uint32_t u;
+    int i;
+    memcpy(&u, &f, 4);
+    for (i = 0; i < 4; i++) raw[big_endian ? 3 - i : i] = (unsigned char)(u >> (8 * i));
+    bytes_put(b, raw, 4);
+}
+
+/* An STL of nt triangles whose corners are the points v[tri[...]]: ASCII
+   (%.9g: each float reads back exactly) or binary, whose 80-byte header
+   starts with `header` (space-padded); normals 0, attributes 0. */
+static void stl_file(bytes *b, int binary, const char *header, const float *v, const int *tri, size_t nt)
+{
+    size_t t;
+    int c, k;
+    b->size = 0;
+    if (binary) {
+        char head[80];
+        memset(head, ' ', sizeof head);
+        memcpy(head, header, strlen(header));
+        bytes_put(b, head, 80);
+        for (k = 0; k < 4; k++) bytes_byte(b, (unsigned)(nt >> (8 * k)) & 0xffu);
+    } else
+        bytes_text(b, "solid %s\n", header);
+    for (t = 0; t < nt; t++) {
+        if (binary)
+            for (k = 0; k < 3; k++) put_f32(b, 0.0f, 0);
+        else
+            bytes_text(b, "  facet normal 0 0 1\n    outer loop\n");
+        for (c = 0; c < 3; c++) {
+            const float *p = v + 3 * tri[3 * t + (size_t)c];
+            if (binary)
+                for (k = 0; k < 3; k++) put_f32(b, p[k], 0);
+            else
+                bytes_text(b, "      vertex %.9g %.9g %.9g\n", (double)p[0], (double)p[1], (double)p[2]);
+        }
+        if (binary) bytes_put(b, "\0\0", 2);
+        else bytes_text(b, "    endloop\n  endfacet\n");
+    }
+    if (!binary) bytes_text(b, "endsolid %s\n", header);
+}
+
+/* The distinct corners of the triangles in order of first use, by brute
+   force (every corner against every one kept): the reader's ground truth. */
+static size_t distinct_corners(const float *v, const int *tri, size_t nt, double *out)
+{
+    size_t n = 0, i, j;
+    for (i = 0; i < 3 * nt; i++) {
+        const float *p = v + 3 * tri[i];
+        for (j = 0; j < n; j++)
+            if (out[3 * j] == p[0] && out[3 * j + 1] == p[1] && out[3 * j + 2] == p[2]) break;
+        if (j == n) {
+            out[3 * n] = p[0];
+            out[3 * n + 1] = p[1];
+            out[3 * n + 2] = p[2];
+            n++;
+        }
+    }
+    return n;
+}
+
+/* The unit cube's 8 corners as 12 triangles, then a random mesh of 2000
+   triangles over 300 points (some equal in value under other indices, 0
+   and -0 among them), each as ASCII, binary, and binary whose header
+   starts with "solid": the corners merged, in order of first use. */
+static void test_io_stl_round_trip(void)
+{
+    static const int cube_tri[36] = {0, 1, 3, 0, 3, 2, 4, 6, 7, 4, 7, 5, 0, 4, 5, 0, 5, 1,
+                                     2, 3, 7, 2, 7, 6, 0, 2, 6, 0, 6, 4, 1, 5, 7, 1, 7, 3};
+    float cube[24], *pool = (float *)test_malloc(300 * 3 * sizeof(float));
+    int *tri = (int *)test_malloc(2000 * 3 * sizeof(int));
+    double *want = (double *)test_malloc(6000 * 3 * sizeof(double));
+    bytes b = {NULL, 0, 0};
+    uint32_t state = 12345;
+    size_t n, i;
+    int kind;
+    for (i = 0; i < 8; i++) {
+        cube[3 * i] = (float)(i >> 2 & 1);
+        cube[3 * i + 1] = (float)(i >> 1 & 1);
+        cube[3 * i + 2] = (float)(i & 1);
+    }
+    for (i = 0; i < 900; i++) {
+        state = state * 1664525u + 1013904223u;
+        pool[i] = (float)((double)(state >> 8) / 16777216.0 * 20.0 - 10.0);
+    }
+    pool[0] = 0.0f;
+    pool[3 * 1] = -0.0f; /* point 1 equals point 0 in value: -0 == 0 */
+    pool[3 * 1 + 1] = pool[1];
+    pool[3 * 1 + 2] = pool[2];
+    for (i = 250; i < 300; i++) memcpy(pool + 3 * i, pool + 3 * (i - 250), 3 * sizeof(float)); /* equal values */
+    for (i = 0; i < 6000; i++) {
+        state = state * 1664525u + 1013904223u;
+        tri[i] = (int)((state >> 8) % 300u);
+    }
+    for (kind = 0; kind < 3; kind++) {
+        const char *label = kind == 0 ? "ascii.stl" : kind == 1 ? "binary.stl" : "solid_binary.stl";
+        n = distinct_corners(cube, cube_tri, 12, want);
+        CHECK(n == 8);
+        stl_file(&b, kind > 0, kind == 2 ? "solid cube exported by a CAD tool" : "cube", cube, cube_tri, 12);
+        expect_points(b.data, b.size, label, want, n, __FILE__, __LINE__);
+        n = distinct_corners(pool, tri, 2000, want);
+        CHECK(n < 250); /* the copies and -0 merged */
+        stl_file(&b, kind > 0, kind == 2 ? "solid mesh" : "mesh", pool, tri, 2000);
+        expect_points(b.data, b.size, label, want, n, __FILE__, __LINE__);
+        /* and under a name that says nothing: found by content */
+        expect_points(b.data, b.size, "mesh.dat", want, n, __FILE__, __LINE__);
+    }
+    {
+        double *points;
+        size_t count;
+        sqffd_io_info info;
+        char err[256];
+        stl_file(&b, 1, "solid cube", cube, cube_tri, 12);
+        CHECK_MSG(sqffd_io_read_points_info(b.data, b.size, "c.stl", &points, &count, &info, err, sizeof err) == 0,
+                  "%s", err);
+        CHECK(info.format == SQFFD_IO_STL && info.binary == 1 && info.stl_triangles == 12 && count == 8);
+        free(points);
+    }
+    free(b.data);
+    free(pool);
+    free(tri);
+    free(want);
+}
+
+/* Hostile STL: a count that does not give the size, every prefix of a
+   binary and of an ASCII file, NaN and infinite vertices, no triangles,
+   broken facets. Each is one message; a NaN normal is not read. */
+static void test_io_stl_hostile(void)
+{
+    static const float v[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+    static const int tri[6] = {0, 1, 2, 2, 1, 0};
+    static const double corners[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+    bytes b = {NULL, 0, 0};
+    size_t len, full;
+    int binary;
+    stl_file(&b, 1, "binary", v, tri, 2);
+    CHECK(b.size == 184);
+    expect_error(b.data, 183, "t.stl", "binary STL: 2 triangles take 84 + 50 x 2 = 184 bytes, the file has 183",
+                 __FILE__, __LINE__);
+    bytes_byte(&b, 0);
+    expect_error(b.data, b.size, "t.stl", "the file has 185", __FILE__, __LINE__);
+    b.data[80] = 0xff; b.data[81] = 0xff; b.data[82] = 0xff; b.data[83] = 0xff; /* 2^32 - 1 triangles */
+    expect_error(b.data, 184, "t.stl", "4294967295 triangles take 84 + 50 x 4294967295 = 214748364834 bytes",
+                 __FILE__, __LINE__);
+    for (binary = 0; binary < 2; binary++) {
+        stl_file(&b, binary, "tri", v, tri, 2);
+        expect_points(b.data, b.size, "t.stl", corners, 3, __FILE__, __LINE__);
+        full = b.size;
+        for (len = 0; len < full; len++) {
+            double *points;
+            size_t count;
+            char err[256];
+            if (read_prefix(b.data, len, "t.stl", &points, &count, err, sizeof err) == 0) {
+                /* ASCII: only whole facets and "endsolid" (its name may be cut) give points */
+                CHECK_MSG(!binary && len >= full - strlen(" tri\n"), "%s prefix of %lu bytes read (%lu points)",
+                          binary ? "binary" : "ascii", (unsigned long)len, (unsigned long)count);
+                free(points);
+            }
+        }
+    }
+    stl_file(&b, 1, "binary", v, tri, 1);
+    memcpy(b.data + 84 + 12 + 16, "\x00\x00\xc0\x7f", 4); /* triangle 0, vertex 1, y: NaN */
+    expect_error(b.data, b.size, "t.stl", "triangle 0: vertex 1: y is not finite", __FILE__, __LINE__);
+    memcpy(b.data + 84 + 12 + 16, "\x00\x00\x80\xff", 4); /* -infinity */
+    expect_error(b.data, b.size, "t.stl", "triangle 0: vertex 1: y is not finite (-inf)", __FILE__, __LINE__);
+    memcpy(b.data + 84 + 12 + 16, "\x00\x00\x00\x00", 4);
+    memcpy(b.data + 84, "\x00\x00\xc0\x7f", 4); /* a NaN normal: not read */
+    expect_points(b.data, b.size, "t.stl", corners, 3, __FILE__, __LINE__);
+    memset(b.data, 0, 84);
+    expect_error(b.data, 84, "t.stl", "binary STL without triangles", __FILE__, __LINE__);
+    expect_error(b.data, 40, "t.stl", "binary STL of 40 bytes: shorter than its 84-byte header", __FILE__, __LINE__);
+    EXPECT_ERROR("solid empty\nendsolid empty\n", "t.stl", "ASCII STL without triangles");
+    EXPECT_ERROR("solid", "t.xyz", "file ends before endsolid (after 0 facets)");
+    EXPECT_ERROR("\r\n  solid\n", "t.xyz", "file ends before endsolid");
+    EXPECT_ERROR("solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex nan 1 0\n", "t.stl",
+                 "facet 0 (line 6): 'nan' is not a finite number");
+    EXPECT_ERROR("solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1e999 0 0\n", "t.stl",
+                 "facet 0 (line 5): '1e999' is not a finite number");
+    EXPECT_ERROR("solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nvertex 1 1 0\n"
+                 "endloop\nendfacet\nendsolid\n", "t.stl", "facet 0 (line 7): expected endloop, found 'vertex' (a facet "
+                 "has 3 vertices)");
+    EXPECT_ERROR("solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0\nvertex 1 0 0\n", "t.stl",
+                 "facet 0 (line 5): 'vertex' is not a number");
+    EXPECT_ERROR("solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\n", "t.stl", "file ends inside facet 0 (line 2)");
+    EXPECT_ERROR("solid x\nfacets normal 0 0 1\n", "t.stl", "line 2: expected facet or endsolid, found 'facets'");
+    EXPECT_ERROR("solid x\nendsolid x\nmore\n", "t.stl", "line 3: expected solid, found 'more'");
+    {   /* NaN and infinite normals are not read; two solids in one file, keywords in capitals */
+        static const double two[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+        EXPECT_POINTS("solid a b c\nfacet normal nan inf -inf\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\n"
+                      "endloop\nendfacet\nendsolid a b c\nSOLID B\nFACET NORMAL 0 0 1\nOUTER LOOP\nVERTEX 0 1 0\n"
+                      "VERTEX 1 0 0\nVERTEX 0 0 0\nENDLOOP\nENDFACET\nENDSOLID\n", "two.stl", two, 3);
+    }
+    free(b.data);
+}
+
+/* ---- legacy VTK ---------------------------------------------------------------- */
+
+/* One value of VTK type `type` (the legacy names), big endian or ASCII
+   (followed by a blank): an encoder independent of the reader. */
+static void put_vtk_value(bytes *b, int binary, const char *type, double v)
+{
+    unsigned char raw[8];
+    uint64_t bits = 0;
+    size_t size, i;
+    if (strcmp(type, "float") == 0 || strcmp(type, "double") == 0) {
+        if (!binary) { bytes_text(b, strcmp(type, "float") == 0 ? "%.9g " : "%.17g ", v); return; }
+        if (strcmp(type, "float") == 0) { put_f32(b, (float)v, 1); return; }
+        memcpy(&bits, &v, 8);
+        size = 8;
+    } else {
+        if (!binary) { bytes_text(b, "%lld ", (long long)v); return; }
+        bits = (uint64_t)(long long)v;
+        size = strstr(type, "char") ? 1 : strstr(type, "short") ? 2 : strstr(type, "64") ? 8 : 4;
+    }
+    for (i = 0; i < size; i++) raw[size - 1 - i] = (unsigned char)(bits >> (8 * i));
+    bytes_put(b, raw, size);
+}
+
+/* n values; a binary block ends with a line break, as VTK writes it. */
+static void put_vtk_values(bytes *b, int binary, const char *type, const double *v, size_t n)
+{
+    size_t i;
+    for (i = 0; i < n; i++) put_vtk_value(b, binary, type, v[i]);
+    bytes_put(b, "\n", 1);
+}
+
+/* The points of the VTK tests: x y z exact in every type used (small integers and halves). */
+#define VTK_N 5
+static const double vtk_xyz[3 * VTK_N] = {0, 1, 2, -3, 4.5, 5, 6, -7, 8.5, 9, 10, -11, 12.5, 13, 14};
+
+/* Files a reader of the sections before and after POINTS must get through. */
+static void vtk_file(bytes *b, int kind, int binary, const char *type)
+{
+    static const double field[4] = {1.5, -2, 3, 4}, ids[VTK_N] = {4, 3, 2, 1, 0};
+    static const double offsets[3] = {0, 3, 5}, connectivity[5] = {0, 1, 2, 3, 4}, cell_types[2] = {5, 3};
+    static const double colours[4 * VTK_N] = {10, 13, 32, 255, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15};
+    const char *mode = binary ? "BINARY" : "ASCII";
+    b->size = 0;
+    switch (kind) {
+    case 0: /* POLYDATA: FIELD data before the points, cells and attributes after them */
+        bytes_text(b, "# vtk DataFile Version 3.0\npoly data\n%s\nDATASET POLYDATA\nFIELD FieldData 3\n", mode); /* NULL_ARRAY counts */
+        bytes_text(b, "TIME 1 1 double\n");
+        put_vtk_values(b, binary, "double", field, 1);
+        bytes_text(b, "NULL_ARRAY\nlabels 3 1 float\n");
+        put_vtk_values(b, binary, "float", field + 1, 3);
+        bytes_text(b, "POINTS %d %s\n", VTK_N, type);
+        put_vtk_values(b, binary, type, vtk_xyz, 3 * VTK_N);
+        bytes_text(b, "POLYGONS 1 4\n");
+        put_vtk_values(b, binary, "int", connectivity + 1, 4);
+        break;
+    case 1: /* UNSTRUCTURED_GRID of version 5.1: cells first (OFFSETS, CONNECTIVITY), METADATA, then attributes */
+        bytes_text(b, "# vtk DataFile Version 5.1\nvtk output\n%s\nDATASET UNSTRUCTURED_GRID\nCELLS 3 5\n", mode);
+        bytes_text(b, "OFFSETS vtktypeint64\n");
+        put_vtk_values(b, binary, "vtktypeint64", offsets, 3);
+        bytes_text(b, "CONNECTIVITY vtktypeint64\n");
+        put_vtk_values(b, binary, "vtktypeint64", connectivity, 5);
+        bytes_text(b, "CELL_TYPES 2\n");
+        put_vtk_values(b, binary, "int", cell_types, 2);
+        bytes_text(b, "CELL_DATA 2\nSCALARS cell_id int 1\nLOOKUP_TABLE default\n");
+        put_vtk_values(b, binary, "int", cell_types, 2);
+        bytes_text(b, "POINT_DATA %d\nVECTORS v double\n", VTK_N);
+        put_vtk_values(b, binary, "double", vtk_xyz, 3 * VTK_N);
+        bytes_text(b, "METADATA\nINFORMATION 1\nNAME L2_NORM_RANGE LOCATION vtkDataArray\nDATA 2 0 1\n\n");
+        bytes_text(b, "GLOBAL_IDS ids unsigned_short\n");
+        put_vtk_values(b, binary, "unsigned_short", ids, VTK_N);
+        bytes_text(b, "TEXTURE_COORDINATES uv 2 float\n");
+        put_vtk_values(b, binary, "float", vtk_xyz, 2 * VTK_N);
+        bytes_text(b, "SCALARS rgb unsigned_char 3\nLOOKUP_TABLE default\n");
+        put_vtk_values(b, binary, "unsigned_char", vtk_xyz, 3 * VTK_N);
+        bytes_text(b, "COLOR_SCALARS rgba 4\n");
+        put_vtk_values(b, binary, binary ? "unsigned_char" : "float", colours, 4 * VTK_N);
+        bytes_text(b, "LOOKUP_TABLE table 2\n");
+        put_vtk_values(b, binary, binary ? "unsigned_char" : "float", vtk_xyz, 8);
+        bytes_text(b, "POINTS %d %s\n", VTK_N, type);
+        put_vtk_values(b, binary, type, vtk_xyz, 3 * VTK_N);
+        break;
+    default: /* STRUCTURED_GRID */
+        bytes_text(b, "# vtk DataFile Version 2.0\ngrid\n%s\nDATASET STRUCTURED_GRID\nDIMENSIONS %d 1 1\n", mode, VTK_N);
+        bytes_text(b, "POINTS %d %s\n", VTK_N, type);
+        put_vtk_values(b, binary, type, vtk_xyz, 3 * VTK_N);
+        break;
+    }
+}
+
+/* POINTS of every dataset and type, ASCII and binary, after and before
+   other sections; sqffd's own --vtk output read back. */
+static void test_io_vtk_points(void)
+{
+    static const char *const types[] = {"float", "double", "int", "short", "vtktypeint64"};
+    static const double cloud[6] = {0.1, 0.2, 0.3, 1e-3, -2.5, 1e30};
+    bytes b = {NULL, 0, 0};
+    double *points, want[3 * VTK_N], values[2] = {1, 2};
+    sqffd_io_scalar scalar;
+    uint32_t triangle[3] = {0, 1, 1};
+    size_t count, size, t;
+    sqffd_io_info info;
+    char err[256];
+    int kind, binary, flags;
+    for (kind = 0; kind < 3; kind++)
+        for (binary = 0; binary < 2; binary++)
+            for (t = 0; t < sizeof types / sizeof types[0]; t++) {
+                int integer = strcmp(types[t], "float") != 0 && strcmp(types[t], "double") != 0;
+                size_t i;
+                vtk_file(&b, kind, binary, types[t]);
+                for (i = 0; i < 3 * VTK_N; i++) want[i] = integer ? (double)(long long)vtk_xyz[i] : vtk_xyz[i];
+                expect_points(b.data, b.size, "data.vtk", want, VTK_N, __FILE__, __LINE__);
+            }
+    vtk_file(&b, 2, 1, "float");
+    CHECK_MSG(sqffd_io_read_points_info(b.data, b.size, "g.dat", &points, &count, &info, err, sizeof err) == 0, "%s",
+              err);
+    CHECK(info.format == SQFFD_IO_VTK && info.binary && strcmp(info.vtk_version, "2.0") == 0 &&
+          strcmp(info.vtk_dataset, "STRUCTURED_GRID") == 0);
+    free(points);
+    /* sqffd_export_vtk's files: mesh or cloud, binary or ASCII, float or double */
+    scalar.name = "error";
+    scalar.values = values;
+    for (flags = 0; flags < 4; flags++)
+        for (t = 0; t < 2; t++) {
+            FILE *f = tmpfile();
+            unsigned char *data;
+            size_t i;
+            if (!f) { printf("    (skipped: no tmpfile)\n"); return; }
+            CHECK_MSG(sqffd_export_vtk_stream(f, "own.vtk", "sqffd model", cloud, 2, t ? triangle : NULL, t, &scalar, 1,
+                                              flags, err, sizeof err) == 0, "%s", err);
+            size = (size_t)ftell(f);
+            rewind(f);
+            data = (unsigned char *)test_malloc(size);
+            CHECK(fread(data, 1, size, f) == size);
+            fclose(f);
+            for (i = 0; i < 6; i++) want[i] = flags & SQFFD_EXPORT_VTK_DOUBLE ? cloud[i] : (double)(float)cloud[i];
+            expect_points(data, size, "own.vtk", want, 2, __FILE__, __LINE__);
+            free(data);
+        }
+    free(b.data);
+}
+
+/* Hostile VTK: counts beyond the data, every prefix, NaN, unknown words,
+   a volume, no points; each one message. */
+static void test_io_vtk_hostile(void)
+{
+    bytes b = {NULL, 0, 0};
+    size_t len, points_end;
+    EXPECT_ERROR("# vtk DataFile Version 3.0\n", "v.vtk", "file ends inside the header (after the title line)");
+    EXPECT_ERROR("# vtk DataFile Version 3.0\nt\nASCI\nDATASET POLYDATA\n", "v.vtk",
+                 "line 3: expected ASCII or BINARY, found 'ASCI'");
+    EXPECT_ERROR("# vtk DataFile Version 3.0\nt\nASCII\nDATASET POLYDAT\n", "v.vtk",
+                 "line 4: unknown DATASET type 'POLYDAT'");
+    EXPECT_ERROR("# vtk DataFile Version 3.0\nt\nASCII\nFIELD f 0\n", "v.vtk", "a VTK data object (FIELD data only)");
+    EXPECT_ERROR("# vtk DataFile Version 3.0\nt\nASCII\nDATASET POLYDATA\nPOINTZ 1 float\n0 0 0\n", "v.vtk",
+                 "line 5: unknown keyword 'POINTZ' in DATASET POLYDATA");
+    EXPECT_ERROR("# vtk DataFile Version 3.0\nt\nASCII\nDATASET POLYDATA\nPOINTS 1 bit\n0 0 0\n", "v.vtk",
+                 "line 5: value type 'bit' is not read");
+    EXPECT_ERROR("# vtk DataFile Version 3.0\nt\nBINARY\nDATASET POLYDATA\nPOINTS 1 long\n", "v.vtk",
+                 "binary 'long' values: their size is the writing platform's");
+    EXPECT_ERROR("# vtk DataFile Version 3.0\nt\nASCII\nDATASET POLYDATA\nPOINTS 0 float\n", "v.vtk",
+                 "POINTS (line 5): 0 points");
+    EXPECT_ERROR("# vtk DataFile Version 3.0\nt\nASCII\nDATASET POLYDATA\nPOINTS 99999999999 float\n0 0 0\n", "v.vtk",
+                 "POINTS (line 5): 299999999997 values, the file holds 7 bytes after line 5");
+    EXPECT_ERROR("# vtk DataFile Version 3.0\nt\nBINARY\nDATASET POLYDATA\nPOINTS 99999999999 float\n0 0 0\n", "v.vtk",
+                 "POINTS (line 5): 299999999997 values of 4 bytes, the file holds 6 bytes after line 5");
+    EXPECT_ERROR("# vtk DataFile Version 3.0\nt\nASCII\nDATASET POLYDATA\nPOINTS 18446744073709551615 float\n", "v.vtk",
+                 "points overflow");
+    EXPECT_ERROR("# vtk DataFile Version 3.0\nt\nASCII\nDATASET POLYDATA\nPOINTS 99999999999999999999 float\n", "v.vtk",
+                 "'99999999999999999999' is not a count");
+    EXPECT_ERROR("# vtk DataFile Version 3.0\nt\nASCII\nDATASET POLYDATA\nPOINTS 2 float\n0 0 0\n1 nan 1\n", "v.vtk",
+                 "POINTS (line 5): value 4 (line 7), 'nan', is not a finite number");
+    EXPECT_ERROR("# vtk DataFile Version 3.0\nt\nASCII\nDATASET POLYDATA\nPOINTS 1 float\n0 0 1e39\n", "v.vtk",
+                 "value 2 (line 6), '1e39', is not a finite number"); /* beyond float */
+    EXPECT_ERROR("# vtk DataFile Version 3.0\nt\nASCII\nDATASET POLYDATA\nPOINTS 2 float\n0 0 0\n1 1\n", "v.vtk",
+                 "POINTS (line 5): file ends after 5 of 6 values");
+    EXPECT_ERROR("# vtk DataFile Version 3.0\nt\nASCII\nDATASET POLYDATA\nVERTICES 1 2\n1 0\n", "v.vtk",
+                 "DATASET POLYDATA without POINTS: no points");
+    EXPECT_ERROR("# vtk DataFile Version 3.0\nt\nASCII\nDATASET POLYDATA\nSCALARS s float\nLOOKUP_TABLE default\n",
+                 "v.vtk", "SCALARS (line 5): an attribute before POINT_DATA or CELL_DATA");
+    EXPECT_ERROR("# vtk DataFile Version 3.0\nt\nASCII\nDATASET POLYDATA\nPOINT_DATA 1\nSCALARS s float 1 LOOKUP\n",
+                 "v.vtk", "expected LOOKUP_TABLE, found 'LOOKUP'");
+    EXPECT_ERROR("# vtk DataFile Version 3.0\nt\nASCII\nDATASET POLYDATA\nMETADATA\nINFORMATION 0\n", "v.vtk",
+                 "METADATA (line 5): file ends before the blank line that ends it");
+    EXPECT_ERROR("# vtk DataFile Version 5.1\nt\nASCII\nDATASET POLYDATA\nPOLYGONS 2 3\n0 3\n0 1 2\n", "v.vtk",
+                 "POLYGONS (line 5): expected OFFSETS (a version 5.1 file), found '0'");
+    EXPECT_ERROR("# vtk DataFile Version 3.0\nt\nASCII\nDATASET STRUCTURED_GRID\nDIMENSIONS 2 2 2\nPOINTS 1 float\n0 0 0\n",
+                 "v.vtk", "DIMENSIONS 2 x 2 x 2 do not make the 1 POINTS");
+    EXPECT_ERROR("# vtk DataFile Version 3.0\nt\nASCII\nDATASET STRUCTURED_GRID\nDIMENSIONS 4294967296 4294967296 2\n"
+                 "POINTS 1 float\n0 0 0\n", "v.vtk", "DIMENSIONS 4294967296 x 4294967296 x 2 do not make the 1 POINTS");
+    EXPECT_ERROR("# vtk DataFile Version 3.0\nt\nBINARY\nDATASET STRUCTURED_POINTS\nDIMENSIONS 2 2 2\n", "v.vtk",
+                 "DATASET STRUCTURED_POINTS is a volume, not points");
+    EXPECT_ERROR("# vtk DataFile Version 3.0\nt\nASCII\nDATASET RECTILINEAR_GRID\n", "v.vtk",
+                 "DATASET RECTILINEAR_GRID is not read");
+    /* a binary NaN */
+    b.size = 0;
+    bytes_text(&b, "# vtk DataFile Version 3.0\nt\nBINARY\nDATASET POLYDATA\nPOINTS 1 double\n");
+    put_vtk_value(&b, 1, "double", 1.0);
+    bytes_put(&b, "\x7f\xf8\0\0\0\0\0\0", 8);
+    put_vtk_value(&b, 1, "double", 1.0);
+    expect_error(b.data, b.size, "v.vtk", "POINTS (line 5): value 1 is not finite (nan)", __FILE__, __LINE__);
+    /* every prefix of a binary file: an error until the points are whole, then the points (the file is not
+       read past them) */
+    vtk_file(&b, 0, 1, "double");
+    points_end = b.size - strlen("POLYGONS 1 4\n") - 16 - 1 - 1; /* the points' last byte + 1 */
+    for (len = 0; len <= b.size; len++) {
+        double *points;
+        size_t count;
+        char err[256];
+        int r = read_prefix(b.data, len, "v.vtk", &points, &count, err, sizeof err);
+        CHECK_MSG(r == (len < points_end), "prefix of %lu bytes (the points end at %lu): %s", (unsigned long)len,
+                  (unsigned long)points_end, r ? err : "read");
+        if (!r) {
+            CHECK(count == VTK_N && memcmp(points, vtk_xyz, sizeof vtk_xyz) == 0);
+            free(points);
+        }
+    }
+    /* ASCII prefixes: never a crash; a success has all the points (the last number may be cut) */
+    vtk_file(&b, 1, 0, "float");
+    for (len = 0; len <= b.size; len++) {
+        double *points;
+        size_t count;
+        char err[256];
+        if (read_prefix(b.data, len, "v.vtk", &points, &count, err, sizeof err) == 0) {
+            CHECK(count == VTK_N && memcmp(points, vtk_xyz, 3 * VTK_N * sizeof(double) - sizeof(double)) == 0);
+            free(points);
+        }
+    }
+    free(b.data);
+}
+
 void suite_io(void)
 {
     RUN_TEST(test_io_bunny);
@@ -643,6 +1071,10 @@ void suite_io(void)
     RUN_TEST(test_io_obj);
     RUN_TEST(test_io_detect);
     RUN_TEST(test_io_foreign_formats);
+    RUN_TEST(test_io_stl_round_trip);
+    RUN_TEST(test_io_stl_hostile);
+    RUN_TEST(test_io_vtk_points);
+    RUN_TEST(test_io_vtk_hostile);
     RUN_TEST(test_io_missing_file);
     RUN_TEST(test_io_writer_round_trip);
     RUN_TEST(test_io_writer_points_file);

@@ -615,7 +615,7 @@ static void test_volume_io_nifti_broken(void)
     CHECK_FAILS(sqffd_image_read_memory(b.data, b.size, "x.nii", &im, err, sizeof err), &im, err, "x.nii",
                 "not a NIfTI-1 file: sizeof_hdr is");
     CHECK_FAILS(sqffd_image_read_memory(b.data, b.size, "x.dat", &im, err, sizeof err), &im, err, "x.dat",
-                "not a NIfTI-1, MetaImage or NRRD file");
+                "not a NIfTI-1, MetaImage, NRRD or VTK file");
     CHECK_FAILS(sqffd_image_read_memory(b.data, 0, "e.nii", &im, err, sizeof err), &im, err, "e.nii", "file is empty");
     bytes_free(&b);
     CHECK_FAILS(sqffd_image_read_file("tests/data/no_such_file.nii", &im, err, sizeof err), &im, err,
@@ -1139,6 +1139,219 @@ static void test_volume_io_nrrd_broken(void)
     }
 }
 
+/* ---- legacy VTK STRUCTURED_POINTS ----------------------------------------- */
+
+static const char *const vtk_type_names[7] = {"unsigned_char", "char", "unsigned_short", "short", "int", "float",
+                                              "double"};
+
+/* A STRUCTURED_POINTS header of 4 x 3 x 2 voxels; `before` goes between the geometry and POINT_DATA. */
+static void vtk_volume_header(bytes *b, int binary, const char *type, const bytes *before)
+{
+    bytes_text(b, "# vtk DataFile Version 3.0\nvolume\n%s\nDATASET STRUCTURED_POINTS\nDIMENSIONS 4 3 2\n"
+                  "SPACING 1.5 2 2.5\nORIGIN 10 -20 30\n", binary ? "BINARY" : "ASCII");
+    bytes_put(b, before->data, before->size);
+    bytes_text(b, "POINT_DATA 24\nSCALARS voxels %s 1\nLOOKUP_TABLE default\n", type);
+}
+
+/* The voxels of an nx x ny x nz image as VTK holds them: big endian, or ASCII numbers. */
+static void put_vtk_voxels(bytes *b, int binary, sqffd_voxel_type type, size_t nx, size_t ny, size_t nz)
+{
+    size_t i, j, k;
+    if (binary) put_voxels(b, type, nx, ny, nz, 1, 1);
+    else
+        for (k = 0; k < nz; k++)
+            for (j = 0; j < ny; j++)
+                for (i = 0; i < nx; i++) bytes_text(b, "%.17g%c", voxel_value(type, i, j, k, 0), i + 1 < nx ? ' ' : '\n');
+    bytes_put(b, "\n", 1);
+}
+
+/* Every voxel type, ASCII and binary (big endian), with sections to skip
+   before the voxels (CELL_DATA scalars, FIELD data, other point attributes)
+   or not; unsigned_int, widened to float64. */
+static void test_volume_io_vtk(void)
+{
+    static const double affine[12] = {1.5, 0, 0, 10, 0, 2, 0, -20, 0, 0, 2.5, 30};
+    sqffd_image im;
+    char err[256] = "";
+    bytes b = {NULL, 0, 0};
+    int t, binary, skip;
+    for (t = 0; t < 7; t++)
+        for (binary = 0; binary < 2; binary++)
+            for (skip = 0; skip < 2; skip++) {
+                bytes before = {NULL, 0, 0};
+                if (skip) { /* 6 cells of floats, FIELD data, a VECTORS of the points */
+                    bytes_text(&before, "CELL_DATA 6\nSCALARS cells float\nLOOKUP_TABLE default\n");
+                    put_vtk_voxels(&before, binary, SQFFD_VOXEL_F32, 3, 2, 1);
+                    bytes_text(&before, "FIELD FieldData 1\nTIME 1 1 double\n");
+                    put_vtk_voxels(&before, binary, SQFFD_VOXEL_F64, 1, 1, 1);
+                    bytes_text(&before, "POINT_DATA 24\nVECTORS v float\n");
+                    put_vtk_voxels(&before, binary, SQFFD_VOXEL_F32, 8, 9, 1);
+                }
+                vtk_volume_header(&b, binary, vtk_type_names[t], &before);
+                put_vtk_voxels(&b, binary, all_types[t], 4, 3, 2);
+                CHECK_MSG(sqffd_image_read_memory(b.data, b.size, "v.vtk", &im, err, sizeof err) == 0, "%s", err);
+                if (im.buffer) {
+                    CHECK(strcmp(im.format, "VTK") == 0 && strcmp(im.stored_type, vtk_type_names[t]) == 0);
+                    CHECK(im.volume.type == all_types[t] && im.big_endian == binary);
+                    CHECK_DIMS(&im, 4, 3, 2, 1);
+                    CHECK_MSG(count_wrong_voxels(&im, all_types[t]) == 0, "%s %s", vtk_type_names[t],
+                              binary ? "binary" : "ascii");
+                    CHECK(strcmp(im.affine_source, "SPACING and ORIGIN") == 0);
+                    CHECK_AFFINE(&im, affine, 0);
+                    CHECK(im.spacing[0] == 1.5 && im.spacing[1] == 2 && im.spacing[2] == 2.5);
+                    sqffd_image_free(&im);
+                }
+                bytes_free(&b);
+                bytes_free(&before);
+            }
+    /* unsigned_int: values past int32, read as float64 */
+    for (binary = 0; binary < 2; binary++) {
+        static const double big[2] = {4294967295.0, 2147483648.0};
+        unsigned char raw[4];
+        size_t i, k;
+        bytes_text(&b, "# vtk DataFile Version 3.0\nu\n%s\nDATASET STRUCTURED_POINTS\nDIMENSIONS 2 1 1\n"
+                       "POINT_DATA 2\nSCALARS u unsigned_int\nLOOKUP_TABLE default\n", binary ? "BINARY" : "ASCII");
+        for (i = 0; i < 2; i++) {
+            uint32_t u = (uint32_t)big[i];
+            if (!binary) { bytes_text(&b, "%lu\n", (unsigned long)u); continue; }
+            for (k = 0; k < 4; k++) raw[k] = (unsigned char)(u >> (24 - 8 * k));
+            bytes_put(&b, raw, 4);
+        }
+        CHECK_MSG(sqffd_image_read_memory(b.data, b.size, "u.vtk", &im, err, sizeof err) == 0, "%s", err);
+        if (im.buffer) {
+            double v[2];
+            memcpy(v, im.buffer, sizeof v);
+            CHECK(im.volume.type == SQFFD_VOXEL_F64 && strcmp(im.stored_type, "unsigned_int") == 0);
+            CHECK(im.volume.strides[0] == 8 && im.volume.strides[1] == 16);
+            CHECK(v[0] == big[0] && v[1] == big[1]);
+            CHECK(strcmp(im.affine_source, "none") == 0);
+            sqffd_image_free(&im);
+        }
+        bytes_free(&b);
+    }
+    bytes_text(&b, "# vtk DataFile Version 3.0\nu\nASCII\nDATASET STRUCTURED_POINTS\nDIMENSIONS 2 1 1\n"
+                   "POINT_DATA 2\nSCALARS u unsigned_int\nLOOKUP_TABLE default\n1 4294967296\n");
+    CHECK_FAILS(sqffd_image_read_memory(b.data, b.size, "u.vtk", &im, err, sizeof err), &im, err, "u.vtk",
+                "data: value 1, '4294967296', is not a whole number in the type's range");
+    bytes_free(&b);
+    /* DIRECTION (VTK 9) and ASPECT_RATIO (the old name of SPACING) */
+    {
+        static const double rotated[12] = {0, -2, 0, 1, 1.5, 0, 0, 2, 0, 0, 2.5, 3};
+        bytes_text(&b, "# vtk DataFile Version 3.0\nd\nASCII\nDATASET STRUCTURED_POINTS\nDIMENSIONS 4 3 2\n"
+                       "ASPECT_RATIO 1.5 2 2.5\nDIRECTION 0 -1 0 1 0 0 0 0 1\nORIGIN 1 2 3\nPOINT_DATA 24\n"
+                       "SCALARS s short 1\nLOOKUP_TABLE default\n");
+        put_vtk_voxels(&b, 0, SQFFD_VOXEL_I16, 4, 3, 2);
+        CHECK_MSG(sqffd_image_read_memory(b.data, b.size, "d.vtk", &im, err, sizeof err) == 0, "%s", err);
+        CHECK_AFFINE(&im, rotated, 0);
+        CHECK(strcmp(im.affine_source, "DIRECTION, SPACING, ORIGIN") == 0);
+        sqffd_image_free(&im);
+        bytes_free(&b);
+    }
+}
+
+/* The iso-surface points of a frame (level 50), malloc'd; *n their count. */
+static double *iso_points(const sqffd_volume *v, size_t *n)
+{
+    sqffd_iso_options o = sqffd_iso_options_default();
+    size_t size, room = 0;
+    void *work;
+    double *out;
+    o.level = 50;
+    *n = 0;
+    if (sqffd_iso_workspace_size(v, &o, &size) != SQFFD_OK) return NULL;
+    work = test_malloc(size);
+    if (sqffd_iso_points(v, &o, NULL, NULL, 0, &room, work, size) != SQFFD_OK || room == 0) { free(work); return NULL; }
+    out = (double *)test_malloc(3 * room * sizeof *out);
+    if (sqffd_iso_points(v, &o, out, NULL, room, n, work, size) != SQFFD_OK) { free(work); free(out); return NULL; }
+    free(work);
+    return out;
+}
+
+/* A ball as a binary and an ASCII STRUCTURED_POINTS file and as a NRRD of
+   the same geometry: the same iso-surface points, bit for bit. */
+static void test_volume_io_vtk_ball(void)
+{
+    static const char *const names[3] = {"ball.nrrd", "ball.vtk", "ball_ascii.vtk"};
+    double *points[3] = {NULL, NULL, NULL};
+    size_t n[3] = {0, 0, 0}, i, j, k, f;
+    sqffd_image im;
+    char err[256] = "";
+    for (f = 0; f < 3; f++) {
+        bytes b = {NULL, 0, 0};
+        if (f == 0)
+            bytes_text(&b, "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 20 22 24\nspacings: 0.5 0.75 1\n"
+                           "space origin: (-4,2,7)\nencoding: raw\n\n");
+        else
+            bytes_text(&b, "# vtk DataFile Version 3.0\nball\n%s\nDATASET STRUCTURED_POINTS\nDIMENSIONS 20 22 24\n"
+                           "SPACING 0.5 0.75 1\nORIGIN -4 2 7\nPOINT_DATA 10560\nSCALARS ball unsigned_char 1\n"
+                           "LOOKUP_TABLE default\n", f == 1 ? "BINARY" : "ASCII");
+        for (k = 0; k < 24; k++)
+            for (j = 0; j < 22; j++)
+                for (i = 0; i < 20; i++) {
+                    double x = 0.5 * (double)i - 4.5, y = 0.75 * (double)j - 7.5, z = (double)k - 11.5;
+                    unsigned value = x * x + y * y + z * z < 36 ? 100u + (unsigned)(i + j + k) : 0u;
+                    if (f == 2) bytes_text(&b, "%u ", value);
+                    else bytes_byte(&b, value);
+                }
+        CHECK_MSG(sqffd_image_read_memory(b.data, b.size, names[f], &im, err, sizeof err) == 0, "%s", err);
+        if (im.buffer) {
+            points[f] = iso_points(&im.volume, &n[f]);
+            sqffd_image_free(&im);
+        }
+        bytes_free(&b);
+    }
+    CHECK_MSG(n[0] > 500 && points[0], "%lu iso points", (unsigned long)n[0]);
+    for (f = 1; f < 3; f++)
+        CHECK_MSG(n[f] == n[0] && points[f] && points[0] && memcmp(points[f], points[0], 3 * n[0] * sizeof(double)) == 0,
+                  "%s: %lu points, the NRRD %lu", names[f], (unsigned long)n[f], (unsigned long)n[0]);
+    for (f = 0; f < 3; f++) free(points[f]);
+}
+
+static void test_volume_io_vtk_broken(void)
+{
+#define VTK_HEAD "# vtk DataFile Version 3.0\nt\nBINARY\nDATASET STRUCTURED_POINTS\n"
+#define VTK_DATA "POINT_DATA 24\nSCALARS s short 1\nLOOKUP_TABLE default\n"
+    static const struct { const char *header; const char *part; } cases[] = {
+        {VTK_HEAD "DIMENSIONS 0 3 2\n" VTK_DATA, "DIMENSIONS (line 5): 0 is not a size from 1 to"},
+        {VTK_HEAD "DIMENSIONS 4 99999999999999999 2\n" VTK_DATA, "99999999999999999 is not a size from 1 to"},
+        {VTK_HEAD "DIMENSIONS 4 3 -2\n" VTK_DATA, "DIMENSIONS (line 5): '-2' is not a count"},
+        {VTK_HEAD "DIMENSIONS 4294967296 4294967296 4294967296\n" VTK_DATA,
+         "4294967296 x 4294967296 x 4294967296 x 1 voxels of 2 bytes: more than"},
+        {VTK_HEAD "DIMENSIONS 4 3 2\nPOINT_DATA 23\nSCALARS s short 1\nLOOKUP_TABLE default\n",
+         "POINT_DATA 23, but DIMENSIONS 4 x 3 x 2 make 24 points"},
+        {VTK_HEAD "DIMENSIONS 4 3 2\nPOINT_DATA 24\nSCALARS s short 3\nLOOKUP_TABLE default\n",
+         "SCALARS (line 7): 3 components a voxel; one is read"},
+        {VTK_HEAD "DIMENSIONS 4 3 2\nPOINT_DATA 24\nSCALARS s vtktypeint64\nLOOKUP_TABLE default\n",
+         "64-bit integer voxels are not read"},
+        {VTK_HEAD "DIMENSIONS 4 3 2\nPOINT_DATA 24\nSCALARS s bit\nLOOKUP_TABLE default\n",
+         "value type 'bit' is not read"},
+        {VTK_HEAD "DIMENSIONS 4 3 2\nPOINT_DATA 24\nSCALARS s short\n", "file ends before LOOKUP_TABLE"},
+        {VTK_HEAD "DIMENSIONS 4 3 2\nSPACING 1 nan 1\n" VTK_DATA, "SPACING (line 6): 'nan' is not a finite number"},
+        {VTK_HEAD "DIMENSIONS 4 3 2\nSPACING 1 0 1\n" VTK_DATA, "SPACING (line 6): a spacing of 0"},
+        {VTK_HEAD "DIMENSIONS 4 3 2\nORIGIN 1 2\n" VTK_DATA, "ORIGIN (line 6): 'POINT_DATA' is not a finite number"},
+        {VTK_HEAD "DIMENSIONS 4 3 2\nDIRECTION 1e308 0 0 0 1 0 0 0 1\nSPACING 10 1 1\n" VTK_DATA,
+         "DIRECTION x SPACING holds a value that is not finite"},
+        {VTK_HEAD VTK_DATA, "SCALARS (line 6): no DIMENSIONS before the voxels"},
+        {VTK_HEAD "DIMENSIONS 4 3 2\nCELL_DATA 5\nSCALARS s short 1\nLOOKUP_TABLE default\n",
+         "no SCALARS in POINT_DATA: no voxel values"},
+        {VTK_HEAD "DIMENSIONS 4 3 2\nCOLOR 1\n" VTK_DATA, "line 6: unknown keyword 'COLOR' in DATASET STRUCTURED_POINTS"},
+        {VTK_HEAD "DIMENSIONS 4 3 2\n" VTK_DATA, "data: the header promises 48 bytes from offset"},
+        {"# vtk DataFile Version 3.0\nt\nASCII\nDATASET STRUCTURED_POINTS\nDIMENSIONS 4 3 2\n" VTK_DATA,
+         "data: the header promises 24 values, 11 bytes of text cannot hold them"},
+        {"# vtk DataFile Version 3.0\nt\nASCII\nDATASET POLYDATA\nPOINTS 1 float\n",
+         "DATASET POLYDATA holds points, not a volume (a volume is STRUCTURED_POINTS)"},
+        {"# vtk DataFile Version 3.0\nt\nBINARI\nDATASET STRUCTURED_POINTS\n", "line 3: expected ASCII or BINARY"},
+    };
+    size_t c;
+    for (c = 0; c < sizeof cases / sizeof cases[0]; c++)
+        check_broken(cases[c].header, "LOOKUP_TABLE default\n", "b.vtk", cases[c].part);
+    check_broken("# vtk DataFile Version 3.0\nt\nASCII\nDATASET STRUCTURED_POINTS\nDIMENSIONS 2 1 1\nPOINT_DATA 2\n"
+                 "SCALARS s float 1\nLOOKUP_TABLE default\n1 nan\n", "none", "n.vtk",
+                 "data: value 1, 'nan', is not a finite number");
+#undef VTK_HEAD
+#undef VTK_DATA
+}
+
 /* ---- detection ------------------------------------------------------------ */
 
 static void test_volume_io_detection(void)
@@ -1162,6 +1375,12 @@ static void test_volume_io_detection(void)
     CHECK(sqffd_image_is_volume_file("BRAIN.NII", NULL, 0) == 1);
     CHECK(sqffd_image_is_volume_file("points.xyz.gz", gz, 2) == 0);
     CHECK(sqffd_image_is_volume_file("a.mhd", "", 0) == 1 && sqffd_image_is_volume_file("a.nhdr", "", 0) == 1);
+    /* VTK: STRUCTURED_POINTS is a volume; other datasets, and a .vtk name alone, are points */
+    CHECK(sqffd_image_is_volume_file("a.dat", "# vtk DataFile Version 3.0\nCT\nBINARY\nDATASET STRUCTURED_POINTS\n", 63));
+    CHECK(sqffd_image_is_volume_file("a.vtk", "# vtk DataFile Version 2.0\n\nascii\n\ndataset structured_points", 60));
+    CHECK(!sqffd_image_is_volume_file("a.vtk", "# vtk DataFile Version 3.0\nsqffd\nBINARY\nDATASET POLYDATA\n", 57));
+    CHECK(!sqffd_image_is_volume_file("a.vtk", "# vtk DataFile Version 3.0\nCT\nBINARY\nDATASET STRUCTURED_POI", 59));
+    CHECK(!sqffd_image_is_volume_file("a.vtk", NULL, 0));
     bytes_free(&b);
 }
 
@@ -1182,5 +1401,8 @@ void suite_volume_io(void)
     RUN_TEST(test_volume_io_nrrd_gzip_and_4d);
     RUN_TEST(test_volume_io_nrrd_detached);
     RUN_TEST(test_volume_io_nrrd_broken);
+    RUN_TEST(test_volume_io_vtk);
+    RUN_TEST(test_volume_io_vtk_ball);
+    RUN_TEST(test_volume_io_vtk_broken);
     RUN_TEST(test_volume_io_detection);
 }
