@@ -846,7 +846,7 @@ typedef struct sqffd_fit_options {
     int lattice[3];              /* control points per axis, 2..SQFFD_MAX_LATTICE (default 5 x 5 x 5) */
     double box_margin;           /* box = the tapered superquadric's local bounding box, axes along its axes, grown by this fraction per side (default 0.1) */
     int grid[2];                 /* model-point grid n_eta x n_omega (default 32 x 64: 2,050 model points) */
-    double alpha;                /* spring weight >= 0 (default 1e-6): weighs the mean spring energy per control point against the mean squared error per data point (see THE ENERGY below) */
+    double alpha;                /* spring weight in [0, SQFFD_FIT_ALPHA_MAX] (default 1e-6): weighs the mean spring energy per control point against the mean squared error per data point (see THE ENERGY below) */
     double tether;               /* weight >= 0 of the pull of every model point toward the superquadric (default 0) */
     sqffd_regularization regularization;
     sqffd_solver solver;
@@ -860,7 +860,7 @@ typedef struct sqffd_fit_options {
                                     follow a long one */
     double min_jacobian;         /* fold-free steps: none leaves the lattice's Jacobian bound (sqffd_ffd_jacobian_bound)
                                     below this (default 0.02; -HUGE_VAL: no bound) */
-    double model_to_data;        /* weight >= 0 of the model -> data term (THE ENERGY below): holds the parts of the model no
+    double model_to_data;        /* weight in [0, SQFFD_FIT_MODEL_TO_DATA_MAX] of the model -> data term (THE ENERGY below): holds the parts of the model no
                                     data reach near the data (default 0.02; 0: none; 1: as much as the data -> model term) */
     size_t sq_max_points;        /* stage 1 runs on an even subsample of at most this many points (default 20,000; 0 = all) */
     size_t ffd_max_points;       /* the FFD iterations run on an even subsample of at most this many points (default 200,000; 0 = all); report.error is always over all points */
@@ -901,6 +901,14 @@ typedef struct sqffd_fit_report {
     double min_jacobian;           /* the final lattice's sqffd_ffd_jacobian_bound (> 0: it folds nothing) */
     sqffd_fit_stop stop;           /* why the iteration ended (a run that stopped at its cap has not converged) */
 } sqffd_fit_report;
+
+/* The largest alpha and model_to_data a fit takes (INVALID_ARGUMENT beyond):
+   past them the springs, or the model -> data term, drown the data term's
+   part of the step's normal matrix in rounding (its Cholesky factor fails
+   from alpha ~1e16 on a 2 x 2 x 2 lattice, model_to_data ~1e12), and the
+   result is the rigid limit anyway. Every value in the ranges fits. */
+#define SQFFD_FIT_ALPHA_MAX 1e12
+#define SQFFD_FIT_MODEL_TO_DATA_MAX 100.0
 
 SQFFD_DEF sqffd_fit_options sqffd_fit_options_default(void);
 SQFFD_DEF sqffd_result sqffd_fit_workspace_size(size_t n, const sqffd_fit_options *options, size_t *size);
@@ -6651,9 +6659,9 @@ SQFFD_DEF sqffd_fit_options sqffd_fit_options_default(void)
    the model). */
 static sqffd_result sqffd__fit_check_options(const sqffd_fit_options *o)
 {
-    if (!(o->alpha >= 0.0) || !isfinite(o->alpha)) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if (!(o->alpha >= 0.0 && o->alpha <= SQFFD_FIT_ALPHA_MAX)) return SQFFD_ERROR_INVALID_ARGUMENT; /* (NaN too) */
     if (!(o->tether >= 0.0) || !isfinite(o->tether)) return SQFFD_ERROR_INVALID_ARGUMENT;
-    if (!(o->model_to_data >= 0.0) || !isfinite(o->model_to_data)) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if (!(o->model_to_data >= 0.0 && o->model_to_data <= SQFFD_FIT_MODEL_TO_DATA_MAX)) return SQFFD_ERROR_INVALID_ARGUMENT;
     if (!(o->tolerance >= 0.0) || !isfinite(o->tolerance)) return SQFFD_ERROR_INVALID_ARGUMENT;
     if (!(o->min_jacobian <= 1.0)) return SQFFD_ERROR_INVALID_ARGUMENT; /* (NaN too) */
     if (o->max_iterations < 0 || o->coarse_iterations < 0) return SQFFD_ERROR_INVALID_ARGUMENT;
@@ -7047,10 +7055,14 @@ static void sqffd__fit_add_springs(const int dims[3], size_t l, double weight, d
             }
 }
 
-/* Whether a step may meet a singular normal matrix (then it is solved by SVD). */
+/* Whether a step may meet a singular normal matrix (then it is solved by
+   SVD): alpha 0, or so small that rounding loses the springs where no data
+   reach (measured from 1e-20 on an 8 x 8 x 8 lattice over 25 points; below
+   SQFFD__FIT_ALPHA_TINY a failed Cholesky factor falls back to the SVD). */
+#define SQFFD__FIT_ALPHA_TINY 1e-9
 static int sqffd__fit_needs_svd(const sqffd_fit_options *o)
 {
-    return o->solver == SQFFD_SOLVER_SVD || o->alpha == 0.0;
+    return o->solver == SQFFD_SOLVER_SVD || o->alpha < SQFFD__FIT_ALPHA_TINY;
 }
 
 /* The system's arrays (what stays the same through a sequence). */

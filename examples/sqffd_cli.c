@@ -179,33 +179,28 @@ typedef struct number_range {
     const char *name;
     double lo, hi;
     int whole;            /* a whole number */
-    int zero_too;         /* 0 is valid too, below lo */
     const char *word;     /* a word it takes instead of a number, or NULL */
 } number_range;
 
 static const number_range number_ranges[] = {
     /* the model's (fit, track) */
-    {NULL, "--lattice", 2, SQFFD_MAX_LATTICE, 1, 0, NULL},
-    /* alpha weighs the springs (a graph Laplacian, singular) against the data's normal matrix: the fit's Cholesky
-       factor fails where rounding loses one to the other, measured from alpha 1e16 up (a 2x2x2 lattice) and from
-       1e-20 down (an 8x8x8 lattice parts of which no data reach); 0 takes the SVD's pseudo-inverse. The ranges of
-       --alpha and --model-to-data hold 4 and 5 orders of magnitude from those failures on the bunny, the dev
-       shapes and 25 points, lattices 2 to 8, robust or not. */
-    {NULL, "--alpha", 1e-9, 1e12, 0, 1, NULL},
-    {NULL, "--model-to-data", 0, 100, 0, 0, NULL},
-    {NULL, "--min-jacobian", -1e6, 1, 0, 0, "none"},
-    {NULL, "--iterations", 0, 10000, 1, 0, NULL},
-    {NULL, "--coarse-iterations", 0, 10000, 1, 0, NULL},
+    {NULL, "--lattice", 2, SQFFD_MAX_LATTICE, 1, NULL},
+    /* the library's ranges (sqffd.h: SQFFD_FIT_ALPHA_MAX, SQFFD_FIT_MODEL_TO_DATA_MAX) */
+    {NULL, "--alpha", 0, SQFFD_FIT_ALPHA_MAX, 0, NULL},
+    {NULL, "--model-to-data", 0, SQFFD_FIT_MODEL_TO_DATA_MAX, 0, NULL},
+    {NULL, "--min-jacobian", -1e6, 1, 0, "none"},
+    {NULL, "--iterations", 0, 10000, 1, NULL},
+    {NULL, "--coarse-iterations", 0, 10000, 1, NULL},
     /* inputs (fit, track) */
-    {NULL, "--sample", 20, 100000000, 1, 0, NULL},
-    {"fit", "--mesh", 4, 1024, 1, 0, NULL},
-    {"track", "--ed", 0, 1000000, 1, 0, NULL},
-    {"track", "--low-motion", 0, 1, 0, 0, NULL},
-    {"track", "--frame-iterations", 0, 10000, 1, 0, NULL},
-    {"phantom", "--frames", 2, 1000, 1, 0, NULL},
-    {"phantom", "--points", 20, 10000000, 1, 0, NULL},
-    {"phantom", "--noise", 0, 0.5, 0, 0, NULL},
-    {"phantom", "--seed", 0, 2000000000, 1, 0, NULL},
+    {NULL, "--sample", 20, 100000000, 1, NULL},
+    {"fit", "--mesh", 4, 1024, 1, NULL},
+    {"track", "--ed", 0, 1000000, 1, NULL},
+    {"track", "--low-motion", 0, 1, 0, NULL},
+    {"track", "--frame-iterations", 0, 10000, 1, NULL},
+    {"phantom", "--frames", 2, 1000, 1, NULL},
+    {"phantom", "--points", 20, 10000000, 1, NULL},
+    {"phantom", "--noise", 0, 0.5, 0, NULL},
+    {"phantom", "--seed", 0, 2000000000, 1, NULL},
 };
 
 static const number_range *find_range(const char *command, const char *name)
@@ -219,7 +214,7 @@ static const number_range *find_range(const char *command, const char *name)
 }
 
 /* Option `name`'s range (of command `command`) as the messages and the
-   help write it, "[2, 8]", "0 or in [1e-9, 1e12]", into text. */
+   help write it, "[2, 8]", "[0, 1e12]", into text. */
 typedef char range_text_buffer[96];
 static const char *range_text(const char *command, const char *name, range_text_buffer text)
 {
@@ -235,7 +230,7 @@ static const char *range_text(const char *command, const char *name, range_text_
         else if (*x == '-') x++;
         while (*x == '0' && x[1]) memmove(x, x + 1, strlen(x));
     }
-    snprintf(text, sizeof(range_text_buffer), "%s[%s, %s]", r->zero_too ? "0 or in " : "", lo, hi);
+    snprintf(text, sizeof(range_text_buffer), "[%s, %s]", lo, hi);
     return text;
 }
 
@@ -255,12 +250,12 @@ static int option_number(const cli_command *c, const char *name, const char *v, 
     } else {
         errno = 0;
         x = strtod(v, &end);
-        bad = !*v || *v == ' ' || *v == '\t' || *end || errno || !(x >= r->lo || (r->zero_too && x == 0.0)) ||
+        bad = !*v || *v == ' ' || *v == '\t' || *end || errno || !(x >= r->lo) ||
               !(x <= r->hi);
     }
     if (bad)
         return usage_error(c, "%s: %s must be %s%s%s%s%s, not '%s'", c->name, name,
-                           r->whole ? "a whole number in " : r->zero_too ? "" : "in ", range_text(c->name, name, text),
+                           r->whole ? "a whole number in " : "in ", range_text(c->name, name, text),
                            r->word ? " or '" : "", r->word ? r->word : "", r->word ? "'" : "", v);
     *out = x;
     return 0;

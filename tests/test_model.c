@@ -429,6 +429,49 @@ static void test_model_failure_rules(void)
     free(pts);
 }
 
+/* The spring weight's and the model -> data weight's ranges: their ends fit,
+   even on a lattice parts of which no data reach (alpha tiny: the step falls
+   back to the SVD, where Cholesky failed before), and a value beyond them is
+   INVALID_ARGUMENT. */
+static void test_model_weight_ranges(void)
+{
+    enum { N = 25 };
+    /* alpha, model_to_data, lattice: the ends of the ranges; 1e-20 on 8 x 8 x 8 failed to Cholesky before */
+    const double cases[][3] = {{1e-20, 0.02, 8}, {0.0, SQFFD_FIT_MODEL_TO_DATA_MAX, 4},
+                               {SQFFD_FIT_ALPHA_MAX, SQFFD_FIT_MODEL_TO_DATA_MAX, 2}, {SQFFD_FIT_ALPHA_MAX, 0.0, 5}};
+    sqffd_fit_options o = sqffd_fit_options_default();
+    double pts[3 * N];
+    size_t i, size;
+    for (i = 0; i < N; ++i) { /* a spiral of 25 points */
+        double t = (double)i / (N - 1);
+        pts[3 * i] = cos(12.0 * t) * (1.0 + t);
+        pts[3 * i + 1] = sin(12.0 * t) * (1.0 + t);
+        pts[3 * i + 2] = 3.0 * t;
+    }
+    o.max_iterations = 2;
+    for (i = 0; i < sizeof cases / sizeof cases[0]; ++i) {
+        sqffd_model m;
+        sqffd_fit_report rep;
+        void *ws;
+        o.alpha = cases[i][0];
+        o.model_to_data = cases[i][1];
+        o.lattice[0] = o.lattice[1] = o.lattice[2] = (int)cases[i][2];
+        CHECK_RESULT(sqffd_fit_workspace_size(N, &o, &size), SQFFD_OK);
+        ws = malloc(size);
+        CHECK_MSG(sqffd_fit(pts, N, &o, &m, &rep, ws, size) == SQFFD_OK, "alpha %g, model_to_data %g, lattice %d",
+                  o.alpha, o.model_to_data, o.lattice[0]);
+        free(ws);
+    }
+    o = sqffd_fit_options_default();
+    o.alpha = SQFFD_FIT_ALPHA_MAX * 1.000001;
+    CHECK_RESULT(sqffd_fit_workspace_size(N, &o, &size), SQFFD_ERROR_INVALID_ARGUMENT);
+    o.alpha = 1e-6;
+    o.model_to_data = SQFFD_FIT_MODEL_TO_DATA_MAX * 1.000001;
+    CHECK_RESULT(sqffd_fit_workspace_size(N, &o, &size), SQFFD_ERROR_INVALID_ARGUMENT);
+    o.model_to_data = INFINITY;
+    CHECK_RESULT(sqffd_fit_workspace_size(N, &o, &size), SQFFD_ERROR_INVALID_ARGUMENT);
+}
+
 void suite_model(void)
 {
     RUN_TEST(test_model_validation);
@@ -439,4 +482,5 @@ void suite_model(void)
     RUN_TEST(test_model_load_truncated_and_crafted);
     RUN_TEST(test_model_other_lattice_build);
     RUN_TEST(test_model_failure_rules);
+    RUN_TEST(test_model_weight_ranges);
 }

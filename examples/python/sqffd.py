@@ -368,7 +368,7 @@ class _Range:
 _INF = float("inf")
 _AT_LEAST_0 = _Range(0, _INF, high_open=True)
 # Each numeric option's valid range, as sqffd.h's checks have it (sqffd__fit_check_options,
-# sqffd__fit_check_whole_options, sqffd__fit_grid_check, sqffd__sq_options_valid, sqffd_track's
+# SQFFD_FIT_ALPHA_MAX, SQFFD_FIT_MODEL_TO_DATA_MAX, sqffd__fit_check_whole_options, sqffd__fit_grid_check, sqffd__sq_options_valid, sqffd_track's
 # frame_iterations, sqffd_motion's options), so that a bad value is refused here naming the option
 # (the library only says INVALID_ARGUMENT); tests/python probes every bound against the library.
 # An array option has one range per element. Checked across fields: _check_options.
@@ -376,7 +376,7 @@ _OPTION_RANGES = {
     _FitOptions: {
         "lattice": (_Range(2, _MAX_LATTICE),) * 3, "box_margin": _AT_LEAST_0,
         "grid": (_Range(2, 65536), _Range(3, 65536)),  # (beyond 65536 a grid is TOO_LARGE)
-        "alpha": _AT_LEAST_0, "tether": _AT_LEAST_0, "model_to_data": _AT_LEAST_0,
+        "alpha": _Range(0, 1e12), "tether": _AT_LEAST_0, "model_to_data": _Range(0, 100),
         "tolerance": _AT_LEAST_0, "min_jacobian": _Range(-_INF, 1.0),
         "max_iterations": _AT_LEAST_0, "coarse_iterations": _AT_LEAST_0},
     _SqFitOptions: {
