@@ -5443,11 +5443,13 @@ SQFFD_DEF sqffd_result sqffd_ffd_jacobian_bound(const sqffd_ffd *ffd, double *mi
        sqffd__fit_accept_or_roll_back   the energy check; a rolled-back step is measured again
        sqffd__fit_record          the report, the progress callback
        sqffd__fit_advance         sqffd__fit_targets (step 1), sqffd__fit_step (step 2: sqffd__fit_solve
-                                  or conjugate-gradient steps), the over-relaxed next control points
+                                  or conjugate-gradient steps), sqffd__fit_fold_free (the step kept above
+                                  min_jacobian), the over-relaxed next control points
    The sections below, in order: the grid and its mesh, the closest-point
    search, statistics, the passes' order and the pass, model geometry, save
    and load, distances (the same pass), options and the box, the
-   least-squares problem of step 2, the iteration, the entry points. */
+   least-squares problem of step 2, the fold-free step, the iteration, the
+   entry points. */
 
 #define SQFFD__FIT_PI 3.14159265358979323846
 #define SQFFD__FIT_MAX_GRID 65536     /* per grid axis */
@@ -6783,204 +6785,9 @@ typedef struct sqffd__fit_system {
 #define SQFFD__FIT_DATA_MAX 16384 /* the model -> data term measures to at most this many data points (an even
                                      subsample: the queries of far model points get dear in a big tree) */
 
-/* ---- fold-free steps -------------------------------------------------------
-   A step must leave the lattice's Jacobian bound (sqffd__ffd_jacobian_min)
-   at or above the run's floor: min_jacobian, or the start's bound where that
-   is lower (a start that folds may not fold more). The free step G(P) - P
-   minimises the quadratic bound of the energy, Q(Delta) = 1/2 Delta^T A
-   Delta - r^T Delta (A the step's normal matrix, one per coordinate). Where
-   it breaks the floor the step minimises instead
-     Q(Delta) + mu/2 Delta^T K Delta   under   c(P) + g_c . Delta >= keep_c,
-   K the lattice's graph Laplacian (springs on the step itself), c the
-   Jacobian coefficients the step breaks, linearised at P with gradients
-   g_c, each keeping SQFFD__FIT_FOLD_KEEP of its slack at P (the cubic's
-   curvature then rarely carries it past the floor; what is left is
-   shortened by halves, and a step no share of which keeps the floor gives
-   way to the next stiffer one). The constraints come in rounds, each adding what
-   the last solution breaks, at most SQFFD__FIT_FOLD_ACTIVE in all; the
-   multipliers lambda >= 0 minimise 1/2 lambda^T H lambda + need^T lambda,
-   H_ij = g_i^T (A + mu K)^-1 g_j (the problem's dual), by Lawson and
-   Hanson's active-set method; a coefficient the linearised step still
-   leaves below the floor gets its constraint raised by that shortfall (a
-   second-order correction) in the next round. mu starts at 0 and grows by
-   tens of the springs' weight while the unconstrained step breaks more
-   coefficients than that (alpha 0: from a millionth of A's mean
-   diagonal): stiffer steps are smoother (neighbouring control
-   points move alike) and break fewer. The added term is nonnegative and
-   zero at Delta = 0, and Delta = 0 meets every constraint, so the step's
-   bound is not above the energy at P and the energy never rises
-   (majorisation-minimisation). A direct step without a factor of A (the
-   SVD's, A singular) starts at the first mu > 0. A lagged
-   (conjugate-gradient) step only approximates G(P): it is shortened by
-   halves and the next step is direct. */
-#define SQFFD__FIT_FOLD_ACTIVE 32
-#define SQFFD__FIT_FOLD_ROUNDS 4
-#define SQFFD__FIT_FOLD_TRIES 12
-#define SQFFD__FIT_FOLD_KEEP 0.25
-#define SQFFD__FIT_FOLD_HALVINGS 12
-
-typedef struct sqffd__fit_fold {
-    sqffd__jacobian_work at;   /* at the candidate steps */
-    sqffd__jacobian_work from; /* at P, with the gradients' products */
-    double floor;              /* the run's */
-    double *normal;            /* L x L: A, lower triangle (sqffd__fit_solve keeps it there before factoring) */
-    double *r;                 /* 3L, planar: A (G(P) - P) */
-    double *grad;              /* 3L, planar: a constraint's gradient g_c */
-    double *solved;            /* SQFFD__FIT_FOLD_ACTIVE x 3L, planar: y_c = L^-1 g_c, L (A + mu K)'s factor */
-    double *gram;              /* SQFFD__FIT_FOLD_ACTIVE^2 */
-    double *factor, *z, *slope; /* the multipliers' solve: SQFFD__FIT_FOLD_ACTIVE^2, and two of SQFFD__FIT_FOLD_ACTIVE */
-    unsigned char *free_set;   /* SQFFD__FIT_FOLD_ACTIVE: multiplier i is free (> 0) */
-    double *lambda, *need;     /* SQFFD__FIT_FOLD_ACTIVE: multipliers; g_c . free step - (keep_c - c(P)) */
-    uint32_t *active;          /* SQFFD__FIT_FOLD_ACTIVE: the coefficients (w->coef's order) */
-    double *move, *free;       /* 3L, planar: the step, and the unconstrained one at this mu */
-    uint32_t watch[SQFFD__FIT_FOLD_ACTIVE + 1]; /* coefficients the last full count found broken: a check that
-                                                   needs only to know whether more than a few break looks first
-                                                   at these (sqffd__fit_fold_broken) */
-    size_t watching;
-} sqffd__fit_fold;
-
-static void sqffd__fit_fold_layout(sqffd__arena *a, const int dims[3], sqffd__fit_fold *f)
-{
-    size_t l = (size_t)dims[0] * (size_t)dims[1] * (size_t)dims[2], k = SQFFD__FIT_FOLD_ACTIVE;
-    f->floor = -HUGE_VAL; /* (no floor until a run sets its own; nothing watched yet) */
-    f->watching = 0;
-    sqffd__ffd_jacobian_layout(a, dims, 1, &f->at);
-    sqffd__ffd_jacobian_layout(a, dims, 3, &f->from);
-    f->normal = (double *)sqffd__arena_take(a, l * l, sizeof(double));
-    f->r = (double *)sqffd__arena_take(a, 3 * l, sizeof(double));
-    f->grad = (double *)sqffd__arena_take(a, 3 * l, sizeof(double));
-    f->solved = (double *)sqffd__arena_take(a, k * 3 * l, sizeof(double));
-    f->gram = (double *)sqffd__arena_take(a, k * k, sizeof(double));
-    f->factor = (double *)sqffd__arena_take(a, k * k, sizeof(double));
-    f->z = (double *)sqffd__arena_take(a, k, sizeof(double));
-    f->slope = (double *)sqffd__arena_take(a, k, sizeof(double));
-    f->free_set = (unsigned char *)sqffd__arena_take(a, k, 1);
-    f->lambda = (double *)sqffd__arena_take(a, k, sizeof(double));
-    f->need = (double *)sqffd__arena_take(a, k, sizeof(double));
-    f->active = (uint32_t *)sqffd__arena_take(a, k, sizeof(uint32_t));
-    f->move = (double *)sqffd__arena_take(a, 3 * l, sizeof(double));
-    f->free = (double *)sqffd__arena_take(a, 3 * l, sizeof(double));
-}
-
-/* How many of J's coefficients control + tau move (planar) leaves below the
-   floor (in f->at.coef); scratch: out (3L). A caller that needs only to
-   know whether more than `limit` break gets limit + 1 as soon as that many
-   of the watched coefficients (the last full count's broken ones) break,
-   and f->at.coef is then incomplete; else (and with limit SIZE_MAX) the
-   full count. Either way the same answer to "more than limit?": the
-   coefficients are the same numbers, computed alone or all together. */
-static size_t sqffd__fit_fold_broken(const sqffd__fit_system *s, sqffd__fit_fold *f, const double *control,
-                                     const double *move, double tau, const double inverse[9], double *out,
-                                     size_t limit)
-{
-    size_t l = s->lattice, p, count = 0, n;
-    int c, ej[3];
-    double eps;
-    for (p = 0; p < l; ++p)
-        for (c = 0; c < 3; ++c) out[3 * p + (size_t)c] = control[3 * p + (size_t)c] + tau * move[(size_t)c * l + p];
-    eps = sqffd__ffd_jacobian_derivatives(s->dims, out, inverse, &f->at); /* (sqffd__ffd_jacobian_min's steps) */
-    if (2.0 - (1.0 + eps) * (1.0 + eps) * (1.0 + eps) >= f->floor) return 0;
-    sqffd__ffd_jacobian_products(s->dims, 1, &f->at);
-    if (limit < f->watching) {
-        for (p = 0; p < f->watching; ++p)
-            if (sqffd__ffd_jacobian_coefficient(s->dims, &f->at, f->watch[p]) < f->floor && ++count > limit) return count;
-        count = 0;
-    }
-    if (sqffd__ffd_jacobian_coefficients(s->dims, &f->at) >= f->floor) return 0;
-    sqffd__jacobian_extent(s->dims, 3, ej);
-    n = sqffd__jacobian_count(ej);
-    for (p = 0; p < n; ++p)
-        if (f->at.coef[p] < f->floor) {
-            if (count <= SQFFD__FIT_FOLD_ACTIVE) f->watch[count] = (uint32_t)p;
-            ++count;
-        }
-    f->watching = count <= SQFFD__FIT_FOLD_ACTIVE ? count : SQFFD__FIT_FOLD_ACTIVE + 1;
-    return count;
-}
-
-/* Adds the coefficients f->at.coef breaks, most broken first, to the
-   active set of `count`; returns its new size. */
-static size_t sqffd__fit_fold_activate(const sqffd__fit_system *s, sqffd__fit_fold *f, size_t count)
-{
-    int ej[3];
-    size_t n, i, k;
-    sqffd__jacobian_extent(s->dims, 3, ej);
-    n = sqffd__jacobian_count(ej);
-    while (count < SQFFD__FIT_FOLD_ACTIVE) {
-        size_t worst = n;
-        for (i = 0; i < n; ++i) {
-            if (f->at.coef[i] >= f->floor || (worst < n && f->at.coef[i] >= f->at.coef[worst])) continue;
-            for (k = 0; k < count && f->active[k] != i; ++k) {}
-            if (k == count) worst = i;
-        }
-        if (worst == n) break;
-        f->active[count++] = (uint32_t)worst;
-    }
-    return count;
-}
-
-/* y = A x for a symmetric n x n A given by its lower triangle (row-major). */
-static void sqffd__fit_symmetric_times(const double *a, size_t n, const double *x, double *y)
-{
-    size_t i, j;
-    for (i = 0; i < n; ++i) {
-        y[i] = sqffd__la_dot(a + i * n, x, i + 1);
-        for (j = 0; j < i; ++j) y[j] += a[i * n + j] * x[i];
-    }
-}
-
-/* lambda >= 0 minimising 1/2 lambda^T H lambda + need^T lambda (H = f->gram,
-   k x k, positive semi-definite; a ridge of 1e-12 its largest diagonal
-   keeps it definite), Lawson-Hanson: grow the free set by the most
-   negative slope, solve on it, step back to the first multiplier that
-   would turn negative. At most 3k solves. */
-static void sqffd__fit_fold_multipliers(sqffd__fit_fold *f, size_t k)
-{
-    const size_t stride = SQFFD__FIT_FOLD_ACTIVE;
-    double ridge = 0.0;
-    size_t i, j, r, n, solves = 0;
-    unsigned char map[SQFFD__FIT_FOLD_ACTIVE]; /* (the free set's multipliers; SQFFD__FIT_FOLD_ACTIVE <= 256) */
-    for (i = 0; i < k; ++i) {
-        f->lambda[i] = 0.0;
-        f->free_set[i] = 0;
-        if (f->gram[i * stride + i] > ridge) ridge = f->gram[i * stride + i];
-    }
-    ridge *= 1e-12;
-    for (;;) {
-        size_t enter = k;
-        double most = 0.0;
-        for (i = 0; i < k; ++i) { /* the slope need + H lambda; the most negative one not free enters */
-            f->slope[i] = f->need[i] + sqffd__la_dot(f->gram + i * stride, f->lambda, k);
-            if (!f->free_set[i] && f->slope[i] < most) { most = f->slope[i]; enter = i; }
-        }
-        if (enter == k) return;
-        f->free_set[enter] = 1;
-        for (;;) {
-            double step = 1.0;
-            if (++solves > 3 * k) return;
-            for (n = 0, i = 0; i < k; ++i) if (f->free_set[i]) map[n++] = (unsigned char)i;
-            for (r = 0; r < n; ++r) { /* z = -H_FF^-1 need_F on the free set */
-                for (j = 0; j <= r; ++j) f->factor[r * n + j] = f->gram[map[r] * stride + map[j]] + (r == j ? ridge : 0.0);
-                f->slope[r] = -f->need[map[r]];
-            }
-            if (sqffd_cholesky_factor(f->factor, n) != SQFFD_OK) { f->free_set[enter] = 0; return; }
-            sqffd_cholesky_solve(f->factor, n, f->slope);
-            for (i = 0; i < k; ++i) f->z[i] = 0.0;
-            for (r = 0; r < n; ++r) f->z[map[r]] = f->slope[r];
-            for (r = 0; r < n; ++r) { /* the way from lambda to z, up to the first multiplier that reaches 0 */
-                i = map[r];
-                if (f->z[i] <= 0.0) {
-                    double t = f->lambda[i] / (f->lambda[i] - f->z[i]);
-                    if (t < step) step = t;
-                }
-            }
-            for (i = 0; i < k; ++i) f->lambda[i] += step * (f->z[i] - f->lambda[i]);
-            if (step == 1.0) break;
-            for (i = 0; i < k; ++i)
-                if (f->free_set[i] && f->lambda[i] <= 0.0) { f->free_set[i] = 0; f->lambda[i] = 0.0; }
-        }
-    }
-}
+/* The fold-free step's state (its section follows the least squares). */
+typedef struct sqffd__fit_fold sqffd__fit_fold;
+static void sqffd__fit_fold_layout(sqffd__arena *a, const int dims[3], sqffd__fit_fold *f);
 
 /* The iteration's scratch: model-sized, plus the optional subsample and data tree. */
 typedef struct sqffd__fit_work {
@@ -7021,6 +6828,8 @@ typedef struct sqffd__fit_work {
     void *svd_ws;
     size_t svd_size;
     sqffd__fit_fold *fold; /* the fold-free steps' and the report's Jacobian bound (in the workspace: 0.3 KB) */
+    double *normal;      /* L x L: the step's normal matrix A, lower triangle, kept for the fold-free step (sqffd__fit_solve
+                            copies it before factoring; NULL without a floor) */
 } sqffd__fit_work;
 
 /* At most cap of n points (cap 0: all of them). */
@@ -7122,11 +6931,9 @@ static void sqffd__fit_work_layout(sqffd__arena *a, size_t n, const int dims[3],
     w->matched_accepted = (uint32_t (*)[3])sqffd__arena_take(a, w->sample_count, 3 * sizeof(uint32_t));
     if (w->sample_count <= SQFFD__FIT_ORDER_MAX) w->order = (uint32_t *)sqffd__arena_take(a, w->sample_count, sizeof(uint32_t));
     sqffd__fit_bvh_layout(a, grid, &w->bvh);
-    {
-        sqffd__fit_fold measuring; /* (the arena gives no memory while it measures) */
-        w->fold = fold;
-        sqffd__fit_fold_layout(a, dims, fold ? fold : &measuring);
-    }
+    w->fold = fold;
+    sqffd__fit_fold_layout(a, dims, fold); /* (NULL while the arena measures: it gives no memory then) */
+    if (o->min_jacobian > -HUGE_VAL) w->normal = (double *)sqffd__arena_take(a, l * l, sizeof(double));
     if (o->model_to_data > 0.0) {
         w->data_count = sqffd__fit_cap(w->sample_count, SQFFD__FIT_DATA_MAX);
         if (w->data_count < w->sample_count) w->data = (double *)sqffd__arena_take(a, w->data_count, 3 * sizeof(double));
@@ -7322,8 +7129,8 @@ static sqffd_result sqffd__fit_solve(const sqffd__fit_system *s, sqffd__fit_work
     sqffd_result res = SQFFD_ERROR_NOT_POSITIVE_DEFINITE;
     memcpy(w->matrix, s->fixed, l * l * sizeof(double));
     sqffd__fit_gram(s, w->weights, 1.0, w->pairs, w->block, w->matrix);
-    if (w->fold && w->fold->floor > -HUGE_VAL) /* the fold-free step starts from A (sqffd__fit_fold_free) */
-        memcpy(w->fold->normal, w->matrix, l * l * sizeof(double));
+    if (w->normal) /* the fold-free step starts from A (sqffd__fit_fold_free) */
+        memcpy(w->normal, w->matrix, l * l * sizeof(double));
     if (w->solver == SQFFD_SOLVER_CHOLESKY) res = sqffd_cholesky_factor(w->matrix, l);
     w->factored = res == SQFFD_OK;
     if (res == SQFFD_OK) {
@@ -7476,7 +7283,205 @@ static sqffd_result sqffd__fit_step(const sqffd__fit_system *s, sqffd__fit_work 
     return SQFFD_OK;
 }
 
-/* ---- the iteration --------------------------------------------------------- */
+/* ---- the fold-free step ---------------------------------------------------
+   A step must leave the lattice's Jacobian bound (sqffd__ffd_jacobian_min)
+   at or above the run's floor: min_jacobian, or the start's bound where that
+   is lower (a start that folds may not fold more). The free step G(P) - P
+   minimises the quadratic bound of the energy, Q(Delta) = 1/2 Delta^T A
+   Delta - r^T Delta (A the step's normal matrix, one per coordinate). Where
+   it breaks the floor the step minimises instead
+     Q(Delta) + mu/2 Delta^T K Delta   under   c(P) + g_c . Delta >= keep_c,
+   K the lattice's graph Laplacian (springs on the step itself), c the
+   Jacobian coefficients the step breaks, linearised at P with gradients
+   g_c, each keeping SQFFD__FIT_FOLD_KEEP of its slack at P (the cubic's
+   curvature then rarely carries it past the floor; what is left is
+   shortened by halves, and a step no share of which keeps the floor gives
+   way to the next stiffer one). The constraints come in rounds, each adding what
+   the last solution breaks, at most SQFFD__FIT_FOLD_ACTIVE in all; the
+   multipliers lambda >= 0 minimise 1/2 lambda^T H lambda + need^T lambda,
+   H_ij = g_i^T (A + mu K)^-1 g_j (the problem's dual), by Lawson and
+   Hanson's active-set method; a coefficient the linearised step still
+   leaves below the floor gets its constraint raised by that shortfall (a
+   second-order correction) in the next round. mu starts at 0 and grows by
+   tens of the springs' weight while the unconstrained step breaks more
+   coefficients than that (alpha 0: from a millionth of A's mean
+   diagonal): stiffer steps are smoother (neighbouring control
+   points move alike) and break fewer. The added term is nonnegative and
+   zero at Delta = 0, and Delta = 0 meets every constraint, so the step's
+   bound is not above the energy at P and the energy never rises
+   (majorisation-minimisation). A direct step without a factor of A (the
+   SVD's, A singular) starts at the first mu > 0. A lagged
+   (conjugate-gradient) step only approximates G(P): it is shortened by
+   halves and the next step is direct. */
+#define SQFFD__FIT_FOLD_ACTIVE 32
+#define SQFFD__FIT_FOLD_ROUNDS 4
+#define SQFFD__FIT_FOLD_TRIES 12
+#define SQFFD__FIT_FOLD_KEEP 0.25
+#define SQFFD__FIT_FOLD_HALVINGS 12
+
+struct sqffd__fit_fold {
+    sqffd__jacobian_work at;   /* at the candidate steps */
+    sqffd__jacobian_work from; /* at P, with the gradients' products */
+    double floor;              /* the run's */
+    double *r;                 /* 3L, planar: A (G(P) - P) */
+    double *grad;              /* 3L, planar: a constraint's gradient g_c */
+    double *solved;            /* SQFFD__FIT_FOLD_ACTIVE x 3L, planar: y_c = L^-1 g_c, L (A + mu K)'s factor */
+    double *gram;              /* SQFFD__FIT_FOLD_ACTIVE^2 */
+    double *factor, *z, *slope; /* the multipliers' solve: SQFFD__FIT_FOLD_ACTIVE^2, and two of SQFFD__FIT_FOLD_ACTIVE */
+    unsigned char *free_set;   /* SQFFD__FIT_FOLD_ACTIVE: multiplier i is free (> 0) */
+    double *lambda, *need;     /* SQFFD__FIT_FOLD_ACTIVE: multipliers; g_c . free step - (keep_c - c(P)) */
+    uint32_t *active;          /* SQFFD__FIT_FOLD_ACTIVE: the coefficients (w->coef's order) */
+    double *move, *free;       /* 3L, planar: the step, and the unconstrained one at this mu */
+    uint32_t watch[SQFFD__FIT_FOLD_ACTIVE + 1]; /* coefficients the last full count found broken: a check that
+                                                   needs only to know whether more than a few break looks first
+                                                   at these (sqffd__fit_fold_broken) */
+    size_t watching;
+};
+
+static void sqffd__fit_fold_layout(sqffd__arena *a, const int dims[3], sqffd__fit_fold *f)
+{
+    size_t l = (size_t)dims[0] * (size_t)dims[1] * (size_t)dims[2], k = SQFFD__FIT_FOLD_ACTIVE;
+    sqffd__fit_fold measuring;
+    if (!f) f = &measuring;
+    f->floor = -HUGE_VAL; /* (no floor until a run sets its own; nothing watched yet) */
+    f->watching = 0;
+    sqffd__ffd_jacobian_layout(a, dims, 1, &f->at);
+    sqffd__ffd_jacobian_layout(a, dims, 3, &f->from);
+    f->r = (double *)sqffd__arena_take(a, 3 * l, sizeof(double));
+    f->grad = (double *)sqffd__arena_take(a, 3 * l, sizeof(double));
+    f->solved = (double *)sqffd__arena_take(a, k * 3 * l, sizeof(double));
+    f->gram = (double *)sqffd__arena_take(a, k * k, sizeof(double));
+    f->factor = (double *)sqffd__arena_take(a, k * k, sizeof(double));
+    f->z = (double *)sqffd__arena_take(a, k, sizeof(double));
+    f->slope = (double *)sqffd__arena_take(a, k, sizeof(double));
+    f->free_set = (unsigned char *)sqffd__arena_take(a, k, 1);
+    f->lambda = (double *)sqffd__arena_take(a, k, sizeof(double));
+    f->need = (double *)sqffd__arena_take(a, k, sizeof(double));
+    f->active = (uint32_t *)sqffd__arena_take(a, k, sizeof(uint32_t));
+    f->move = (double *)sqffd__arena_take(a, 3 * l, sizeof(double));
+    f->free = (double *)sqffd__arena_take(a, 3 * l, sizeof(double));
+}
+
+/* How many of J's coefficients control + tau move (planar) leaves below the
+   floor (in f->at.coef); scratch: out (3L). A caller that needs only to
+   know whether more than `limit` break gets limit + 1 as soon as that many
+   of the watched coefficients (the last full count's broken ones) break,
+   and f->at.coef is then incomplete; else (and with limit SIZE_MAX) the
+   full count. Either way the same answer to "more than limit?": the
+   coefficients are the same numbers, computed alone or all together. */
+static size_t sqffd__fit_fold_broken(const sqffd__fit_system *s, sqffd__fit_fold *f, const double *control,
+                                     const double *move, double tau, const double inverse[9], double *out,
+                                     size_t limit)
+{
+    size_t l = s->lattice, p, count = 0, n;
+    int c, ej[3];
+    double eps;
+    for (p = 0; p < l; ++p)
+        for (c = 0; c < 3; ++c) out[3 * p + (size_t)c] = control[3 * p + (size_t)c] + tau * move[(size_t)c * l + p];
+    eps = sqffd__ffd_jacobian_derivatives(s->dims, out, inverse, &f->at); /* (sqffd__ffd_jacobian_min's steps) */
+    if (2.0 - (1.0 + eps) * (1.0 + eps) * (1.0 + eps) >= f->floor) return 0;
+    sqffd__ffd_jacobian_products(s->dims, 1, &f->at);
+    if (limit < f->watching) {
+        for (p = 0; p < f->watching; ++p)
+            if (sqffd__ffd_jacobian_coefficient(s->dims, &f->at, f->watch[p]) < f->floor && ++count > limit) return count;
+        count = 0;
+    }
+    if (sqffd__ffd_jacobian_coefficients(s->dims, &f->at) >= f->floor) return 0;
+    sqffd__jacobian_extent(s->dims, 3, ej);
+    n = sqffd__jacobian_count(ej);
+    for (p = 0; p < n; ++p)
+        if (f->at.coef[p] < f->floor) {
+            if (count <= SQFFD__FIT_FOLD_ACTIVE) f->watch[count] = (uint32_t)p;
+            ++count;
+        }
+    f->watching = count <= SQFFD__FIT_FOLD_ACTIVE ? count : SQFFD__FIT_FOLD_ACTIVE + 1;
+    return count;
+}
+
+/* Adds the coefficients f->at.coef breaks, most broken first, to the
+   active set of `count`; returns its new size. */
+static size_t sqffd__fit_fold_activate(const sqffd__fit_system *s, sqffd__fit_fold *f, size_t count)
+{
+    int ej[3];
+    size_t n, i, k;
+    sqffd__jacobian_extent(s->dims, 3, ej);
+    n = sqffd__jacobian_count(ej);
+    while (count < SQFFD__FIT_FOLD_ACTIVE) {
+        size_t worst = n;
+        for (i = 0; i < n; ++i) {
+            if (f->at.coef[i] >= f->floor || (worst < n && f->at.coef[i] >= f->at.coef[worst])) continue;
+            for (k = 0; k < count && f->active[k] != i; ++k) {}
+            if (k == count) worst = i;
+        }
+        if (worst == n) break;
+        f->active[count++] = (uint32_t)worst;
+    }
+    return count;
+}
+
+/* y = A x for a symmetric n x n A given by its lower triangle (row-major). */
+static void sqffd__fit_symmetric_times(const double *a, size_t n, const double *x, double *y)
+{
+    size_t i, j;
+    for (i = 0; i < n; ++i) {
+        y[i] = sqffd__la_dot(a + i * n, x, i + 1);
+        for (j = 0; j < i; ++j) y[j] += a[i * n + j] * x[i];
+    }
+}
+
+/* lambda >= 0 minimising 1/2 lambda^T H lambda + need^T lambda (H = f->gram,
+   k x k, positive semi-definite; a ridge of 1e-12 its largest diagonal
+   keeps it definite), Lawson-Hanson: grow the free set by the most
+   negative slope, solve on it, step back to the first multiplier that
+   would turn negative. At most 3k solves. */
+static void sqffd__fit_fold_multipliers(sqffd__fit_fold *f, size_t k)
+{
+    const size_t stride = SQFFD__FIT_FOLD_ACTIVE;
+    double ridge = 0.0;
+    size_t i, j, r, n, solves = 0;
+    unsigned char map[SQFFD__FIT_FOLD_ACTIVE]; /* (the free set's multipliers; SQFFD__FIT_FOLD_ACTIVE <= 256) */
+    for (i = 0; i < k; ++i) {
+        f->lambda[i] = 0.0;
+        f->free_set[i] = 0;
+        if (f->gram[i * stride + i] > ridge) ridge = f->gram[i * stride + i];
+    }
+    ridge *= 1e-12;
+    for (;;) {
+        size_t enter = k;
+        double most = 0.0;
+        for (i = 0; i < k; ++i) { /* the slope need + H lambda; the most negative one not free enters */
+            f->slope[i] = f->need[i] + sqffd__la_dot(f->gram + i * stride, f->lambda, k);
+            if (!f->free_set[i] && f->slope[i] < most) { most = f->slope[i]; enter = i; }
+        }
+        if (enter == k) return;
+        f->free_set[enter] = 1;
+        for (;;) {
+            double step = 1.0;
+            if (++solves > 3 * k) return;
+            for (n = 0, i = 0; i < k; ++i) if (f->free_set[i]) map[n++] = (unsigned char)i;
+            for (r = 0; r < n; ++r) { /* z = -H_FF^-1 need_F on the free set */
+                for (j = 0; j <= r; ++j) f->factor[r * n + j] = f->gram[map[r] * stride + map[j]] + (r == j ? ridge : 0.0);
+                f->slope[r] = -f->need[map[r]];
+            }
+            if (sqffd_cholesky_factor(f->factor, n) != SQFFD_OK) { f->free_set[enter] = 0; return; }
+            sqffd_cholesky_solve(f->factor, n, f->slope);
+            for (i = 0; i < k; ++i) f->z[i] = 0.0;
+            for (r = 0; r < n; ++r) f->z[map[r]] = f->slope[r];
+            for (r = 0; r < n; ++r) { /* the way from lambda to z, up to the first multiplier that reaches 0 */
+                i = map[r];
+                if (f->z[i] <= 0.0) {
+                    double t = f->lambda[i] / (f->lambda[i] - f->z[i]);
+                    if (t < step) step = t;
+                }
+            }
+            for (i = 0; i < k; ++i) f->lambda[i] += step * (f->z[i] - f->lambda[i]);
+            if (step == 1.0) break;
+            for (i = 0; i < k; ++i)
+                if (f->free_set[i] && f->lambda[i] <= 0.0) { f->free_set[i] = 0; f->lambda[i] = 0.0; }
+        }
+    }
+}
+
 /* The constrained step at the stiffening whose factor w->matrix holds
    (f->free its unconstrained step, which breaks `broken` coefficients, all
    of them counted into f->at.coef), into f->move. Returns 1 when f->move is
@@ -7547,16 +7552,16 @@ static int sqffd__fit_fold_free(const sqffd__fit_system *s, sqffd__fit_work *w, 
     broken = sqffd__fit_fold_broken(s, f, control, f->free, 1.0, inverse, scratch, SQFFD__FIT_FOLD_ACTIVE);
     if (!broken) return 1;
     memcpy(f->move, f->free, size * sizeof(double));
-    if (direct) { /* (a direct step's sqffd__fit_solve kept A in f->normal); r = A (G(P) - P) */
-        for (k = 0; k < 3; ++k) sqffd__fit_symmetric_times(f->normal, l, f->free + (size_t)k * l, f->r + (size_t)k * l);
+    if (direct) { /* (a direct step's sqffd__fit_solve kept A in w->normal); r = A (G(P) - P) */
+        for (k = 0; k < 3; ++k) sqffd__fit_symmetric_times(w->normal, l, f->free + (size_t)k * l, f->r + (size_t)k * l);
         sqffd__ffd_jacobian_derivatives(s->dims, control, inverse, &f->from);
         sqffd__ffd_jacobian_products(s->dims, 3, &f->from);
         sqffd__ffd_jacobian_coefficients(s->dims, &f->from);
-        for (p = 0; p < l; ++p) unit += f->normal[p * l + p];
+        for (p = 0; p < l; ++p) unit += w->normal[p * l + p];
         unit = s->spring > 0.0 ? s->spring : 1e-6 * unit / (double)l; /* (alpha 0: a millionth of A's diagonal) */
         for (tries = w->factored ? 0 : 1; tries < SQFFD__FIT_FOLD_TRIES; ++tries) {
             if (tries > 0) { /* the step's problem with mu = 10^tries springs' weights */
-                memcpy(w->matrix, f->normal, l * l * sizeof(double));
+                memcpy(w->matrix, w->normal, l * l * sizeof(double));
                 sqffd__fit_add_springs(s->dims, l, unit * pow(10.0, (double)tries), w->matrix);
                 if (sqffd_cholesky_factor(w->matrix, l) != SQFFD_OK) continue;
                 memcpy(f->free, f->r, size * sizeof(double));
@@ -7592,7 +7597,7 @@ static int sqffd__fit_fold_relaxed(const sqffd__fit_system *s, sqffd__fit_work *
     return !sqffd__fit_fold_broken(s, w->fold, control, w->fold->move, omega, inverse, w->cg, 0);
 }
 
-
+/* ---- the iteration --------------------------------------------------------- */
 /* The Welsch scale nu of robust mode: this many robust standard deviations
    (1.4826 x the median) of the starting model's errors. */
 #define SQFFD__FIT_WELSCH 3.0
