@@ -1372,11 +1372,14 @@ SQFFD_DEF sqffd_result sqffd_motion(const sqffd_model *models, size_t frame_coun
    - per segment, the means of the measured vertices' ED and ES thickness
      (weighted by their ED areas) and thickening = ES mean / ED mean - 1;
      dysfunctional when thickening < options->dysfunctional_thickening
-     (default 0.2: normal systolic wall thickening on cine MRI is about 40-60
-     %, e.g. Ubachs, Heiberg, Steding & Arheden, "Normal values for wall
-     thickening by magnetic resonance imaging", J Cardiovasc Magn Reson 2009,
-     11(Suppl 1):P61; a segment below 20 % thickens less than half as much
-     as the least normal ones); globally, the same from all wall vertices.
+     (default 0.2, the cut-off the contours' sector share uses in issue 35;
+     normal regional values on cine MRI: Ubachs, Heiberg, Steding & Arheden,
+     "Normal values for wall thickening by magnetic resonance imaging", J
+     Cardiovasc Magn Reson 2009, 11(Suppl 1):P61; the control pigs of
+     ../shared/data/cardiac thicken by 46-67 % globally on their contours);
+     globally, the same from all wall vertices. A tracked vertex may slide
+     along the wall (see sqffd_motion): its ES thickness is measured where
+     the vertex is at ES.
    Results: INVALID_ARGUMENT (NULL endo, epi, motion or segment, frame_count
    0, the motion report's ED or ES frame out of range, a segment above 17,
    either sequence's models differing in superquadric, lattice or grid, bad
