@@ -99,8 +99,8 @@
           sqffd_track was on) is as it was or a later valid model (the last
           accepted iterate: sqffd_model_validate passes); a report holds what
           was measured up to the error (iterations, history). sqffd_sq_fit,
-          sqffd_motion and sqffd_model_load write their results only on
-          success.
+          sqffd_motion, sqffd_wall and sqffd_model_load write their results
+          only on success.
        Nothing is ever written past a documented size, whatever the error.
 
    QUICK START
@@ -196,6 +196,9 @@
        sqffd_motion(_workspace_size), sqffd_motion_options_default
                                        volumes (closed or between slices), EF, motion,
                                        low-motion zones, 17 segments
+       sqffd_wall(_workspace_size), sqffd_wall_options_default
+                                       the heart wall (endo + epi): myocardial volume,
+                                       thickness and thickening per segment
    7. Volumes to points
        types: sqffd_volume (a view of a 3-D image: any voxel type, strides, affine)
        sqffd_volume_range, sqffd_volume_otsu
@@ -748,6 +751,8 @@ SQFFD_DEF sqffd_result sqffd_sq_fit_view(sqffd_points points, const sqffd_sq_fit
 #define sqffd_track_frame_view SQFFD__LATTICE(sqffd_track_frame_view)
 #define sqffd_motion_workspace_size SQFFD__LATTICE(sqffd_motion_workspace_size)
 #define sqffd_motion SQFFD__LATTICE(sqffd_motion)
+#define sqffd_wall_workspace_size SQFFD__LATTICE(sqffd_wall_workspace_size)
+#define sqffd_wall SQFFD__LATTICE(sqffd_wall)
 #endif
 
 /* A box (origin + three edge vectors, not necessarily orthogonal) holding an
@@ -1344,6 +1349,85 @@ SQFFD_DEF sqffd_result sqffd_motion_workspace_size(const sqffd_model *models, si
 SQFFD_DEF sqffd_result sqffd_motion(const sqffd_model *models, size_t frame_count, const sqffd_motion_options *options,
                                     const sqffd_motion_outputs *outputs, sqffd_motion_report *report,
                                     void *workspace, size_t workspace_size);
+
+/* The heart wall: myocardial volume, wall thickness and thickening, from
+   two tracked sequences, the endocardium (the cavity's border: `endo`,
+   sqffd_track's models, measured by sqffd_motion) and the epicardium (the
+   wall's outer border: `epi`, sqffd_track's models of its own frames, the
+   same frames in the same order). Both surfaces share ONE segment frame,
+   the endocardium's: its ED long axis, apex, septum and levels (the
+   motion report) and its vertices' segments (sqffd_motion's
+   outputs->segment) define the AHA segments, and the epicardium is only
+   measured against them, so neither surface's fit can move a segment of
+   the other. Tracked on its own, the epicardium needs no correspondence
+   with the endocardium: a thickness is a distance, not a material point.
+   - myocardium[t] = V_epi(t) - V_endo(t): the closed volumes, or with
+     options->stacks (the epicardium's stacks: its slices reach past the
+     endocardium's at the apex) both between frame t's outer planes moved
+     out by half the spacing, as sqffd_motion measures the cavity;
+   - the wall thickness of endocardial grid point v at ED and at ES: along
+     the endocardial mesh's outward normal at v (that frame's), the distance
+     to the nearest crossing of the epicardial mesh ahead. The normal, not
+     the nearest epicardial point: where the two closed surfaces meet at the
+     base (both closed by their lids in one plane), the nearest point of a
+     basal vertex is on the epicardium's lid, a wall-thickness away at most,
+     while the normal crosses the wall as a reader's caliper does (and as
+     the centreline method's chords do, across the wall);
+   - thickening[v] = WT_ES / WT_ED - 1; valve-plane vertices (segment 0) and
+     wall vertices whose normal crosses no epicardium (an epicardium inside
+     the endocardium there) are not measured: NaN in the outputs, left out
+     of the means and counted in report->unmeasured;
+   - per segment, the means of the measured vertices' ED and ES thickness
+     (weighted by their ED areas) and thickening = ES mean / ED mean - 1;
+     dysfunctional when thickening < options->dysfunctional_thickening
+     (default 0.2, the cut-off the contours' sector share uses in issue 35;
+     normal regional values on cine MRI: Ubachs, Heiberg, Steding & Arheden,
+     "Normal values for wall thickening by magnetic resonance imaging", J
+     Cardiovasc Magn Reson 2009, 11(Suppl 1):P61; the control pigs of
+     ../shared/data/cardiac thicken by 46-67 % globally on their contours);
+     globally, the same from all wall vertices. A tracked vertex may slide
+     along the wall (see sqffd_motion): its ES thickness is measured where
+     the vertex is at ES.
+   Results: INVALID_ARGUMENT (NULL endo, epi, motion or segment, frame_count
+   0, the motion report's ED or ES frame out of range, a segment above 17,
+   either sequence's models differing in superquadric, lattice or grid, bad
+   options or stacks), NON_FINITE, DEGENERATE (a flat ED endocardium, no
+   wall vertex measured), WORKSPACE_TOO_SMALL. Nothing is written on an
+   error. */
+typedef struct sqffd_wall_options {
+    double dysfunctional_thickening; /* a segment thickening less is dysfunctional (default 0.2) */
+    const sqffd_stack *stacks;       /* NULL (default): closed volumes; else frame_count stacks (the epicardium's):
+                                        the myocardium between their planes (see above) */
+} sqffd_wall_options;
+
+typedef struct sqffd_wall_outputs {
+    double *myocardium;          /* frame_count: V_epi - V_endo */
+    double *thickness_ed;        /* M (the endocardial grid's vertices): NaN where not measured */
+    double *thickness_es;        /* M */
+    double *thickening;          /* M */
+} sqffd_wall_outputs;
+
+typedef struct sqffd_segment_wall {
+    double thickness_ed, thickness_es; /* ED-area-weighted means over the measured vertices (0: none) */
+    double thickening;                 /* thickness_es / thickness_ed - 1 */
+    int dysfunctional;
+} sqffd_segment_wall;
+
+typedef struct sqffd_wall_report {
+    double myocardium_ed, myocardium_es; /* volumes, in the data's units cubed */
+    double thickness_ed, thickness_es, thickening; /* over the whole wall */
+    size_t measured, unmeasured;         /* wall vertices */
+    sqffd_segment_wall segments[SQFFD_SEGMENTS];
+} sqffd_wall_report;
+
+SQFFD_DEF sqffd_wall_options sqffd_wall_options_default(void);
+/* Workspace for frame_count frames of these sequences' grids (endo[0]'s and epi[0]'s). */
+SQFFD_DEF sqffd_result sqffd_wall_workspace_size(const sqffd_model *endo, const sqffd_model *epi, size_t frame_count,
+                                                 size_t *size);
+SQFFD_DEF sqffd_result sqffd_wall(const sqffd_model *endo, const sqffd_model *epi, size_t frame_count,
+                                  const sqffd_motion_report *motion, const unsigned char *segment,
+                                  const sqffd_wall_options *options, const sqffd_wall_outputs *outputs,
+                                  sqffd_wall_report *report, void *workspace, size_t workspace_size);
 
 /* ======================================================================
    Layer 7: volumes (3-D images) to points
@@ -9405,6 +9489,212 @@ SQFFD_DEF sqffd_result sqffd_motion(const sqffd_model *models, size_t frame_coun
     if (out->displacement) memcpy(out->displacement, w.moved, m * sizeof(double));
     if (out->excursion) memcpy(out->excursion, w.inward, m * sizeof(double));
     if (out->segment) memcpy(out->segment, w.segment, m);
+    if (report) *report = *rep;
+    return SQFFD_OK;
+}
+
+/* ---- the heart wall -------------------------------------------------------- */
+
+SQFFD_DEF sqffd_wall_options sqffd_wall_options_default(void)
+{
+    sqffd_wall_options o;
+    memset(&o, 0, sizeof o);
+    o.dysfunctional_thickening = 0.2;
+    return o;
+}
+
+typedef struct sqffd__wall_work {
+    double *ed, *es;         /* M x 3: the endocardium's ED and ES vertices (ed: each frame's first, for its volume) */
+    double *area, *scratch;  /* M: ED vertex areas; another frame's (not used) */
+    double *normal;          /* M x 3: ED, then ES normals */
+    double *thickness[2];    /* M: at ED and ES */
+    double *thickening;      /* M */
+    double *epi;             /* E x 3: the epicardium's vertices */
+    uint32_t *triangles;     /* its mesh */
+    double *myocardium;      /* frame_count */
+    sqffd_wall_report *report;
+} sqffd__wall_work;
+
+static void sqffd__wall_layout(sqffd__arena *a, size_t m, size_t e, size_t triangles, size_t frames, sqffd__wall_work *w)
+{
+    w->ed = (double *)sqffd__arena_take(a, m, 3 * sizeof(double));
+    w->es = (double *)sqffd__arena_take(a, m, 3 * sizeof(double));
+    w->area = (double *)sqffd__arena_take(a, m, sizeof(double));
+    w->scratch = (double *)sqffd__arena_take(a, m, sizeof(double));
+    w->normal = (double *)sqffd__arena_take(a, m, 3 * sizeof(double));
+    w->thickness[0] = (double *)sqffd__arena_take(a, m, sizeof(double));
+    w->thickness[1] = (double *)sqffd__arena_take(a, m, sizeof(double));
+    w->thickening = (double *)sqffd__arena_take(a, m, sizeof(double));
+    w->epi = (double *)sqffd__arena_take(a, e, 3 * sizeof(double));
+    w->triangles = (uint32_t *)sqffd__arena_take(a, triangles, 3 * sizeof(uint32_t));
+    w->myocardium = (double *)sqffd__arena_take(a, frames, sizeof(double));
+    w->report = (sqffd_wall_report *)sqffd__arena_take(a, 1, sizeof(sqffd_wall_report));
+}
+
+SQFFD_DEF sqffd_result sqffd_wall_workspace_size(const sqffd_model *endo, const sqffd_model *epi, size_t frame_count,
+                                                 size_t *size)
+{
+    sqffd__arena a;
+    sqffd__wall_work w;
+    size_t e = 0, triangles = 0;
+    sqffd_result r;
+    if (!size) return SQFFD_ERROR_INVALID_ARGUMENT;
+    *size = 0;
+    if (!endo || !epi || frame_count == 0) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if ((r = sqffd_model_validate(endo)) != SQFFD_OK || (r = sqffd_model_validate(epi)) != SQFFD_OK) return r;
+    sqffd_model_mesh_size(epi->grid[0], epi->grid[1], &e, &triangles);
+    sqffd__arena_measure(&a);
+    sqffd__wall_layout(&a, sqffd__fit_grid_count(endo->grid), e, triangles, frame_count, &w);
+    return sqffd__arena_size(&a, size);
+}
+
+/* The distance along unit direction d from o to the nearest crossing of the
+   mesh ahead of o (Moller & Trumbore's ray-triangle test), HUGE_VAL if none;
+   *hit: the crossed triangle. */
+static double sqffd__wall_ray(const double *x, const uint32_t *tri, size_t triangles, const double o[3], const double d[3],
+                              size_t *hit)
+{
+    double best = HUGE_VAL;
+    size_t i;
+    for (i = 0; i < triangles; ++i) {
+        const double *a = x + 3 * (size_t)tri[3 * i], *b = x + 3 * (size_t)tri[3 * i + 1], *c = x + 3 * (size_t)tri[3 * i + 2];
+        double e1[3], e2[3], p[3], s[3], q[3], det, u, v, t;
+        sqffd__sub3(b, a, e1);
+        sqffd__sub3(c, a, e2);
+        sqffd__cross3(d, e2, p);
+        det = sqffd__dot3(e1, p);
+        if (det == 0.0) continue; /* the ray along the triangle's plane */
+        sqffd__sub3(o, a, s);
+        u = sqffd__dot3(s, p) / det;
+        if (!(u >= 0.0 && u <= 1.0)) continue;
+        sqffd__cross3(s, e1, q);
+        v = sqffd__dot3(d, q) / det;
+        if (!(v >= 0.0 && u + v <= 1.0)) continue;
+        t = sqffd__dot3(e2, q) / det;
+        if (t > 0.0 && t < best) {
+            best = t;
+            *hit = i;
+        }
+    }
+    return best;
+}
+
+/* Frame t's wall thickness along the endocardium's normals (endo vertices x,
+   epicardium model epi) into thickness: NaN off the wall, without a
+   crossing, or where the crossing is on the epicardium's valve plane (a
+   triangle facing the base, as sqffd_motion's valve rule: the normal leaves
+   through the base, where the wall is cut, not across it); w->normal and
+   w->scratch are overwritten. */
+static void sqffd__wall_thickness(const sqffd_model *endo, const sqffd_model *epi, const double *x,
+                                  const unsigned char *segment, const double axis[3], const sqffd__wall_work *w,
+                                  size_t triangles, double *thickness)
+{
+    size_t m = sqffd__fit_grid_count(endo->grid), v, hit = 0;
+    sqffd__fit_surface(epi, epi->grid, w->epi);
+    sqffd__motion_areas(endo->grid, x, w->scratch, w->normal);
+    for (v = 0; v < m; ++v) {
+        double n[3], e1[3], e2[3], face[3], d;
+        const uint32_t *t;
+        thickness[v] = NAN;
+        if (!segment[v] || !sqffd__unit3(w->normal + 3 * v, 0.0, n)) continue;
+        d = sqffd__wall_ray(w->epi, w->triangles, triangles, x + 3 * v, n, &hit);
+        if (!(d < HUGE_VAL)) continue;
+        t = w->triangles + 3 * hit;
+        sqffd__sub3(w->epi + 3 * (size_t)t[1], w->epi + 3 * (size_t)t[0], e1);
+        sqffd__sub3(w->epi + 3 * (size_t)t[2], w->epi + 3 * (size_t)t[0], e2);
+        sqffd__cross3(e1, e2, face);
+        if (-sqffd__dot3(face, axis) > SQFFD__MOTION_VALVE * sqrt(sqffd__dot3(face, face))) continue;
+        thickness[v] = d;
+    }
+}
+
+SQFFD_DEF sqffd_result sqffd_wall(const sqffd_model *endo, const sqffd_model *epi, size_t frame_count,
+                                  const sqffd_motion_report *motion, const unsigned char *segment,
+                                  const sqffd_wall_options *options, const sqffd_wall_outputs *outputs,
+                                  sqffd_wall_report *report, void *workspace, size_t workspace_size)
+{
+    sqffd_wall_options defaults = sqffd_wall_options_default();
+    const sqffd_wall_options *o = options ? options : &defaults;
+    sqffd_motion_options volumes = sqffd_motion_options_default();
+    sqffd_wall_report *rep;
+    sqffd__wall_work w;
+    sqffd__arena a;
+    double sum[SQFFD_SEGMENTS + 1][3], total[3] = {0.0, 0.0, 0.0};
+    size_t m, e = 0, triangles = 0, t, v;
+    int k, c;
+    if (!endo || !epi || !motion || !segment || frame_count == 0 || motion->ed_frame >= frame_count ||
+        motion->es_frame >= frame_count || !(o->dysfunctional_thickening > -1.0) || !isfinite(o->dysfunctional_thickening))
+        return SQFFD_ERROR_INVALID_ARGUMENT;
+    for (t = 0; t < frame_count; ++t) {
+        sqffd_result r;
+        if ((r = sqffd_model_validate(endo + t)) != SQFFD_OK || (r = sqffd_model_validate(epi + t)) != SQFFD_OK) return r;
+        if (o->stacks && !sqffd__stack_valid(o->stacks + t)) return SQFFD_ERROR_INVALID_ARGUMENT;
+        if (t && (!sqffd__fit_same_frame(&endo->sq, endo->ffd.dims, endo->ffd.origin, endo->ffd.edges, endo->grid, endo + t) ||
+                  !sqffd__fit_same_frame(&epi->sq, epi->ffd.dims, epi->ffd.origin, epi->ffd.edges, epi->grid, epi + t)))
+            return SQFFD_ERROR_INVALID_ARGUMENT;
+    }
+    m = sqffd__fit_grid_count(endo->grid);
+    for (v = 0; v < m; ++v)
+        if (segment[v] > SQFFD_SEGMENTS) return SQFFD_ERROR_INVALID_ARGUMENT;
+    sqffd_model_mesh_size(epi->grid[0], epi->grid[1], &e, &triangles);
+    sqffd__arena_init(&a, workspace, workspace_size);
+    sqffd__wall_layout(&a, m, e, triangles, frame_count, &w);
+    if (a.overflow) return sqffd__arena_error(&a);
+    rep = w.report;
+    memset(rep, 0, sizeof *rep);
+    sqffd_model_mesh(epi, epi->grid[0], epi->grid[1], NULL, w.triangles);
+    volumes.stacks = o->stacks;
+    for (t = 0; t < frame_count; ++t) { /* the myocardium: the volume between the two surfaces */
+        sqffd__fit_surface(endo + t, endo->grid, w.ed);
+        sqffd__fit_surface(epi + t, epi->grid, w.epi);
+        for (v = 0; v < m; ++v)
+            if (!sqffd__finite3(w.ed + 3 * v)) return SQFFD_ERROR_NON_FINITE;
+        for (v = 0; v < e; ++v)
+            if (!sqffd__finite3(w.epi + 3 * v)) return SQFFD_ERROR_NON_FINITE;
+        w.myocardium[t] = sqffd__motion_volume(&volumes, t, epi->grid, w.epi) - sqffd__motion_volume(&volumes, t, endo->grid, w.ed);
+    }
+    rep->myocardium_ed = w.myocardium[motion->ed_frame];
+    rep->myocardium_es = w.myocardium[motion->es_frame];
+    /* the thickness at ES, then at ED (whose areas weigh the means) */
+    sqffd__fit_surface(endo + motion->es_frame, endo->grid, w.es);
+    sqffd__wall_thickness(endo, epi + motion->es_frame, w.es, segment, motion->axis, &w, triangles, w.thickness[1]);
+    sqffd__fit_surface(endo + motion->ed_frame, endo->grid, w.ed);
+    sqffd__wall_thickness(endo, epi + motion->ed_frame, w.ed, segment, motion->axis, &w, triangles, w.thickness[0]);
+    sqffd__motion_areas(endo->grid, w.ed, w.area, w.normal);
+    memset(sum, 0, sizeof sum);
+    for (v = 0; v < m; ++v) {
+        w.thickening[v] = w.thickness[1][v] / w.thickness[0][v] - 1.0; /* (NaN where either is) */
+        if (!segment[v]) continue;
+        if (!isfinite(w.thickening[v])) { /* (a zero ED thickness too: the surfaces touch) */
+            w.thickening[v] = NAN;
+            ++rep->unmeasured;
+            continue;
+        }
+        ++rep->measured;
+        for (c = 0; c < 2; ++c) sum[segment[v]][c] += w.area[v] * w.thickness[c][v];
+        sum[segment[v]][2] += w.area[v];
+    }
+    if (rep->measured == 0) return SQFFD_ERROR_DEGENERATE;
+    for (k = 0; k < SQFFD_SEGMENTS; ++k) {
+        sqffd_segment_wall *g = rep->segments + k;
+        const double *s = sum[k + 1];
+        for (c = 0; c < 3; ++c) total[c] += s[c];
+        if (!(s[2] > 0.0)) continue;
+        g->thickness_ed = s[0] / s[2];
+        g->thickness_es = s[1] / s[2];
+        g->thickening = g->thickness_es / g->thickness_ed - 1.0;
+        g->dysfunctional = g->thickening < o->dysfunctional_thickening;
+    }
+    if (!(total[2] > 0.0)) return SQFFD_ERROR_DEGENERATE;
+    rep->thickness_ed = total[0] / total[2];
+    rep->thickness_es = total[1] / total[2];
+    rep->thickening = rep->thickness_es / rep->thickness_ed - 1.0;
+    if (outputs) {
+        if (outputs->myocardium) memcpy(outputs->myocardium, w.myocardium, frame_count * sizeof(double));
+        if (outputs->thickness_ed) memcpy(outputs->thickness_ed, w.thickness[0], m * sizeof(double));
+        if (outputs->thickness_es) memcpy(outputs->thickness_es, w.thickness[1], m * sizeof(double));
+        if (outputs->thickening) memcpy(outputs->thickening, w.thickening, m * sizeof(double));
+    }
     if (report) *report = *rep;
     return SQFFD_OK;
 }

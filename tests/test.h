@@ -56,5 +56,6 @@ void suite_points(void);
 void suite_pcd(void);
 void suite_fold(void);
 void suite_mesh_check(void);
+void suite_wall(void);
 
 #endif

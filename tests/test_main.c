@@ -48,6 +48,7 @@ int main(int argc, char **argv)
     suite_internal();
     suite_phantom();
     suite_track();
+    suite_wall();
     suite_inflate();
     suite_volume_io();
     suite_export();
