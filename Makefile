@@ -16,10 +16,10 @@ FUZZ_TARGETS = $(patsubst fuzz/%.c,%,$(wildcard fuzz/fuzz_*.c))
 BENCHES = $(patsubst bench/%.c,%,$(wildcard bench/bench_*.c))
 
 TEST_PARTS  = unit check-header snippets cli-test api-demo
-CHECK_PARTS = valgrind unit-asan unit-clang-asan fuzz-replay analyzer cppcheck threads stack check-symbols \
+CHECK_PARTS = bench-build valgrind unit-asan unit-clang-asan fuzz-replay analyzer cppcheck threads stack check-symbols \
   package-test stream-test test-python $(TEST_PARTS)
 
-.PHONY: all test check unit-build check-header check-symbols snippets cli-test readme-samples api-demo stream-test package-test unit unit-asan \
+.PHONY: bench-build all test check unit-build check-header check-symbols snippets cli-test readme-samples api-demo stream-test package-test unit unit-asan \
   unit-clang-asan valgrind analyzer cppcheck threads fuzz-replay demo bench fuzz install clean stack embedded test-cross
 
 all: $(BUILD)/sqffd $(BUILD)/demo_fit $(BUILD)/stream_fit
@@ -293,6 +293,11 @@ demo: $(BUILD)/sqffd
 
 # ---- make bench: medians of repeated runs, peers where installable
 BENCH_CFLAGS = -O2 -march=native -std=c99 -D_POSIX_C_SOURCE=200809L -Wall -Wextra
+
+# Every bench compiles against today's header (make check; they are run by make bench only).
+bench-build:
+	@for b in $(BENCHES); do $(CC) $(BENCH_CFLAGS) -Werror -fsyntax-only bench/$$b.c || exit 1; done; \
+	  echo "bench-build: $(words $(BENCHES)) benches compile"
 bench: $(BUILD)/sqffd | $(BUILD)
 	@sh bench/install_peers.sh
 	@for b in $(BENCHES); do \

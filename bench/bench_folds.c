@@ -31,7 +31,9 @@
 #define PHANTOM_POINTS 6000
 #define PHANTOM_SEED 20261201u
 
-static int models, folded, free_models, free_folded;
+static int models, folded, free_models, free_folded, capped, runs_counted;
+static double log_error_ratio[2], log_time_ratio[2]; /* sums of logs: [0] scans (dev, bunny), [1] heart and phantom frames */
+static int ratio_count[2];
 
 /* The check of one model into `cell` (a table's cells: crossing pairs, not wound once, ms); 1 when it folds. */
 static int check(const sqffd_model *m, char *cell, size_t size, int *folds)
@@ -54,8 +56,10 @@ static int check(const sqffd_model *m, char *cell, size_t size, int *folds)
     return 1;
 }
 
-/* One row: the model of the defaults, then the one without the floor. */
-static void row(const char *name, const sqffd_model m[2], const sqffd_fit_report rep[2])
+/* One row: the model of the defaults, then the one without the floor, and
+   the price: error and time (ms[2], the fit's or the track's, median) of
+   the floor against none. */
+static void row(const char *name, const sqffd_model m[2], const sqffd_fit_report rep[2], const double ms[2], int kind)
 {
     char cell[2][128];
     int folds[2] = {0, 0};
@@ -63,8 +67,16 @@ static void row(const char *name, const sqffd_model m[2], const sqffd_fit_report
     free_models += check(&m[1], cell[1], sizeof cell[1], &folds[1]);
     folded += folds[0];
     free_folded += folds[1];
-    printf("| %s | %.3f | %.4f | %s | %.3f | %.4g | %s |\n", name, 100.0 * rep[0].error.rms_relative, rep[0].min_jacobian,
-           cell[0], 100.0 * rep[1].error.rms_relative, rep[1].min_jacobian, cell[1]);
+    capped += rep[0].stop == SQFFD_FIT_CAPPED;
+    runs_counted++;
+    log_error_ratio[kind] += log(rep[0].error.rms_relative / rep[1].error.rms_relative);
+    log_time_ratio[kind] += log(ms[0] / ms[1]);
+    ratio_count[kind]++;
+    printf("| %s | %.3f | %.4f | %s | %d%s | %.3f | %.4g | %s | %.2f | %.2f |\n", name, 100.0 * rep[0].error.rms_relative,
+           rep[0].min_jacobian, cell[0], rep[0].coarse_iterations + rep[0].iterations,
+           rep[0].stop == SQFFD_FIT_CAPPED ? " (cap)" : rep[0].stop == SQFFD_FIT_STALLED ? " (stalled)" : "",
+           100.0 * rep[1].error.rms_relative, rep[1].min_jacobian, cell[1],
+           rep[0].error.rms_relative / rep[1].error.rms_relative, ms[0] / ms[1]);
 }
 
 /* Fits n points with the defaults and without the floor, then their row. */
@@ -74,18 +86,24 @@ static void fit_row(const char *name, const double *points, size_t n)
     sqffd_fit_report rep[2];
     sqffd_fit_options o = sqffd_fit_options_default();
     sqffd_result r = SQFFD_OK;
-    int pass;
+    double ms[2], t[RUNS];
+    int pass, k;
     for (pass = 0; pass < 2 && r == SQFFD_OK; pass++) {
         size_t size;
         void *ws = NULL;
         o.min_jacobian = pass ? -HUGE_VAL : sqffd_fit_options_default().min_jacobian;
         r = sqffd_fit_workspace_size(n, &o, &size);
         if (r == SQFFD_OK && !(ws = malloc(size))) r = SQFFD_ERROR_TOO_LARGE;
-        if (r == SQFFD_OK) r = sqffd_fit(points, n, &o, &m[pass], &rep[pass], ws, size);
+        for (k = 0; k < RUNS && r == SQFFD_OK; k++) {
+            double t0 = bench_now();
+            r = sqffd_fit(points, n, &o, &m[pass], &rep[pass], ws, size);
+            t[k] = bench_now() - t0;
+        }
+        ms[pass] = 1e3 * bench_median(t, RUNS);
         free(ws);
     }
     if (r != SQFFD_OK) printf("| %s | fit failed: %s |\n", name, sqffd_result_string(r));
-    else row(name, m, rep);
+    else row(name, m, rep, ms, 0);
 }
 
 /* Tracks the frames with the defaults and without the floor, then a row
@@ -100,15 +118,21 @@ static void track_rows(const char *name, double *const *frames, const size_t *co
     sqffd_track_options o = sqffd_track_options_default();
     sqffd_result r = SQFFD_OK;
     size_t done = count, k;
-    int pass;
+    int pass, run;
     char title[64];
+    double ms[2], t[RUNS];
     for (pass = 0; pass < 2 && r == SQFFD_OK && done == count; pass++) {
         size_t size;
         void *ws = NULL;
         o.fit.min_jacobian = pass ? -HUGE_VAL : sqffd_track_options_default().fit.min_jacobian;
         r = sqffd_track_workspace_size(counts, count, &o, &size);
         if (r == SQFFD_OK && !(ws = malloc(size))) r = SQFFD_ERROR_TOO_LARGE;
-        if (r == SQFFD_OK) r = sqffd_track((const double *const *)frames, counts, count, &o, out, out_rep, &done, ws, size);
+        for (run = 0; run < RUNS && r == SQFFD_OK; run++) {
+            double t0 = bench_now();
+            r = sqffd_track((const double *const *)frames, counts, count, &o, out, out_rep, &done, ws, size);
+            t[run] = bench_now() - t0;
+        }
+        ms[pass] = 1e3 * bench_median(t, RUNS);
         free(ws);
         for (k = 0; k < count; k++) {
             m[k][pass] = out[k];
@@ -121,7 +145,7 @@ static void track_rows(const char *name, double *const *frames, const size_t *co
     }
     for (k = 0; k < count; k++) {
         snprintf(title, sizeof title, "%s %s", name, labels[k]);
-        row(title, m[k], rep[k]);
+        row(title, m[k], rep[k], ms, 1);
     }
 }
 
@@ -153,17 +177,16 @@ static size_t list_dir(const char *dir, const char *suffix, char names[MAX_NAMES
    (malloc'd in *closed, *n updated); 0 on success. */
 static int close_stack(const double *points, size_t *n, double **closed)
 {
-    sqffd_points view = sqffd_points_packed(points, *n);
     sqffd_stack stack;
     size_t lids = 0;
     int found = 0;
     *closed = NULL;
-    if (sqffd_points_stack(view, &stack, &found) != SQFFD_OK || !found ||
-        sqffd_stack_lids(view, &stack, NULL, 0, &lids) != SQFFD_OK ||
+    if (sqffd_stack_detect(points, *n, &stack, &found) != SQFFD_OK || !found ||
+        sqffd_stack_lids(points, *n, &stack, NULL, 0, &lids) != SQFFD_OK ||
         !(*closed = (double *)malloc(3 * (*n + lids) * sizeof **closed)))
         return -1;
     memcpy(*closed, points, 3 * *n * sizeof **closed);
-    if (sqffd_stack_lids(view, &stack, *closed + 3 * *n, lids, &lids) != SQFFD_OK) return -1;
+    if (sqffd_stack_lids(points, *n, &stack, *closed + 3 * *n, lids, &lids) != SQFFD_OK) return -1;
     *n += lids;
     return 0;
 }
@@ -179,11 +202,13 @@ int main(void)
     printf("## Folds: the models of the defaults, checked by tests/mesh_check.h\n\n"
            "(error: the fit's, %% of the data's diagonal; bound: the report's min_jacobian; crossing pairs: triangle\n"
            " pairs of the %d x %d mesh that cross; not wound once: of %d points drawn inside the superquadric (0.95 of\n"
-           " its size), the images whose winding number is not 1; ms: the check, median of %d; no floor: the same\n"
-           " data fitted or tracked with min_jacobian -HUGE_VAL)\n\n",
-           MESH_ETA, MESH_OMEGA, SAMPLES, RUNS);
-    printf("| model | error %% | bound | crossing pairs | not wound once | ms | no floor: error %% | bound | crossing pairs "
-           "| not wound once | ms |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n");
+           " its size), the images whose winding number is not 1; ms: the check, median of %d; iterations: coarse +\n"
+           " grid, (cap) where the cap stopped them; no floor: the same data fitted or tracked with min_jacobian\n"
+           " -HUGE_VAL; error x and time x: the floor's against none, the fit's or the whole track's time, median of %d)\n\n",
+           MESH_ETA, MESH_OMEGA, SAMPLES, RUNS, RUNS);
+    printf("| model | error %% | bound | crossing pairs | not wound once | ms | iterations | no floor: error %% | bound "
+           "| crossing pairs | not wound once | ms | error x | time x |\n"
+           "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n");
     count = list_dir(DATA_DIR "/dev", ".off", names);
     if (!count) printf("| (dev meshes skipped: %s/dev is absent) |\n", DATA_DIR);
     for (i = 0; i < count; i++) {
@@ -235,6 +260,12 @@ int main(void)
     track_rows("phantom", frames, counts, 4, beat);
     for (k = 0; k < 4; k++) free(frames[k]);
     printf("\n%d models of the defaults checked, %d fold; without the floor: %d checked, %d fold (crossing pairs or\n"
-           "points not wound once).\n", models, folded, free_models, free_folded);
+           "points not wound once). %d of %d default runs stopped at their iteration cap.\n", models, folded, free_models,
+           free_folded, capped, runs_counted);
+    for (k = 0; k < 2; k++)
+        if (ratio_count[k])
+            printf("The floor's price, geometric mean over the %d %s: error x %.2f, time x %.2f.\n", ratio_count[k],
+                   k ? "heart and phantom frames (time: the whole track)" : "scans (dev meshes and bunny)",
+                   exp(log_error_ratio[k] / ratio_count[k]), exp(log_time_ratio[k] / ratio_count[k]));
     return 0;
 }
