@@ -273,14 +273,14 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     reader r;
     sqffd_track_options o = sqffd_track_options_default();
     unsigned b0, b1, b2, b3, b4, b5;
-    size_t frames, counts[MAX_FRAMES], t, ws_size, done = 99, done_short = 99;
+    size_t frames, counts[MAX_FRAMES], t, ws_size, done = 99, done_short = 99, refused;
     double *points[MAX_FRAMES], axes[3], rot[9], shrink, a1, a2;
     const double *frame_ptrs[MAX_FRAMES];
     int bad[MAX_FRAMES], alike[MAX_FRAMES];
     sqffd_model models[MAX_FRAMES];
     sqffd_fit_report reports[MAX_FRAMES];
     unsigned char *ws;
-    sqffd_result res, res_short = SQFFD_OK;
+    sqffd_result res, res_short = SQFFD_OK, check = SQFFD_OK;
     progress_state ps;
 
     if (size < 12) return 0;
@@ -408,6 +408,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     if (res != SQFFD_OK || ws_size == 0) abort();
     ws = (unsigned char *)malloc(ws_size);
     if (!ws) abort();
+    for (refused = 0; refused < frames; refused++) /* the frames' data are checked before anything is fitted */
+        if ((check = sqffd_fit_check_data(frame_ptrs[refused], counts[refused])) != SQFFD_OK) break;
 
     if (b3 & 32) { /* one byte short: fails cleanly, at some frame */
         progress_state quiet = ps;
@@ -420,7 +422,9 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     res = sqffd_track(frame_ptrs, counts, frames, &o, models, (b3 & 64) ? NULL : reports, &done, ws, ws_size);
     if (!documented_track_code(res)) abort();
     if (res == SQFFD_OK ? done != frames : done >= frames) abort();
-    if ((size_t)ps.next_frame != (res == SQFFD_OK ? done : done + 1))
+    if (refused < frames) { /* refused up front: that frame's check, nothing fitted, the callback never called */
+        if (res != check || done != refused || ps.next_frame != 0) abort();
+    } else if ((size_t)ps.next_frame != (res == SQFFD_OK ? done : done + 1))
         abort(); /* the callback saw frames 0 .. done (the failing one included) */
     if (res == SQFFD_ERROR_CANCELLED && !ps.cancelled) abort();
     if (ps.cancelled && res != SQFFD_ERROR_CANCELLED) abort();
@@ -432,7 +436,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     }
     if (res != SQFFD_OK && res != SQFFD_ERROR_CANCELLED) {
         /* plainly bad data in the failing frame say so */
-        size_t f = done, least = f == 0 ? SQFFD_SQ_FIT_MIN_POINTS : 4; /* (4: the FFD stage's least) */
+        size_t f = done, least = SQFFD_SQ_FIT_MIN_POINTS; /* (every frame: a lone fit's least) */
         int few = counts[f] < least, alike_only = alike[f] && !bad[f];
         /* (where several apply, the order of the checks is not documented: any of them) */
         if ((few || bad[f] || alike_only) && !(few && res == SQFFD_ERROR_TOO_FEW_POINTS) &&
