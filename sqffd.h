@@ -1474,8 +1474,10 @@ typedef struct sqffd_iso_options {
     int largest_component;     /* keep only the crossings of the largest 6-connected inside component
                                   (by voxel count): drops specks (default 0) */
     int labelled;              /* a label map (segmentation): a voxel is inside when its scaled value equals
-                                  label, and the crossings are the edges' midpoints; level is not read (default 0) */
-    double label;
+                                  label, and the crossings are the edges' midpoints; level is not read (default 0);
+                                  2: when it equals label or label2, the border of the two regions together (a
+                                  label map's epicardium: its cavity and myocardium labels) */
+    double label, label2;
 } sqffd_iso_options;
 
 SQFFD_DEF sqffd_iso_options sqffd_iso_options_default(void);
@@ -9871,7 +9873,7 @@ SQFFD_DEF sqffd_iso_options sqffd_iso_options_default(void)
     o.level = 0.0;
     o.largest_component = 0;
     o.labelled = 0;
-    o.label = 0.0;
+    o.label = o.label2 = 0.0;
     return o;
 }
 
@@ -9912,7 +9914,8 @@ static void sqffd__iso_slice(const sqffd_volume *v, size_t k, const sqffd_iso_op
     double level = sqffd__iso_level(o);
     sqffd__vol_slice(v, k, w->slice[b]);
     if (o->labelled)
-        for (at = 0; at < plane; ++at) w->slice[b][at] = w->slice[b][at] == o->label ? 1.0 : 0.0;
+        for (at = 0; at < plane; ++at)
+            w->slice[b][at] = w->slice[b][at] == o->label || (o->labelled == 2 && w->slice[b][at] == o->label2) ? 1.0 : 0.0;
     for (at = 0; at < plane; ++at) w->flag[b][at] = (unsigned char)(w->slice[b][at] >= level);
     memset(w->flag[b] + plane, 0, 8);
 }
@@ -10078,7 +10081,8 @@ SQFFD_DEF sqffd_result sqffd_iso_points(const sqffd_volume *volume, const sqffd_
     int d, r;
     sqffd_result res = sqffd__vol_check(volume, &voxels);
     if (res != SQFFD_OK) return res;
-    if (!count || (capacity && !points) || !isfinite(o->labelled ? o->label : o->level))
+    if (!count || (capacity && !points) || !isfinite(o->labelled ? o->label : o->level) ||
+        (o->labelled == 2 && !isfinite(o->label2)))
         return SQFFD_ERROR_INVALID_ARGUMENT;
     sqffd__arena_init(&a, workspace, workspace_size);
     sqffd__iso_layout(&a, v, voxels, o->largest_component, &w);

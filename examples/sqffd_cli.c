@@ -59,12 +59,12 @@ static const cli_command commands[] = {
      cmd_fit},
     {"track", "track a model through a sequence of point files: motion, volumes, ejection fraction, 17 segments",
      "sqffd track FRAME... -o DIR [--ed N] [--septum X,Y,Z] [--apex X,Y,Z] [--low-motion F] [--frame-iterations K] "
-     "[--volume auto|closed|slices] [--mm-per-unit F] [--json FILE] "
+     "[--volume auto|closed|slices] [--mm-per-unit F] [--json FILE] [--epi FILE,FILE,...|--myocardium-label N] "
      "[input and model options of fit] [--ascii] [--quiet]",
      track_details,
      cmd_track},
     {"phantom", "write a synthetic beating left ventricle as point files that 'sqffd track' reads",
-     "sqffd phantom -o DIR [--frames N] [--points N] [--noise S] [--low-motion U,THETA,RADIUS,FACTOR] [--seed N]",
+     "sqffd phantom -o DIR [--frames N] [--points N] [--noise S] [--low-motion U,THETA,RADIUS,FACTOR] [--seed N] [--epi]",
      phantom_details,
      cmd_phantom},
     {"info", "what a file holds: a volume's dims, spacing, type, value range and affine; a point file's format, count and box",
@@ -681,6 +681,8 @@ typedef struct input_args {
     int iso_set;          /* --iso was given (auto or a level) */
     int label_set;        /* a label map: the surface of the voxels of this label */
     double label;
+    int label2_set;       /* ... and of this one together (track --myocardium-label: the epicardium) */
+    double label2;
     size_t sample;        /* at most this many points (0: all); volumes default to VOLUME_SAMPLE */
     int sample_set;
     int all_components;   /* keep the specks: every component of the iso-surface */
@@ -884,8 +886,9 @@ static int volume_points(const sqffd_image *image, size_t t, const char *name, c
     *points = NULL;
     o.largest_component = !in->all_components;
     o.level = in->iso;
-    o.labelled = in->label_set;
+    o.labelled = in->label2_set ? 2 : in->label_set;
     o.label = in->label;
+    o.label2 = in->label2;
     if (in->iso_auto && !in->label_set) r = sqffd_volume_otsu(&frame, &o.level);
     if (r != SQFFD_OK) {
         snprintf(err, err_size, "%s: no automatic iso level: %s (give --iso V)", name, sqffd_result_string(r));
@@ -1408,7 +1411,24 @@ typedef struct track_args {
     int unit;                    /* UNIT_GIVEN, UNIT_ASSUMED (a point file without --mm-per-unit), UNIT_VOLUMES */
     const char *json_output;     /* --json FILE */
     output_set out;              /* the files written into output (track_outputs) */
+    /* the heart wall: --epi or --myocardium-label */
+    int wall;
+    char *epi_list;              /* --epi's value, split at its commas into ... */
+    const char **epi_inputs;     /* ... the epicardial inputs */
+    size_t epi_input_count;
+    int myocardium_set;          /* --myocardium-label: the epicardium from the FRAME label maps */
+    double myocardium_label;
+    double **epi_points;         /* the epicardial frames (as many as the frames), their counts and inputs */
+    size_t *epi_counts;
+    const char **epi_frames;
+    size_t epi_frame_count;
+    sqffd_stack *epi_stacks;     /* as stacks and lids, for the epicardium */
+    size_t *epi_lids;
+    sqffd_wall_options wall_options;
 } track_args;
+
+/* The myocardium's density (g/ml): mass = density x volume. */
+#define MYOCARDIUM_DENSITY 1.05
 
 enum { UNIT_VOLUMES, UNIT_ASSUMED, UNIT_GIVEN };
 static const char *const unit_sources[] = {"volume files (mm)", "assumed", "given"};
@@ -1437,8 +1457,37 @@ static void track_args_default(track_args *a)
     memset(a, 0, sizeof *a);
     a->options = sqffd_track_options_default();
     a->motion = sqffd_motion_options_default();
+    a->wall_options = sqffd_wall_options_default();
     input_args_default(&a->in);
     a->mm_per_unit = 1.0;
+}
+
+/* --epi's value: FILE,FILE,... into a->epi_inputs; 0, or a usage error's status. */
+static int parse_epi(track_args *a, const char *v)
+{
+    char *p;
+    size_t n = 1;
+    free(a->epi_list);
+    free((void *)a->epi_inputs);
+    a->epi_inputs = NULL;
+    a->epi_input_count = 0;
+    for (p = (char *)v; *p; p++) n += *p == ',';
+    a->epi_list = strdup(v);
+    a->epi_inputs = (const char **)malloc(n * sizeof *a->epi_inputs);
+    if (!a->epi_list || !a->epi_inputs) {
+        fprintf(stderr, "sqffd track: out of memory\n");
+        return EXIT_BAD_INPUT;
+    }
+    for (p = a->epi_list;; p++) {
+        char *comma = strchr(p, ',');
+        if (comma) *comma = '\0';
+        if (!*p)
+            return usage_error(find_command("track"), "track: --epi takes FILE,FILE,... (an epicardial frame for each "
+                               "frame, in the same order), not '%s'", v);
+        a->epi_inputs[a->epi_input_count++] = p;
+        if (!comma) return 0;
+        p = comma;
+    }
 }
 
 /* The angle in degrees between two directions of non-zero length (each
@@ -1507,7 +1556,8 @@ static int track_parse(int argc, char **argv, track_args *a, int *help)
             continue;
         }
         if (!(IS("-o") || IS("--output") || IS("--ed") || IS("--septum") || IS("--apex") || IS("--low-motion") ||
-              IS("--frame-iterations") || IS("--volume") || IS("--mm-per-unit") || IS("--json")))
+              IS("--frame-iterations") || IS("--volume") || IS("--mm-per-unit") || IS("--json") || IS("--epi") ||
+              IS("--myocardium-label")))
             return usage_error(c, "track: unknown option '%s'", s.argv[s.i]);
         if (!(v = scan_value(&s, c))) return EXIT_USAGE;
         if (IS("-o") || IS("--output")) a->output = v;
@@ -1528,6 +1578,12 @@ static int track_parse(int argc, char **argv, track_args *a, int *help)
             a->unit = UNIT_GIVEN;
         } else if (IS("--json")) {
             a->json_output = v;
+        } else if (IS("--epi")) {
+            if ((status = parse_epi(a, v)) != 0) return status;
+        } else if (IS("--myocardium-label")) {
+            if (parse_numbers(v, 1, &a->myocardium_label))
+                return usage_error(c, "track: --myocardium-label takes a voxel value (the myocardium's label), not '%s'", v);
+            a->myocardium_set = 1;
         } else if (IS("--volume")) {
             a->volume = strcmp(v, "auto") == 0 ? VOLUME_AUTO : strcmp(v, "closed") == 0 ? VOLUME_CLOSED
                       : strcmp(v, "slices") == 0 ? VOLUME_SLICES : -1;
@@ -1542,6 +1598,14 @@ static int track_parse(int argc, char **argv, track_args *a, int *help)
     }
     if (a->input_count == 0) return usage_error(c, "track: no FRAME input");
     if (!a->output) return usage_error(c, "track: no output folder (-o DIR)");
+    if (a->myocardium_set && !a->in.label_set)
+        return usage_error(c, "track: --myocardium-label needs --label (the cavity's label in the same label maps)");
+    if (a->myocardium_set && a->epi_input_count)
+        return usage_error(c, "track: --epi and --myocardium-label exclude each other (the epicardium from its own "
+                           "frames, or from the FRAME label maps)");
+    if (a->myocardium_set && a->myocardium_label == a->in.label)
+        return usage_error(c, "track: --myocardium-label %g is the cavity's --label", a->myocardium_label);
+    a->wall = a->epi_input_count > 0 || a->myocardium_set;
     if (a->motion.apex_direction[0] != 0.0 || a->motion.apex_direction[1] != 0.0 || a->motion.apex_direction[2] != 0.0)
         return septum_check(a, a->motion.apex_direction, "--apex");
     return 0;
@@ -1567,10 +1631,33 @@ static void track_details(FILE *f)
             "                           segments.csv   per AHA segment: area (mm^2), mean displacement and\n"
             "                                          excursion (mm), low-motion share, flag\n"
             "                           volumes.csv    per frame: model volume (ml), error, iterations\n"
+            "                         with --epi or --myocardium-label, the heart wall too:\n"
+            "                           epi_frame_NN.ply  each frame's epicardial model mesh\n"
+            "                           motion.ply     also 'thickness_ed' (the wall thickness at ED)\n"
+            "                                          and 'thickening' (ES / ED thickness - 1), NaN\n"
+            "                                          where not measured (valve plane; no epicardium\n"
+            "                                          along the normal)\n"
+            "                           segments.csv   also thickness_ed_mm, thickness_es_mm,\n"
+            "                                          thickening_percent, dysfunctional (0 or 1; empty\n"
+            "                                          where no vertex was measured)\n"
+            "                           thickening.svg the 17-segment bull's-eye of thickening\n"
             "                         (the meshes in the input's units, as its points; the report,\n"
             "                         the CSV files and --json in mm and ml)\n"
-            "                         a reused DIR: the frame_NN.ply of an earlier run with more\n"
-            "                         frames are removed (no other file)\n"
+            "                         a reused DIR: the frame_NN.ply and epi_frame_NN.ply of an\n"
+            "                         earlier run with more frames are removed (no other file)\n"
+            "  --epi FILE,FILE,...    the epicardium (the wall's outer border): one file for each\n"
+            "                         frame, in the same order, tracked as the frames are (same\n"
+            "                         options, stacks closed by lids alike); measured in the\n"
+            "                         endocardium's segment frame (its long axis, septum, levels):\n"
+            "                         LV mass (%g g/ml x the volume between the surfaces, between\n"
+            "                         the epicardium's outer slices for stacks), wall thickness along\n"
+            "                         each endocardial vertex's normal, thickening per segment; a\n"
+            "                         segment thickening less than %g %% is dysfunctional\n"
+            "  --myocardium-label N   label maps (with --label, the cavity's): the epicardium is the\n"
+            "                         border of labels N and --label together (ACDC: --label 3\n"
+            "                         --myocardium-label 2), from the same FRAME volumes\n",
+            MYOCARDIUM_DENSITY, 100.0 * sqffd_wall_options_default().dysfunctional_thickening);
+    fprintf(f,
             "  --ed N                 the end-diastolic frame (default: the frame of largest model\n"
             "                         volume; the report says when N is not it); end-systole is the\n"
             "                         frame of least model volume\n"
@@ -1610,8 +1697,9 @@ static void track_details(FILE *f)
 }
 
 /* The files track writes into a->output (frame_NN.ply a frame, motion.ply
-   and the two tables) added to a->out, before the tracking; 0, or 1 after
-   a message. */
+   and the two tables; with the wall, epi_frame_NN.ply a frame and
+   thickening.svg) added to a->out, before the tracking; 0, or 1 after a
+   message. */
 static int track_outputs(track_args *a)
 {
     char name[64];
@@ -1619,9 +1707,12 @@ static int track_outputs(track_args *a)
     for (t = 0; t < a->frame_count; t++) {
         snprintf(name, sizeof name, "frame_%02lu.ply", (unsigned long)t);
         if (output_add_in(&a->out, a->output, name)) return 1;
+        snprintf(name, sizeof name, "epi_frame_%02lu.ply", (unsigned long)t);
+        if (a->wall && output_add_in(&a->out, a->output, name)) return 1;
     }
     return output_add_in(&a->out, a->output, "motion.ply") || output_add_in(&a->out, a->output, "segments.csv") ||
-           output_add_in(&a->out, a->output, "volumes.csv");
+           output_add_in(&a->out, a->output, "volumes.csv") ||
+           (a->wall && output_add_in(&a->out, a->output, "thickening.svg"));
 }
 
 /* What track_run leaves for the reports and the extra outputs. */
@@ -1630,6 +1721,10 @@ typedef struct track_result {
     sqffd_fit_report *reports;
     sqffd_motion_outputs out;
     sqffd_motion_report motion;
+    sqffd_model *epi_models;       /* the wall (a->wall) */
+    sqffd_fit_report *epi_reports;
+    sqffd_wall_outputs wall_out;
+    sqffd_wall_report wall;
     size_t vertices;      /* per frame's mesh */
     size_t largest;       /* the frame of largest volume */
     double seconds;
@@ -1652,6 +1747,55 @@ static double to_mm2(const track_args *a, double s) { return s * (a->mm_per_unit
 static double share_shown(double share) { return floor(1000.0 * share) / 10.0; }
 
 static size_t lid_points(const track_args *a, size_t t) { return a->lids ? a->lids[t] : 0; }
+static size_t epi_lid_points(const track_args *a, size_t t) { return a->epi_lids ? a->epi_lids[t] : 0; }
+
+/* Whether segment k's wall was measured (the library leaves its means 0 where no vertex was). */
+static int wall_measured(const sqffd_wall_report *w, int k) { return w->segments[k].thickness_ed > 0.0; }
+
+/* A myocardial volume in the model's units as a mass in g. */
+static double to_g(const track_args *a, double v) { return MYOCARDIUM_DENSITY * to_ml(a, v); }
+
+/* The wall's part of the report (track_report). */
+static void track_report_wall(const track_args *a, const track_result *res)
+{
+    const sqffd_wall_report *w = &res->wall;
+    size_t t;
+    int k;
+    printf("  epicardium frame  points  lid points   error %%  error mm  iterations  myocardium ml\n");
+    for (t = 0; t < a->frame_count; t++) {
+        const sqffd_fit_report *r = res->epi_reports + t;
+        printf("  %16lu  %6lu  %10lu  %8.4f  %8.4g  %10d  %13.6g%s\n", (unsigned long)t,
+               (unsigned long)(a->epi_counts[t] - epi_lid_points(a, t)), (unsigned long)epi_lid_points(a, t),
+               100.0 * r->error.rms_relative, to_mm(a, r->error.rms), r->coarse_iterations + r->iterations,
+               to_ml(a, res->wall_out.myocardium[t]),
+               t == res->motion.ed_frame ? "  ED" : t == res->motion.es_frame ? "  ES" : "");
+    }
+    printf("  myocardium       the volume between the epicardium and the endocardium%s\n",
+           a->wall_options.stacks ? ", both between each frame's outer epicardial slices +- half the spacing" : "");
+    printf("  LV mass          ED %.4g g, ES %.4g g (%g g/ml x the myocardium)\n", to_g(a, w->myocardium_ed),
+           to_g(a, w->myocardium_es), MYOCARDIUM_DENSITY);
+    if (a->wall_options.stacks)
+        printf("                   one myocardium weighed twice: the LV mass is the ED figure; at ES the heart has\n"
+               "                   shortened into the slab between the outer slices, which then holds more wall\n"
+               "                   (Simpson's method shows the same), so ES reads higher by that, not by growth\n");
+    else
+        printf("                   one myocardium weighed twice: the LV mass is the ED figure; the closed surfaces\n"
+               "                   hold the whole wall in both frames, so ED and ES differ by the models' error\n");
+    printf("  wall thickness   ED %.4g mm, ES %.4g mm: global thickening %.1f %% (along each endocardial vertex's\n"
+           "                   normal to the epicardium; %lu wall vertices measured, %lu not)\n",
+           to_mm(a, w->thickness_ed), to_mm(a, w->thickness_es), 100.0 * w->thickening, (unsigned long)w->measured,
+           (unsigned long)w->unmeasured);
+    printf("  segment                  thickness ED mm  ES mm  thickening %%  dysfunctional (thickening < %g %%)\n",
+           100.0 * a->wall_options.dysfunctional_thickening);
+    for (k = 0; k < SQFFD_SEGMENTS; k++) {
+        const sqffd_segment_wall *g = w->segments + k;
+        if (wall_measured(w, k))
+            printf("  %2d %-22s %15.4g  %5.4g  %12.1f  %s\n", k + 1, segment_names[k], to_mm(a, g->thickness_ed),
+                   to_mm(a, g->thickness_es), 100.0 * g->thickening, g->dysfunctional ? "yes" : "no");
+        else
+            printf("  %2d %-22s %15s  %5s  %12s  -  (no vertex measured)\n", k + 1, segment_names[k], "-", "-", "-");
+    }
+}
 
 static void track_report(const track_args *a, const size_t *counts, const track_result *res)
 {
@@ -1720,40 +1864,63 @@ static void track_report(const track_args *a, const size_t *counts, const track_
     printf("  low-motion area  the share of the segment's ED area moving inward less than %g x the median\n"
            "                   excursion of the wall at its level (cut to 0.1 %%, never rounded up)\n",
            a->motion.low_motion_fraction);
+    if (a->wall) track_report_wall(a, res);
     if (a->json_output) printf("  summary          %s (JSON)\n", a->json_output);
     printf("  time             %.1f ms\n", 1e3 * res->seconds);
 }
 
-/* The outputs of track into a->out (track_outputs): the frames' meshes,
-   motion.ply, the two tables. */
-static int track_write(track_args *a, const sqffd_model *models, const sqffd_fit_report *reports,
-                       const sqffd_motion_outputs *out, size_t nv, const sqffd_motion_report *m)
+/* Writes the frames' meshes (trajectories: frame t's nv vertices at
+   [3 nv t]) as PREFIX_NN.ply into a->output; 0, or 1 after a message. */
+static int write_frame_meshes(track_args *a, const char *prefix, const double *trajectories, const uint32_t *triangles,
+                              size_t nv, size_t nt)
 {
     char path[4096], name[64], err[512];
-    size_t nt = 2 * (nv - 2), t, v;
+    size_t t;
+    FILE *f;
+    for (t = 0; t < a->frame_count; t++) {
+        snprintf(name, sizeof name, "%s_%02lu.ply", prefix, (unsigned long)t);
+        join_path(path, a->output, name); /* (track_outputs checked its length) */
+        if (!(f = output_open(&a->out, path, err, sizeof err)) ||
+            sqffd_io_write_ply_stream(f, path, trajectories + 3 * nv * t, nv, triangles, nt, NULL, 0, a->ascii, err,
+                                      sizeof err)) {
+            fprintf(stderr, "%s\n", err);
+            return 1;
+        }
+    }
+    return 0;
+}
+
+/* The outputs of track into a->out (track_outputs): the frames' meshes,
+   motion.ply, the two tables; with the wall, the epicardium's meshes, its
+   columns and scalars, the thickening bull's-eye. */
+static int track_write(track_args *a, const track_result *res)
+{
+    const sqffd_motion_outputs *out = &res->out;
+    const sqffd_motion_report *m = &res->motion;
+    const sqffd_wall_report *w = &res->wall;
+    char path[4096], err[512], subtitle[160];
+    size_t nv = res->vertices, nt = 2 * (nv - 2), t, v;
     uint32_t *triangles = NULL;
-    double *flags = NULL, *segments = NULL;
-    sqffd_io_scalar scalars[4];
+    double *flags = NULL, *segments = NULL, *x = NULL;
+    sqffd_io_scalar scalars[6];
+    sqffd_export_segments eye;
     FILE *f;
     int k, status = EXIT_BAD_INPUT;
     triangles = (uint32_t *)malloc(3 * nt * sizeof *triangles);
     flags = (double *)malloc(nv * sizeof *flags);
     segments = (double *)malloc(nv * sizeof *segments);
-    if (!triangles || !flags || !segments) {
+    x = a->wall ? (double *)malloc(3 * nv * a->frame_count * sizeof *x) : NULL;
+    if ((a->wall && !x) || !triangles || !flags || !segments) {
         fprintf(stderr, "%s: out of memory\n", a->output);
         goto done;
     }
-    sqffd_model_mesh(models, models->grid[0], models->grid[1], NULL, triangles);
-    for (t = 0; t < a->frame_count; t++) {
-        snprintf(name, sizeof name, "frame_%02lu.ply", (unsigned long)t);
-        join_path(path, a->output, name); /* (track_outputs checked its length) */
-        if (!(f = output_open(&a->out, path, err, sizeof err)) ||
-            sqffd_io_write_ply_stream(f, path, out->trajectories + 3 * nv * t, nv, triangles, nt, NULL, 0, a->ascii, err,
-                                      sizeof err)) {
-            fprintf(stderr, "%s\n", err);
-            goto done;
-        }
-    }
+    /* (both sequences on the track options' grid: one mesh connectivity) */
+    sqffd_model_mesh(res->models, res->models->grid[0], res->models->grid[1], NULL, triangles);
+    for (t = 0; a->wall && t < a->frame_count; t++)
+        sqffd_model_mesh(res->epi_models + t, res->models->grid[0], res->models->grid[1], x + 3 * nv * t, NULL);
+    if (write_frame_meshes(a, "frame", out->trajectories, triangles, nv, nt) ||
+        (a->wall && write_frame_meshes(a, "epi_frame", x, triangles, nv, nt)))
+        goto done;
     for (v = 0; v < nv; v++) {
         flags[v] = out->low_motion[v];
         segments[v] = out->segment[v];
@@ -1762,10 +1929,12 @@ static int track_write(track_args *a, const sqffd_model *models, const sqffd_fit
     scalars[1].name = "excursion"; scalars[1].values = out->excursion;
     scalars[2].name = "low_motion"; scalars[2].values = flags;
     scalars[3].name = "segment"; scalars[3].values = segments;
+    scalars[4].name = "thickness_ed"; scalars[4].values = res->wall_out.thickness_ed;
+    scalars[5].name = "thickening"; scalars[5].values = res->wall_out.thickening;
     join_path(path, a->output, "motion.ply");
     if (!(f = output_open(&a->out, path, err, sizeof err)) ||
-        sqffd_io_write_ply_stream(f, path, out->trajectories + 3 * nv * m->ed_frame, nv, triangles, nt, scalars, 4,
-                                  a->ascii, err, sizeof err)) {
+        sqffd_io_write_ply_stream(f, path, out->trajectories + 3 * nv * m->ed_frame, nv, triangles, nt, scalars,
+                                  a->wall ? 6 : 4, a->ascii, err, sizeof err)) {
         fprintf(stderr, "%s\n", err);
         goto done;
     }
@@ -1774,11 +1943,18 @@ static int track_write(track_args *a, const sqffd_model *models, const sqffd_fit
         fprintf(stderr, "%s\n", err);
         goto done;
     }
-    fprintf(f, "segment,name,area_mm2,mean_displacement_mm,mean_excursion_mm,low_motion_share,hypokinetic\n");
-    for (k = 0; k < SQFFD_SEGMENTS; k++)
-        fprintf(f, "%d,%s,%.9g,%.9g,%.9g,%.9g,%d\n", k + 1, segment_names[k], to_mm2(a, m->segments[k].area),
+    fprintf(f, "segment,name,area_mm2,mean_displacement_mm,mean_excursion_mm,low_motion_share,hypokinetic%s\n",
+            a->wall ? ",thickness_ed_mm,thickness_es_mm,thickening_percent,dysfunctional" : "");
+    for (k = 0; k < SQFFD_SEGMENTS; k++) {
+        const sqffd_segment_wall *g = w->segments + k;
+        fprintf(f, "%d,%s,%.9g,%.9g,%.9g,%.9g,%d", k + 1, segment_names[k], to_mm2(a, m->segments[k].area),
                 to_mm(a, m->segments[k].mean_displacement), to_mm(a, m->segments[k].mean_excursion),
                 m->segments[k].low_motion_share, m->segments[k].hypokinetic);
+        if (a->wall && wall_measured(w, k))
+            fprintf(f, ",%.9g,%.9g,%.9g,%d", to_mm(a, g->thickness_ed), to_mm(a, g->thickness_es), 100.0 * g->thickening,
+                    g->dysfunctional);
+        fputs(a->wall && !wall_measured(w, k) ? ",,,,\n" : "\n", f);
+    }
     join_path(path, a->output, "volumes.csv");
     if (!(f = output_open(&a->out, path, err, sizeof err))) {
         fprintf(stderr, "%s\n", err);
@@ -1787,13 +1963,33 @@ static int track_write(track_args *a, const sqffd_model *models, const sqffd_fit
     fprintf(f, "frame,file,volume_ml,error_relative,iterations,error_mm,stop\n");
     for (t = 0; t < a->frame_count; t++)
         fprintf(f, "%lu,%s,%.9g,%.9g,%d,%.9g,%s\n", (unsigned long)t, a->frames[t], to_ml(a, out->volumes[t]),
-                reports[t].error.rms_relative, reports[t].coarse_iterations + reports[t].iterations,
-                to_mm(a, reports[t].error.rms), stop_reason(reports + t));
+                res->reports[t].error.rms_relative, res->reports[t].coarse_iterations + res->reports[t].iterations,
+                to_mm(a, res->reports[t].error.rms), stop_reason(res->reports + t));
+    if (a->wall) { /* the thickening bull's-eye: unmeasured segments show 0, unflagged */
+        for (k = 0; k < SQFFD_SEGMENTS; k++) {
+            eye.value[k] = wall_measured(w, k) ? 100.0 * w->segments[k].thickening : 0.0;
+            eye.flag[k] = wall_measured(w, k) && w->segments[k].dysfunctional;
+        }
+        eye.measure = "thickening";
+        eye.flag_name = "dysfunctional";
+        snprintf(subtitle, sizeof subtitle, "global thickening %.1f%%   mass ED %.4g g, ES %.4g g   (dysfunctional: "
+                 "thickening < %g%%)", 100.0 * w->thickening, MYOCARDIUM_DENSITY * to_ml(a, w->myocardium_ed),
+                 MYOCARDIUM_DENSITY * to_ml(a, w->myocardium_es), 100.0 * a->wall_options.dysfunctional_thickening);
+        eye.subtitle = subtitle;
+        join_path(path, a->output, "thickening.svg");
+        if (!(f = output_open(&a->out, path, err, sizeof err)) ||
+            sqffd_export_svg_segments_stream(f, path, &eye, "Wall thickening per segment, ED to ES", "%", err,
+                                             sizeof err)) {
+            fprintf(stderr, "%s\n", err);
+            goto done;
+        }
+    }
     status = 0; /* (write errors show in output_commit) */
 done:
     free(triangles);
     free(flags);
     free(segments);
+    free(x);
     return status;
 }
 
@@ -1801,6 +1997,12 @@ static void track_result_free(track_result *r)
 {
     free(r->models);
     free(r->reports);
+    free(r->epi_models);
+    free(r->epi_reports);
+    free(r->wall_out.myocardium);
+    free(r->wall_out.thickness_ed);
+    free(r->wall_out.thickness_es);
+    free(r->wall_out.thickening);
     free(r->out.volumes);
     free(r->out.trajectories);
     free(r->out.displacement);
@@ -1810,8 +2012,54 @@ static void track_result_free(track_result *r)
     memset(r, 0, sizeof *r);
 }
 
-/* Tracks the frames, measures the motion and writes the outputs into
-   a->output; 0, or an exit status after a message. */
+/* The epicardial frames prepared as the endocardial ones (track_stacks):
+   --slice-shifts moves their slices by the endocardium's shifts (one
+   breath-hold a slice holds both contours; a slice of the epicardium
+   alone, beyond the cavity's, stays), then their lids; the myocardium is
+   measured between the epicardium's slices when the cavity's volumes are
+   its slices'. 0, or an exit status after a message. */
+static int track_epi_stacks(track_args *a)
+{
+    input_args in = a->in;
+    char err[512];
+    size_t t;
+    int found = 0;
+    a->epi_stacks = (sqffd_stack *)calloc(a->frame_count, sizeof *a->epi_stacks);
+    a->epi_lids = (size_t *)calloc(a->frame_count, sizeof *a->epi_lids);
+    if (!a->epi_stacks || !a->epi_lids) {
+        fprintf(stderr, "sqffd track: out of memory\n");
+        return EXIT_BAD_INPUT;
+    }
+    for (t = 0; t < a->frame_count && in.slice_shifts; t++)
+        if (sqffd_stack_shifts_apply(&a->shifts, a->epi_points[t], a->epi_counts[t], NULL) != SQFFD_OK) {
+            fprintf(stderr, "%s: --slice-shifts: a shifted point is not finite\n", a->epi_frames[t]);
+            return EXIT_BAD_INPUT;
+        }
+    in.slice_shifts = 0;
+    in.no_lids |= !a->lids; /* lids only where the cavity got them */
+    if (prepare_stacks(&in, a->epi_frames, a->epi_points, a->epi_counts, a->frame_count, a->epi_stacks, &found, NULL,
+                       a->epi_lids, err, sizeof err)) {
+        fprintf(stderr, "%s\n", err);
+        return EXIT_BAD_INPUT;
+    }
+    if (found && a->motion.stacks) {
+        a->wall_options.stacks = a->epi_stacks;
+        return 0;
+    }
+    if (a->motion.stacks) {
+        fprintf(stderr, "sqffd track: the cavity's volumes are its slices' (short-axis stacks), but the epicardial "
+                        "frames are no stacks with the same planes' normal: give --volume closed for closed volumes\n");
+        return EXIT_BAD_INPUT;
+    }
+    if (!found) {
+        free(a->epi_lids);
+        a->epi_lids = NULL;
+    }
+    free(a->epi_stacks);
+    a->epi_stacks = NULL;
+    return 0;
+}
+
 /* The frames as short-axis stacks, before the tracking (prepare_stacks):
    a->stacks when every frame is one, the volumes between their slices
    unless --volume closed; 0, or an exit status after a message (also
@@ -1833,13 +2081,13 @@ static int track_stacks(track_args *a, double **points, size_t *counts)
     }
     if (found) {
         if (a->volume != VOLUME_CLOSED) a->motion.stacks = a->stacks;
-        return 0;
+        return a->wall ? track_epi_stacks(a) : 0;
     }
     free(a->stacks);
     a->stacks = NULL;
     free(a->lids);
     a->lids = NULL;
-    if (a->volume != VOLUME_SLICES) return 0;
+    if (a->volume != VOLUME_SLICES) return a->wall ? track_epi_stacks(a) : 0;
     fprintf(stderr, "sqffd track: --volume slices: the frames are not short-axis stacks (points on 3 or more "
                     "parallel planes, slice by slice) with the same planes' normal\n");
     return EXIT_BAD_INPUT;
@@ -1852,8 +2100,8 @@ static int compare_doubles(const void *x, const void *y)
 }
 
 /* The frames the model could not follow (TRACK_ERROR_RATIO, _FLOOR): 0
-   when none, else 1 after a message naming each. */
-static int unfollowed_frames(const track_args *a, const sqffd_fit_report *reports)
+   when none, else 1 after a message naming each (names: their inputs). */
+static int unfollowed_frames(const track_args *a, const char *const *names, const sqffd_fit_report *reports)
 {
     size_t t, u, n, frames = a->frame_count, failed = 0;
     double *others = (double *)malloc(frames * sizeof *others), median;
@@ -1870,7 +2118,7 @@ static int unfollowed_frames(const track_args *a, const sqffd_fit_report *report
               reports[t].error.rms_relative <= TRACK_ERROR_FLOOR)) {
             fprintf(stderr, "%s (frame %lu): the model did not follow this frame: relative RMS error %.4g %% against "
                     "a median of %.4g %% over the other frames (a frame fails above both %g x that median and %g %%): "
-                    "no volume or EF from this sequence\n", a->frames[t], (unsigned long)t,
+                    "no volume or EF from this sequence\n", names[t], (unsigned long)t,
                     100.0 * reports[t].error.rms_relative, 100.0 * median, TRACK_ERROR_RATIO, 100.0 * TRACK_ERROR_FLOOR);
             failed++;
         }
@@ -1879,10 +2127,83 @@ static int unfollowed_frames(const track_args *a, const sqffd_fit_report *report
     return failed > 0;
 }
 
-static int track_run(track_args *a, double **points, size_t *counts, track_result *res)
+/* Tracks one sequence (names: each frame's input) into models and reports,
+   and checks that the model followed every frame; 0, or 1 after a message. */
+static int track_sequence(track_args *a, const char *const *names, double **points, size_t *counts,
+                          sqffd_model *models, sqffd_fit_report *reports, double start)
 {
     track_progress progress;
-    size_t work_size, done = 0, nv = 0, frames = a->frame_count, t;
+    size_t work_size, done = 0;
+    void *work;
+    sqffd_result r = sqffd_track_workspace_size(counts, a->frame_count, &a->options, &work_size);
+    if (r != SQFFD_OK) {
+        fprintf(stderr, "sqffd track: cannot size the tracking: %s\n", sqffd_result_string(r));
+        return 1;
+    }
+    if (!(work = malloc(work_size))) {
+        fprintf(stderr, "sqffd track: out of memory (the tracking needs %lu bytes)\n", (unsigned long)work_size);
+        return 1;
+    }
+    progress.start = start;
+    progress.frames = a->frame_count;
+    progress.terminal = isatty(fileno(stderr));
+    progress.shown = 0;
+    a->options.progress = a->quiet ? NULL : track_progress_report;
+    a->options.progress_user = &progress;
+    r = sqffd_track((const double *const *)points, counts, a->frame_count, &a->options, models, reports, &done, work,
+                    work_size);
+    free(work);
+    if (progress.shown) fputc('\n', stderr);
+    if (r != SQFFD_OK) {
+        fprintf(stderr, "%s: tracking failed at frame %lu: %s\n", names[done], (unsigned long)done,
+                sqffd_result_string(r));
+        return 1;
+    }
+    return unfollowed_frames(a, names, reports);
+}
+
+/* The heart wall (sqffd_wall) in the endocardium's segment frame: its
+   motion report and segments; NaN written as the one quiet NaN (an ascii
+   PLY's "nan", never "-nan"). 0, or 1 after a message. */
+static int track_wall(track_args *a, track_result *res)
+{
+    size_t size = 0, v, m = res->vertices;
+    void *work = NULL;
+    sqffd_wall_outputs *o = &res->wall_out;
+    sqffd_result r = sqffd_wall_workspace_size(res->models, res->epi_models, a->frame_count, &size);
+    o->myocardium = (double *)malloc(a->frame_count * sizeof(double));
+    o->thickness_ed = (double *)malloc(m * sizeof(double));
+    o->thickness_es = (double *)malloc(m * sizeof(double));
+    o->thickening = (double *)malloc(m * sizeof(double));
+    if (r == SQFFD_OK && (!(work = malloc(size)) || !o->myocardium || !o->thickness_ed || !o->thickness_es ||
+                          !o->thickening)) {
+        fprintf(stderr, "sqffd track: out of memory\n");
+        free(work);
+        return 1;
+    }
+    if (r == SQFFD_OK)
+        r = sqffd_wall(res->models, res->epi_models, a->frame_count, &res->motion, res->out.segment, &a->wall_options, o,
+                       &res->wall, work, size);
+    free(work);
+    if (r != SQFFD_OK) {
+        fprintf(stderr, "sqffd track: the wall analysis failed: %s%s\n", sqffd_result_string(r),
+                r == SQFFD_ERROR_DEGENERATE ? " (no endocardial normal crosses the epicardium: is --epi the wall's "
+                                              "outer border, of the same frames?)" : "");
+        return 1;
+    }
+    for (v = 0; v < m; v++) {
+        if (isnan(o->thickness_ed[v])) o->thickness_ed[v] = NAN;
+        if (isnan(o->thickening[v])) o->thickening[v] = NAN;
+    }
+    return 0;
+}
+
+/* Tracks the frames (and the epicardium's), measures the motion (and the
+   wall) and writes the outputs into a->output; 0, or an exit status after
+   a message. */
+static int track_run(track_args *a, double **points, size_t *counts, track_result *res)
+{
+    size_t work_size, nv = 0, frames = a->frame_count, t;
     void *work = NULL;
     sqffd_result r;
     int status = EXIT_BAD_INPUT;
@@ -1891,34 +2212,19 @@ static int track_run(track_args *a, double **points, size_t *counts, track_resul
     res->models = (sqffd_model *)malloc(frames * sizeof *res->models);
     res->reports = (sqffd_fit_report *)malloc(frames * sizeof *res->reports);
     res->out.volumes = (double *)malloc(frames * sizeof(double));
-    r = sqffd_track_workspace_size(counts, frames, &a->options, &work_size);
-    if (r != SQFFD_OK) {
-        fprintf(stderr, "sqffd track: cannot size the tracking: %s\n", sqffd_result_string(r));
-        goto done;
+    if (a->wall) {
+        res->epi_models = (sqffd_model *)malloc(frames * sizeof *res->epi_models);
+        res->epi_reports = (sqffd_fit_report *)malloc(frames * sizeof *res->epi_reports);
     }
-    work = malloc(work_size);
-    if (!work || !res->models || !res->reports || !res->out.volumes) {
-        fprintf(stderr, "sqffd track: out of memory (the tracking needs %lu bytes)\n", (unsigned long)work_size);
+    if (!res->models || !res->reports || !res->out.volumes || (a->wall && (!res->epi_models || !res->epi_reports))) {
+        fprintf(stderr, "sqffd track: out of memory\n");
         goto done;
     }
     start = seconds_now();
-    progress.start = start;
-    progress.frames = frames;
-    progress.terminal = isatty(fileno(stderr));
-    progress.shown = 0;
-    a->options.progress = a->quiet ? NULL : track_progress_report;
-    a->options.progress_user = &progress;
-    r = sqffd_track((const double *const *)points, counts, frames, &a->options, res->models, res->reports, &done, work,
-                    work_size);
-    if (progress.shown) fputc('\n', stderr);
-    if (r != SQFFD_OK) {
-        fprintf(stderr, "%s: tracking failed at frame %lu: %s\n", a->frames[done], (unsigned long)done,
-                sqffd_result_string(r));
+    if (track_sequence(a, a->frames, points, counts, res->models, res->reports, start) ||
+        (a->wall && track_sequence(a, a->epi_frames, a->epi_points, a->epi_counts, res->epi_models, res->epi_reports,
+                                   start)))
         goto done;
-    }
-    if (unfollowed_frames(a, res->reports)) goto done;
-    free(work);
-    work = NULL;
     r = sqffd_motion_workspace_size(res->models, frames, &work_size);
     if (r != SQFFD_OK) {
         fprintf(stderr, "sqffd track: cannot size the motion analysis: %s\n", sqffd_result_string(r));
@@ -1958,11 +2264,19 @@ static int track_run(track_args *a, double **points, size_t *counts, track_resul
     /* the long axis found: a septum along it would name no sectors (a given --apex was checked before) */
     if ((status = septum_check(a, res->motion.axis, "the long axis found")) != 0) goto done;
     status = EXIT_BAD_INPUT;
-    status = track_write(a, res->models, res->reports, &res->out, nv, &res->motion);
+    if (a->wall && track_wall(a, res)) goto done;
+    status = track_write(a, res);
     res->seconds = seconds_now() - start;
 done:
     free(work);
     return status;
+}
+
+/* Writes key (the text before the value: ", \"name\": ") and the number v (null if not finite). */
+static void json_number_field(FILE *f, const char *key, double v)
+{
+    fputs(key, f);
+    sqffd_export_json_number(f, v);
 }
 
 /* The report as JSON ("format": "sqffd-track", "version": 1): what
@@ -1997,8 +2311,18 @@ static int track_json(track_args *a, const size_t *counts, const track_result *r
         sqffd_export_json_number(f, r->error.rms_relative);
         fputs(", \"error_mm\": ", f);
         sqffd_export_json_number(f, to_mm(a, r->error.rms));
-        fprintf(f, ", \"iterations\": %d, \"stop\": \"%s\"}%s\n", r->coarse_iterations + r->iterations,
-                stop_reason(r), t + 1 < a->frame_count ? "," : "");
+        fprintf(f, ", \"iterations\": %d, \"stop\": \"%s\"", r->coarse_iterations + r->iterations, stop_reason(r));
+        if (a->wall) {
+            const sqffd_fit_report *e = res->epi_reports + t;
+            fputs(", \"epi_file\": ", f);
+            sqffd_export_json_string(f, a->epi_frames[t]);
+            fprintf(f, ", \"epi_points\": %lu, \"epi_lid_points\": %lu", (unsigned long)(a->epi_counts[t] - epi_lid_points(a, t)),
+                    (unsigned long)epi_lid_points(a, t));
+            json_number_field(f, ", \"epi_error_relative\": ", e->error.rms_relative);
+            json_number_field(f, ", \"epi_error_mm\": ", to_mm(a, e->error.rms));
+            json_number_field(f, ", \"myocardium_ml\": ", to_ml(a, res->wall_out.myocardium[t]));
+        }
+        fprintf(f, "}%s\n", t + 1 < a->frame_count ? "," : "");
     }
     fputs("  ],\n  \"edv_ml\": ", f);
     sqffd_export_json_number(f, to_ml(a, m->edv));
@@ -2021,6 +2345,17 @@ static int track_json(track_args *a, const size_t *counts, const track_result *r
     }
     fputs("],\n  \"median_excursion_mm\": ", f);
     sqffd_export_json_number(f, to_mm(a, m->median_excursion));
+    if (a->wall) {
+        const sqffd_wall_report *w = &res->wall;
+        json_number_field(f, ",\n  \"mass_ed_g\": ", to_g(a, w->myocardium_ed));
+        json_number_field(f, ",\n  \"mass_es_g\": ", to_g(a, w->myocardium_es));
+        json_number_field(f, ",\n  \"thickness_ed_mm\": ", to_mm(a, w->thickness_ed));
+        json_number_field(f, ",\n  \"thickness_es_mm\": ", to_mm(a, w->thickness_es));
+        json_number_field(f, ",\n  \"thickening_percent\": ", 100.0 * w->thickening);
+        fprintf(f, ",\n  \"wall_vertices_measured\": %lu,\n  \"wall_vertices_unmeasured\": %lu,\n"
+                   "  \"dysfunctional_thickening_percent\": %.17g", (unsigned long)w->measured,
+                (unsigned long)w->unmeasured, 100.0 * a->wall_options.dysfunctional_thickening);
+    }
     fprintf(f, ",\n  \"hypokinetic_share\": %.17g,\n  \"segments\": [\n", a->motion.hypokinetic_share);
     for (k = 0; k < SQFFD_SEGMENTS; k++) {
         const sqffd_segment_motion *g = m->segments + k;
@@ -2032,34 +2367,111 @@ static int track_json(track_args *a, const size_t *counts, const track_result *r
         sqffd_export_json_number(f, to_mm(a, g->mean_excursion));
         fputs(", \"share\": ", f);
         sqffd_export_json_number(f, g->low_motion_share);
-        fprintf(f, ", \"hypokinetic\": %s}%s\n", g->hypokinetic ? "true" : "false", k + 1 < SQFFD_SEGMENTS ? "," : "");
+        fprintf(f, ", \"hypokinetic\": %s", g->hypokinetic ? "true" : "false");
+        if (a->wall) { /* null where no vertex was measured */
+            const sqffd_segment_wall *s = res->wall.segments + k;
+            int measured = wall_measured(&res->wall, k);
+            json_number_field(f, ", \"thickness_ed_mm\": ", measured ? to_mm(a, s->thickness_ed) : NAN);
+            json_number_field(f, ", \"thickness_es_mm\": ", measured ? to_mm(a, s->thickness_es) : NAN);
+            json_number_field(f, ", \"thickening_percent\": ", measured ? 100.0 * s->thickening : NAN);
+            fprintf(f, ", \"dysfunctional\": %s", measured ? s->dysfunctional ? "true" : "false" : "null");
+        }
+        fprintf(f, "}%s\n", k + 1 < SQFFD_SEGMENTS ? "," : "");
     }
     fputs("  ]\n}\n", f);
     return sqffd_export__flush(f, a->json_output, err, err_size);
 }
 
 /* Every frame holds what a lone fit needs (sqffd_fit_check_data); 0, or 1
-   after a message naming the first frame that does not. */
-static int check_frames(const track_args *a, double *const *points, const size_t *counts)
+   after a message naming the first frame that does not (names: the
+   frames' inputs, what: "frame" or "epicardial frame"). */
+static int check_frames(const track_args *a, const char *const *names, const char *what, double *const *points,
+                        const size_t *counts)
 {
     size_t t;
     for (t = 0; t < a->frame_count; t++) {
         sqffd_result r = sqffd_fit_check_data(points[t], counts[t]);
         if (r == SQFFD_OK) continue;
         if (r == SQFFD_ERROR_TOO_FEW_POINTS)
-            fprintf(stderr, "%s (frame %lu): %lu points: a frame needs at least %d, as a lone fit does\n", a->frames[t],
+            fprintf(stderr, "%s (%s %lu): %lu points: a frame needs at least %d, as a lone fit does\n", names[t], what,
                     (unsigned long)t, (unsigned long)counts[t], SQFFD_SQ_FIT_MIN_POINTS);
         else if (r == SQFFD_ERROR_DEGENERATE)
-            fprintf(stderr, "%s (frame %lu): the points are all in one place, on a line or on a plane: they enclose "
-                    "no volume to fit\n", a->frames[t], (unsigned long)t);
+            fprintf(stderr, "%s (%s %lu): the points are all in one place, on a line or on a plane: they enclose "
+                    "no volume to fit\n", names[t], what, (unsigned long)t);
         else if (r == SQFFD_ERROR_NON_FINITE)
-            fprintf(stderr, "%s (frame %lu): a coordinate is not finite or beyond +-1e100\n", a->frames[t],
+            fprintf(stderr, "%s (%s %lu): a coordinate is not finite or beyond +-1e100\n", names[t], what,
                     (unsigned long)t);
         else
-            fprintf(stderr, "%s (frame %lu): %s\n", a->frames[t], (unsigned long)t, sqffd_result_string(r));
+            fprintf(stderr, "%s (%s %lu): %s\n", names[t], what, (unsigned long)t, sqffd_result_string(r));
         return 1;
     }
     return 0;
+}
+
+/* Every frame of every input, in order (in: how volumes become points),
+   appended to *points, *counts and *names (each frame's input), their
+   number in *frame_count; the units and the dropped points noted in a. 0,
+   or an exit status after a message. */
+static int read_frames(track_args *a, const char *const *inputs, size_t input_count, const input_args *in,
+                       double ***points, size_t **counts, const char ***names, size_t *frame_count)
+{
+    char err[512];
+    size_t i, t;
+    for (i = 0; i < input_count; i++) {
+        double **got = NULL;
+        size_t *got_counts = NULL, got_count = 0, total = *frame_count;
+        input_summary sum;
+        int failed = read_input(inputs[i], in, 0, &got, &got_counts, &got_count, &sum, err, sizeof err);
+        double **grown = failed ? NULL : (double **)realloc(*points, (total + got_count) * sizeof **points);
+        size_t *grown_counts = grown ? (size_t *)realloc(*counts, (total + got_count) * sizeof **counts) : NULL;
+        const char **grown_names = grown_counts ? (const char **)realloc((void *)*names, (total + got_count) * sizeof **names) : NULL;
+        if (grown) *points = grown;
+        if (grown_counts) *counts = grown_counts;
+        if (grown_names) *names = grown_names;
+        if (!grown_names) {
+            if (failed) fprintf(stderr, "%s\n", err);
+            else fprintf(stderr, "sqffd track: out of memory\n");
+            free_frames(got, got_counts, got_count);
+            return EXIT_BAD_INPUT;
+        }
+        for (t = 0; t < got_count; t++) {
+            (*points)[total + t] = got[t];
+            (*counts)[total + t] = got_counts[t];
+            (*names)[total + t] = inputs[i];
+        }
+        *frame_count = total + got_count;
+        free(got);
+        free(got_counts);
+        if (sum.volume && a->unit == UNIT_GIVEN)
+            return usage_error(find_command("track"), "track: --mm-per-unit: %s is a volume (%s), whose coordinates "
+                               "are in mm already", inputs[i], sum.format);
+        if (!sum.volume && a->unit == UNIT_VOLUMES) a->unit = UNIT_ASSUMED;
+        a->dropped_nan += sum.dropped_nan;
+        a->dropped_frames += sum.dropped_nan > 0;
+    }
+    return 0;
+}
+
+/* The epicardial frames (--epi's files, or with --myocardium-label the
+   FRAME label maps' border of both labels), as many as the frames; 0, or
+   an exit status after a message. */
+static int read_epi_frames(track_args *a)
+{
+    input_args in = a->in;
+    int status;
+    if (a->myocardium_set) {
+        in.label2_set = 1;
+        in.label2 = a->myocardium_label;
+    }
+    status = read_frames(a, a->myocardium_set ? a->inputs : a->epi_inputs,
+                         a->myocardium_set ? a->input_count : a->epi_input_count, &in, &a->epi_points, &a->epi_counts,
+                         &a->epi_frames, &a->epi_frame_count);
+    if (status == 0 && a->epi_frame_count != a->frame_count)
+        return usage_error(find_command("track"), "track: --epi gives %lu epicardial frame%s, the FRAME inputs %lu "
+                           "frames: one epicardial frame for each frame, in the same order",
+                           (unsigned long)a->epi_frame_count, a->epi_frame_count == 1 ? "" : "s",
+                           (unsigned long)a->frame_count);
+    return status;
 }
 
 static int cmd_track(int argc, char **argv)
@@ -2067,7 +2479,7 @@ static int cmd_track(int argc, char **argv)
     track_args a;
     track_result res;
     double **points = NULL;
-    size_t *counts = NULL, i, t;
+    size_t *counts = NULL;
     char err[512];
     int help, status;
 
@@ -2078,47 +2490,21 @@ static int cmd_track(int argc, char **argv)
     status = track_parse(argc, argv, &a, &help);
     if (status || help) {
         if (help) print_command_help(stdout, find_command("track"));
-        free((void *)a.inputs);
-        return status;
+        goto done;
     }
     status = EXIT_BAD_INPUT;
-    a.out.inputs = a.inputs;
-    a.out.input_count = a.input_count;
-    if (output_folder(&a.out, a.output, "frame_", ".ply")) goto done;
-    for (i = 0; i < a.input_count; i++) { /* every frame of every input, in order */
-        double **got = NULL;
-        size_t *got_counts = NULL, got_count = 0, total = a.frame_count;
-        input_summary sum;
-        int failed = read_input(a.inputs[i], &a.in, 0, &got, &got_counts, &got_count, &sum, err, sizeof err);
-        double **grown = failed ? NULL : (double **)realloc(points, (total + got_count) * sizeof *points);
-        size_t *grown_counts = grown ? (size_t *)realloc(counts, (total + got_count) * sizeof *counts) : NULL;
-        const char **grown_frames = grown_counts ? (const char **)realloc((void *)a.frames, (total + got_count) * sizeof *a.frames) : NULL;
-        if (grown) points = grown;
-        if (grown_counts) counts = grown_counts;
-        if (grown_frames) a.frames = grown_frames;
-        if (!grown_frames) {
-            if (failed) fprintf(stderr, "%s\n", err);
-            else fprintf(stderr, "sqffd track: out of memory\n");
-            free_frames(got, got_counts, got_count);
-            goto done;
-        }
-        for (t = 0; t < got_count; t++) {
-            points[total + t] = got[t];
-            counts[total + t] = got_counts[t];
-            a.frames[total + t] = a.inputs[i];
-        }
-        a.frame_count = total + got_count;
-        if (sum.volume && a.unit == UNIT_GIVEN) {
-            status = usage_error(find_command("track"), "track: --mm-per-unit: %s is a volume (%s), whose coordinates "
-                                 "are in mm already", a.inputs[i], sum.format);
-            goto done;
-        }
-        if (!sum.volume && a.unit == UNIT_VOLUMES) a.unit = UNIT_ASSUMED;
-        a.dropped_nan += sum.dropped_nan;
-        a.dropped_frames += sum.dropped_nan > 0;
-        free(got);
-        free(got_counts);
+    if (a.epi_input_count) { /* the run's inputs: the frames', then the epicardium's (no output may be one) */
+        const char **all = (const char **)realloc((void *)a.inputs, (a.input_count + a.epi_input_count) * sizeof *all);
+        if (!all) goto done;
+        a.inputs = all;
+        memcpy((void *)(a.inputs + a.input_count), a.epi_inputs, a.epi_input_count * sizeof *all);
     }
+    a.out.inputs = a.inputs;
+    a.out.input_count = a.input_count + a.epi_input_count;
+    if (output_folder(&a.out, a.output, "frame_", ".ply") || output_folder(&a.out, a.output, "epi_frame_", ".ply") ||
+        (status = read_frames(&a, a.inputs, a.input_count, &a.in, &points, &counts, &a.frames, &a.frame_count)) != 0)
+        goto done;
+    status = EXIT_BAD_INPUT;
     if (a.frame_count < 2) {
         status = usage_error(find_command("track"), "track: %lu frame: at least two are needed (several point files or "
                              "volumes, or one 4-D volume)", (unsigned long)a.frame_count);
@@ -2129,23 +2515,37 @@ static int cmd_track(int argc, char **argv)
                              (unsigned long)a.motion.ed_frame, (unsigned long)a.frame_count);
         goto done;
     }
+    if (a.wall && (status = read_epi_frames(&a)) != 0) goto done;
+    status = EXIT_BAD_INPUT;
     if (track_outputs(&a) || (a.json_output && output_add(&a.out, a.json_output))) goto done;
-    if (check_frames(&a, points, counts) || (status = track_stacks(&a, points, counts)) != 0) goto done;
+    if (check_frames(&a, a.frames, "frame", points, counts) ||
+        (a.wall && check_frames(&a, a.epi_frames, "epicardial frame", a.epi_points, a.epi_counts)) ||
+        (status = track_stacks(&a, points, counts)) != 0)
+        goto done;
     status = track_run(&a, points, counts, &res);
     if (status == 0 && a.json_output && track_json(&a, counts, &res, err, sizeof err)) {
         fprintf(stderr, "%s\n", err);
         status = EXIT_BAD_INPUT;
     }
     if (status == 0 && output_commit(&a.out)) status = EXIT_BAD_INPUT;
-    if (status == 0) output_prune(a.output, "frame_", ".ply", a.frame_count);
+    if (status == 0) {
+        output_prune(a.output, "frame_", ".ply", a.frame_count);
+        output_prune(a.output, "epi_frame_", ".ply", a.wall ? a.frame_count : 0);
+    }
     if (status == 0 && !a.quiet) track_report(&a, counts, &res);
 done:
     output_abort(&a.out);
     free_frames(points, counts, a.frame_count);
+    free_frames(a.epi_points, a.epi_counts, a.epi_frame_count);
     track_result_free(&res);
     free(a.stacks);
     free(a.lids);
+    free(a.epi_stacks);
+    free(a.epi_lids);
     free((void *)a.frames);
+    free((void *)a.epi_frames);
+    free((void *)a.epi_inputs);
+    free(a.epi_list);
     free((void *)a.inputs);
     return status;
 }
@@ -2167,9 +2567,13 @@ static void phantom_details(FILE *f)
             "Gaussian noise. Written to DIR (made if absent):\n"
             "  points_NN.ply   each frame's points, with a float 'label': 0 wall, 1 the\n"
             "                  hypokinetic zone, 2 the valve plane (the truth)\n"
-            "  truth.csv       per frame: phase and true volume\n"
-            "The report gives the true EDV, ESV and ejection fraction and the 'sqffd track'\n"
-            "command to run (its septum is -x).\n"
+            "  truth.csv       per frame: phase and true volume (with --epi: and myocardium)\n"
+            "  epi_points_NN.ply  with --epi: each frame's epicardial points (the wall's outer\n"
+            "                  border, %g mm thick at ED, thickening %g %% where the wall moves\n"
+            "                  normally, a fifth of that on the zone's plateau), labelled alike\n"
+            "The report gives the true EDV, ESV and ejection fraction (with --epi: the true LV\n"
+            "mass at ED and ES, %g g/ml x the myocardium) and the 'sqffd track' command to run\n"
+            "(its septum is -x).\n"
             "\n"
             "  -o, --output DIR       output folder (required)\n"
             "  --frames N             frames over the cycle, %s (default 16)\n"
@@ -2181,9 +2585,11 @@ static void phantom_details(FILE *f)
             "                         theta in radians), angular radius, motion factor 0..1\n"
             "                         (default %g,%g,%g,%g; factor 1: none)\n"
             "  --seed N               random seed, %s (default 1)\n"
+            "  --epi                  also write the epicardium's frames\n"
             "  --quiet                print nothing on success\n"
-            "A reused DIR: the points_NN.ply of an earlier run with more frames are removed\n"
-            "(no other file).\n",
+            "A reused DIR: the points_NN.ply and epi_points_NN.ply of an earlier run with more\n"
+            "frames are removed (no other file).\n",
+            p.wall_thickness, 100.0 * p.wall_thickening, MYOCARDIUM_DENSITY,
             range_text("phantom", "--frames", r[0]), range_text("phantom", "--points", r[1]),
             range_text("phantom", "--noise", r[2]), p.low_motion[0], p.low_motion[1], p.low_motion[2], p.low_motion_factor,
             range_text("phantom", "--seed", r[3]));
@@ -2192,17 +2598,17 @@ static void phantom_details(FILE *f)
 static int cmd_phantom(int argc, char **argv)
 {
     const cli_command *c = find_command("phantom");
-    phantom_lv p = phantom_lv_default();
+    phantom_lv p = phantom_lv_default(), outer;
     arg_scan s;
     const char *arg, *v, *output = NULL;
-    long frames = 16, count = 6000, seed = 1, k, i;
-    double noise = 0.01, zone[4], *points = NULL, *labels = NULL, n = 0.0;
+    long frames = 16, count = 6000, seed = 1, k, i, es = 0;
+    double noise = 0.01, zone[4], *points = NULL, *labels = NULL, n = 0.0, least = 0.0;
     unsigned char *label = NULL;
     char path[4096], name[64], err[512];
     sqffd_io_scalar scalar;
     output_set out;
     FILE *f;
-    int kind, quiet = 0, status;
+    int kind, quiet = 0, epi = 0, status, surface;
     memset(&s, 0, sizeof s);
     s.argc = argc;
     s.argv = argv;
@@ -2210,9 +2616,10 @@ static int cmd_phantom(int argc, char **argv)
 #define IS(x) (strcmp(s.name, x) == 0)
         if (kind < 0) return usage_error(c, "phantom: unknown option '%s'", arg);
         if (kind == 1) return usage_error(c, "phantom: no positional arguments, '%s' is one", arg);
-        if (IS("--help") || IS("-h") || IS("--quiet")) {
+        if (IS("--help") || IS("-h") || IS("--quiet") || IS("--epi")) {
             if ((status = scan_flag(&s, c)) != 0) return status;
             if (IS("--quiet")) { quiet = 1; continue; }
+            if (IS("--epi")) { epi = 1; continue; }
             print_command_help(stdout, c);
             return 0;
         }
@@ -2240,11 +2647,17 @@ static int cmd_phantom(int argc, char **argv)
     if (!output) return usage_error(c, "phantom: no output folder (-o DIR)");
     status = EXIT_BAD_INPUT;
     memset(&out, 0, sizeof out);
-    if (output_folder(&out, output, "points_", ".ply") || output_add_in(&out, output, "truth.csv")) goto done;
+    if (output_folder(&out, output, "points_", ".ply") || output_folder(&out, output, "epi_points_", ".ply") ||
+        output_add_in(&out, output, "truth.csv"))
+        goto done;
     for (k = 0; k < frames; k++) {
         snprintf(name, sizeof name, "points_%02ld.ply", k);
         if (output_add_in(&out, output, name)) goto done;
+        snprintf(name, sizeof name, "epi_points_%02ld.ply", k);
+        if (epi && output_add_in(&out, output, name)) goto done;
     }
+    outer = p;
+    outer.epicardium = 1;
     points = (double *)malloc(3 * (size_t)count * sizeof *points);
     labels = (double *)malloc((size_t)count * sizeof *labels);
     label = (unsigned char *)malloc((size_t)count);
@@ -2257,25 +2670,35 @@ static int cmd_phantom(int argc, char **argv)
         fprintf(stderr, "%s\n", err);
         goto done;
     }
-    fprintf(f, "frame,phase,volume\n");
-    for (k = 0; k < frames; k++)
-        fprintf(f, "%ld,%.9g,%.9g\n", k, (double)k / (double)frames, phantom_lv_volume(&p, (double)k / (double)frames));
+    fprintf(f, "frame,phase,volume%s\n", epi ? ",myocardium" : "");
     for (k = 0; k < frames; k++) {
-        phantom_lv_frame(&p, (double)k / (double)frames, (size_t)count, noise, (uint64_t)seed * 1000003u + (uint64_t)k,
-                         points, label);
-        for (i = 0; i < count; i++) labels[i] = label[i];
-        scalar.name = "label";
-        scalar.values = labels;
-        snprintf(name, sizeof name, "points_%02ld.ply", k);
-        join_path(path, output, name);
-        if (!(f = output_open(&out, path, err, sizeof err)) ||
-            sqffd_io_write_ply_stream(f, path, points, (size_t)count, NULL, 0, &scalar, 1, 0, err, sizeof err)) {
-            fprintf(stderr, "%s\n", err);
-            goto done;
+        double volume = phantom_lv_volume(&p, (double)k / (double)frames);
+        fprintf(f, "%ld,%.9g,%.9g", k, (double)k / (double)frames, volume);
+        if (epi) fprintf(f, ",%.9g", phantom_lv_myocardium(&p, (double)k / (double)frames));
+        fputc('\n', f);
+        if (k == 0 || volume < least) { /* ES: the least volume */
+            least = volume;
+            es = k;
         }
     }
+    for (k = 0; k < frames; k++)
+        for (surface = 0; surface <= epi; surface++) { /* the cavity's points, then the epicardium's (own seeds) */
+            phantom_lv_frame(surface ? &outer : &p, (double)k / (double)frames, (size_t)count, noise,
+                             (uint64_t)seed * 1000003u + (uint64_t)k + (surface ? 500009u : 0u), points, label);
+            for (i = 0; i < count; i++) labels[i] = label[i];
+            scalar.name = "label";
+            scalar.values = labels;
+            snprintf(name, sizeof name, "%spoints_%02ld.ply", surface ? "epi_" : "", k);
+            join_path(path, output, name);
+            if (!(f = output_open(&out, path, err, sizeof err)) ||
+                sqffd_io_write_ply_stream(f, path, points, (size_t)count, NULL, 0, &scalar, 1, 0, err, sizeof err)) {
+                fprintf(stderr, "%s\n", err);
+                goto done;
+            }
+        }
     if (output_commit(&out)) goto done;
     output_prune(output, "points_", ".ply", (size_t)frames);
+    output_prune(output, "epi_points_", ".ply", epi ? (size_t)frames : 0);
     if (!quiet) {
         double edv = phantom_lv_volume(&p, 0.0), ef = phantom_lv_ejection_fraction(&p, (int)frames);
         printf("sqffd phantom: %ld frames of %ld points (noise %g of the %.4g diagonal) -> %s\n", frames, count, noise,
@@ -2283,8 +2706,14 @@ static int cmd_phantom(int argc, char **argv)
         printf("  true end-diastolic volume  %.6g\n", edv);
         printf("  true end-systolic volume   %.6g\n", edv * (1.0 - ef));
         printf("  true ejection fraction  %.1f %%\n", 100.0 * ef);
-        printf("  track it: sqffd track %s/points_*.ply -o OUT --septum %g,%g,%g\n", output, phantom_septum[0],
-               phantom_septum[1], phantom_septum[2]);
+        if (epi)
+            printf("  true LV mass  ED %.6g g, ES %.6g g (frame %ld; %g g/ml x the myocardium, the closed epicardium\n"
+                   "                less the closed cavity; mm)\n", MYOCARDIUM_DENSITY * phantom_lv_myocardium(&p, 0.0) / 1000.0,
+                   MYOCARDIUM_DENSITY * phantom_lv_myocardium(&p, (double)es / (double)frames) / 1000.0, es,
+                   MYOCARDIUM_DENSITY);
+        printf("  track it: sqffd track %s/points_*.ply%s%s%s -o OUT --septum %g,%g,%g\n", output,
+               epi ? " --epi $(ls " : "", epi ? output : "", epi ? "/epi_points_*.ply | paste -sd, -)" : "",
+               phantom_septum[0], phantom_septum[1], phantom_septum[2]);
     }
     status = 0;
 done:

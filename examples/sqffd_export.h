@@ -15,8 +15,8 @@
    - SVG 1.1 plots (self-contained, no scripts): a line plot with 1-2-5
      ticks on linear or log axes, legend and markers, and three uses of it:
      the error per iteration, the error against alpha, the volume curve.
-   - The AHA 17-segment bull's-eye of a motion report (Cerqueira et al.,
-     Circulation 2002).
+   - The AHA 17-segment bull's-eye (Cerqueira et al., Circulation 2002) of
+     per-segment values and flags: a motion report's, a wall's thickening.
 
    Every writer comes as a pair: sqffd_export_X_stream(FILE *f, const char
    *name, ...) writes to an open stream (name is for messages only) and
@@ -1754,42 +1754,51 @@ static inline int sqffd_export__bullseye_check(const char *name, const sqffd_mot
     return 0;
 }
 
-/* The AHA 17-segment bull's-eye of a motion report (SVG 1.1, 600 x 500):
-   the apex disc (17) in the centre, the apical ring (13 anterior at the
-   top, 14 septal left, 15 inferior at the bottom, 16 lateral right), the
-   mid (7-12) and the basal ring (1-6) outside, six 60-degree sectors each
-   with 1 and 7 (anterior) at the top and then counter-clockwise on screen:
-   anteroseptal, inferoseptal, inferior, inferolateral, anterolateral. Each
-   segment is a <path id="segment-K" class="segment"> filled by its mean
-   displacement (or, use_excursion non-zero, its mean inward excursion)
-   through sqffd_export_colormap, scaled from 0 to the largest over the
-   segments (values below 0, outward motion, take the bottom colour; when
+/* What a bull's-eye shows: per AHA segment (index k: segment k + 1) a
+   value, finite and within +-1e300, and a flag; the values' name, the
+   flags' (one word: the flagged segments' class, their outline's and the
+   key's), and a line under the title (NULL: none). */
+typedef struct sqffd_export_segments {
+    double value[SQFFD_SEGMENTS];
+    int flag[SQFFD_SEGMENTS];
+    const char *measure;   /* "mean displacement" */
+    const char *flag_name; /* "hypokinetic" */
+    const char *subtitle;
+} sqffd_export_segments;
+
+/* The AHA 17-segment bull's-eye (SVG 1.1, 600 x 500) of per-segment
+   values: the apex disc (17) in the centre, the apical ring (13 anterior
+   at the top, 14 septal left, 15 inferior at the bottom, 16 lateral right),
+   the mid (7-12) and the basal ring (1-6) outside, six 60-degree sectors
+   each with 1 and 7 (anterior) at the top and then counter-clockwise on
+   screen: anteroseptal, inferoseptal, inferior, inferolateral,
+   anterolateral. Each segment is a <path id="segment-K" class="segment">
+   filled by its value through sqffd_export_colormap, scaled from 0 to the
+   largest over the segments (values below 0 take the bottom colour; when
    none is above 0 the scale is 0..1), with its number and value as text;
-   hypokinetic segments get class "segment hypokinetic" and a thick red,
-   hatched outline drawn over the rings. A colour bar with ticks, labelled
-   with what is shown and `unit` (may be NULL, e.g. "mm"), a key for the
-   hypokinetic outline, and EF, EDV and ESV under the title (title NULL: a
-   default naming the measure). */
-static inline int sqffd_export_svg_bullseye_stream(FILE *f, const char *name, const sqffd_motion_report *motion,
-                                                   int use_excursion, const char *title, const char *unit, char *err,
-                                                   size_t err_size)
+   flagged segments get class "segment FLAG" and a thick red, hatched
+   outline (class "FLAG-outline") drawn over the rings. A colour bar with
+   ticks, labelled with the measure and `unit` (may be NULL, e.g. "mm"), a
+   key for the outline, the title and the subtitle. */
+static inline int sqffd_export_svg_segments_stream(FILE *f, const char *name, const sqffd_export_segments *s,
+                                                   const char *title, const char *unit, char *err, size_t err_size)
 {
-    const char *measure = use_excursion ? "mean inward excursion" : "mean displacement";
     const double bar_x = 500.0, bar_w = 18.0, bar_top = 92.0, bar_bottom = 432.0, ring = SQFFD_EXPORT__EYE_RING;
-    double value[SQFFD_SEGMENTS], scale = 0.0;
-    const char *default_title = use_excursion ? "Mean inward excursion per segment, ED to ES"
-                                              : "Mean displacement per segment, ED to ES";
+    double scale = 0.0;
     char text[160];
     sqffd_export__axis bar;
     int k, c;
-    if (sqffd_export__bullseye_check(name, motion, use_excursion, err, err_size)) return 1;
+    if (!s || !s->measure || !s->flag_name || !title) return sqffd_io__fail(err, err_size, name, "no segments to show");
     for (k = 0; k < SQFFD_SEGMENTS; k++) {
-        value[k] = use_excursion ? motion->segments[k].mean_excursion : motion->segments[k].mean_displacement;
-        if (value[k] > scale) scale = value[k];
+        double v = s->value[k];
+        if (!isfinite(v) || fabs(v) > 1e300)
+            return sqffd_io__fail(err, err_size, name, "segment %d: the %s is %s", k + 1, s->measure,
+                                  isfinite(v) ? "beyond +-1e300" : "not finite");
+        if (v > scale) scale = v;
     }
     if (!(scale > 1e-300)) scale = 1.0;
 
-    sqffd_export__svg_begin(f, SQFFD_EXPORT__EYE_WIDTH, SQFFD_EXPORT__EYE_HEIGHT, title ? title : default_title);
+    sqffd_export__svg_begin(f, SQFFD_EXPORT__EYE_WIDTH, SQFFD_EXPORT__EYE_HEIGHT, title);
     fputs("<defs>\n<pattern id=\"hatch\" patternUnits=\"userSpaceOnUse\" width=\"8\" height=\"8\">"
           "<path d=\"M -2 2 L 2 -2 M 0 8 L 8 0 M 6 10 L 10 6\" stroke=\"black\" stroke-opacity=\"0.45\" "
           "stroke-width=\"1.5\"/></pattern>\n<linearGradient id=\"colour-scale\" x1=\"0\" y1=\"1\" x2=\"0\" y2=\"0\">\n",
@@ -1801,31 +1810,26 @@ static inline int sqffd_export_svg_bullseye_stream(FILE *f, const char *name, co
     }
     fputs("</linearGradient>\n</defs>\n", f);
     sqffd_export__svg_text(f, 0.5 * SQFFD_EXPORT__EYE_WIDTH, 30.0, "middle",
-                           "class=\"title\" font-size=\"16\" font-weight=\"bold\"", title ? title : default_title);
-    if (isfinite(motion->ejection_fraction)) {
-        snprintf(text, sizeof text, "EF %.1f%%   EDV %.6g   ESV %.6g   (ED frame %llu, ES frame %llu)",
-                 100.0 * motion->ejection_fraction, motion->edv, motion->esv, (unsigned long long)motion->ed_frame,
-                 (unsigned long long)motion->es_frame);
+                           "class=\"title\" font-size=\"16\" font-weight=\"bold\"", title);
+    if (s->subtitle)
         sqffd_export__svg_text(f, 0.5 * SQFFD_EXPORT__EYE_WIDTH, 52.0, "middle", "class=\"subtitle\" fill=\"#444444\"",
-                               text);
-    }
+                               s->subtitle);
 
-    /* the segments, then the hypokinetic outlines over them (not hidden by their neighbours) */
+    /* the segments, then the flagged outlines over them (not hidden by their neighbours) */
     fputs("<g class=\"segments\" stroke=\"white\" stroke-width=\"1.5\">\n", f);
     for (k = 1; k <= SQFFD_SEGMENTS; k++) {
         unsigned char rgb[3];
-        sqffd_export_colormap(value[k - 1] / scale, rgb);
-        fprintf(f, "<path id=\"segment-%d\" class=\"segment%s\" fill=\"#%02x%02x%02x\" d=\"", k,
-                motion->segments[k - 1].hypokinetic ? " hypokinetic" : "", rgb[0], rgb[1], rgb[2]);
+        sqffd_export_colormap(s->value[k - 1] / scale, rgb);
+        fprintf(f, "<path id=\"segment-%d\" class=\"segment%s%s\" fill=\"#%02x%02x%02x\" d=\"", k,
+                s->flag[k - 1] ? " " : "", s->flag[k - 1] ? s->flag_name : "", rgb[0], rgb[1], rgb[2]);
         sqffd_export__segment_path(f, k);
         fputs("\"/>\n", f);
     }
-    fputs("</g>\n<g class=\"hypokinetic-outlines\" fill=\"url(#hatch)\" stroke=\"#e4002b\" stroke-width=\"3.5\" "
-          "stroke-linejoin=\"round\">\n",
-          f);
+    fprintf(f, "</g>\n<g class=\"%s-outlines\" fill=\"url(#hatch)\" stroke=\"#e4002b\" stroke-width=\"3.5\" "
+               "stroke-linejoin=\"round\">\n", s->flag_name);
     for (k = 1; k <= SQFFD_SEGMENTS; k++) {
-        if (!motion->segments[k - 1].hypokinetic) continue;
-        fprintf(f, "<path class=\"hypokinetic-outline\" d=\"");
+        if (!s->flag[k - 1]) continue;
+        fprintf(f, "<path class=\"%s-outline\" d=\"", s->flag_name);
         sqffd_export__segment_path(f, k);
         fputs("\"/>\n", f);
     }
@@ -1836,13 +1840,13 @@ static inline int sqffd_export_svg_bullseye_stream(FILE *f, const char *name, co
         const char *ink;
         sqffd_export__segment_shape(k, &r0, &r1, &centre, &half);
         sqffd_export__polar(k == 17 ? 0.0 : 0.5 * (r0 + r1), centre, &x, &y);
-        sqffd_export_colormap(value[k - 1] / scale, rgb);
+        sqffd_export_colormap(s->value[k - 1] / scale, rgb);
         /* white on the dark end of the map, black on the light end */
         ink = 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2] < 128.0 ? "white" : "black";
         fprintf(f, "<text x=\"%.2f\" y=\"%.2f\" fill=\"%s\" font-size=\"13\" font-weight=\"bold\">%d</text>\n", x,
                 y - 2.0, ink, k);
         fprintf(f, "<text x=\"%.2f\" y=\"%.2f\" fill=\"%s\" font-size=\"11\">%.3g</text>\n", x, y + 12.0, ink,
-                value[k - 1]);
+                s->value[k - 1]);
     }
     fputs("</g>\n<g class=\"orientation\" fill=\"#444444\" font-style=\"italic\">\n", f);
     sqffd_export__svg_text(f, SQFFD_EXPORT__EYE_CX, SQFFD_EXPORT__EYE_CY - 4.0 * ring - 8.0, "middle", "", "anterior");
@@ -1867,23 +1871,55 @@ static inline int sqffd_export_svg_bullseye_stream(FILE *f, const char *name, co
         sqffd_export__tick_label(f, &bar, bar.tick[k]);
         fputs("</text>\n", f);
     }
-    if (unit && *unit) snprintf(text, sizeof text, "%s (%.80s)", measure, unit);
-    else snprintf(text, sizeof text, "%s", measure);
+    if (unit && *unit) snprintf(text, sizeof text, "%.60s (%.80s)", s->measure, unit);
+    else snprintf(text, sizeof text, "%.150s", s->measure);
     fprintf(f, "<text class=\"colour-bar-label\" font-size=\"13\" text-anchor=\"middle\" "
                "transform=\"translate(%.2f %.2f) rotate(-90)\">",
             bar_x - 10.0, 0.5 * (bar_top + bar_bottom));
     sqffd_export__xml(f, text);
     fputs("</text>\n</g>\n", f);
 
-    /* the key to the hypokinetic outline */
+    /* the key to the outline */
     c = 0;
-    for (k = 0; k < SQFFD_SEGMENTS; k++) c += motion->segments[k].hypokinetic != 0;
+    for (k = 0; k < SQFFD_SEGMENTS; k++) c += s->flag[k] != 0;
     fprintf(f, "<g class=\"key\">\n<rect x=\"20\" y=\"474\" width=\"22\" height=\"14\" fill=\"url(#hatch)\" "
                "stroke=\"#e4002b\" stroke-width=\"3\"/>\n");
-    snprintf(text, sizeof text, "hypokinetic (%d of 17 segments)", c);
+    snprintf(text, sizeof text, "%.100s (%d of 17 segments)", s->flag_name, c);
     sqffd_export__svg_text(f, 52.0, 486.0, "start", "", text);
     fputs("</g>\n</svg>\n", f);
     return sqffd_export__flush(f, name, err, err_size);
+}
+
+
+/* The bull's-eye of a motion report (sqffd_export_svg_segments_stream):
+   each segment's mean displacement (or, use_excursion non-zero, its mean
+   inward excursion: outward motion takes the bottom colour), hypokinetic
+   segments flagged, and EF, EDV and ESV under the title (title NULL: a
+   default naming the measure). */
+static inline int sqffd_export_svg_bullseye_stream(FILE *f, const char *name, const sqffd_motion_report *motion,
+                                                   int use_excursion, const char *title, const char *unit, char *err,
+                                                   size_t err_size)
+{
+    sqffd_export_segments s;
+    char subtitle[160];
+    int k;
+    if (sqffd_export__bullseye_check(name, motion, use_excursion, err, err_size)) return 1;
+    for (k = 0; k < SQFFD_SEGMENTS; k++) {
+        s.value[k] = use_excursion ? motion->segments[k].mean_excursion : motion->segments[k].mean_displacement;
+        s.flag[k] = motion->segments[k].hypokinetic;
+    }
+    s.measure = use_excursion ? "mean inward excursion" : "mean displacement";
+    s.flag_name = "hypokinetic";
+    s.subtitle = NULL;
+    if (isfinite(motion->ejection_fraction)) {
+        snprintf(subtitle, sizeof subtitle, "EF %.1f%%   EDV %.6g   ESV %.6g   (ED frame %llu, ES frame %llu)",
+                 100.0 * motion->ejection_fraction, motion->edv, motion->esv, (unsigned long long)motion->ed_frame,
+                 (unsigned long long)motion->es_frame);
+        s.subtitle = subtitle;
+    }
+    if (!title)
+        title = use_excursion ? "Mean inward excursion per segment, ED to ES" : "Mean displacement per segment, ED to ES";
+    return sqffd_export_svg_segments_stream(f, name, &s, title, unit, err, err_size);
 }
 
 /* sqffd_export_svg_bullseye_stream into a new file at `path`. */

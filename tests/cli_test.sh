@@ -45,6 +45,12 @@ check_ply() {
     fi
 }
 
+# ply_rows FILE: an ascii PLY's float vertex property names on one line, then its vertex rows
+ply_rows() {
+    LC_ALL=C awk '/^property float / { printf "%s%s", np++ ? " " : "", $3 } /^element vertex / { nv = $3 }
+        /^end_header/ { print ""; body = 1; next } body && row < nv { row++; print }' "$1"
+}
+
 if [ ! -x "$SQFFD" ]; then echo "cli_test: no executable $SQFFD (run make first)"; exit 1; fi
 
 # usage and help
@@ -174,12 +180,9 @@ check_ply "$TMP/tr/motion.ply"
 [ "$(wc -l <"$TMP/tr/volumes.csv")" -eq 9 ] && ok || bad "volumes.csv does not hold 8 frames"
 [ "$(wc -l <"$TMP/tr/segments.csv")" -eq 18 ] && ok || bad "segments.csv does not hold 17 segments"
 # motion.ply: its properties, flags 0/1, segments 0..17 with each of 1..17 present, displacements >= 0
-LC_ALL=C awk '
-    /^property float / { prop[np++] = $3 }
-    /^element vertex / { nv = $3 }
-    /^end_header/ { body = 1; next }
-    body && row < nv {
-        row++
+ply_rows "$TMP/tr/motion.ply" | LC_ALL=C awk '
+    NR == 1 { np = NF; for (k = 0; k < np; k++) prop[k] = $(k + 1); next }
+    {
         for (k = 0; k < np; k++) v[prop[k]] = $(k + 1)
         if (v["displacement"] < 0 || (v["low_motion"] != 0 && v["low_motion"] != 1) || v["segment"] < 0 || v["segment"] > 17) bad++
         seen[v["segment"]] = 1
@@ -189,7 +192,7 @@ LC_ALL=C awk '
         if (np != 7 || prop[3] != "displacement" || prop[4] != "excursion" || prop[5] != "low_motion" || prop[6] != "segment") exit 1
         for (s = 1; s <= 17; s++) if (!seen[s]) exit 2
         exit (bad > 0 || low == 0) ? 3 : 0
-    }' "$TMP/tr/motion.ply" && ok || bad "motion.ply: wrong properties or values (awk status $?)"
+    }' && ok || bad "motion.ply: wrong properties or values (awk status $?)"
 
 # ED is the frame of largest volume: ES then ED gives the EF of ED then ES (it gave 0.0 %), the motion from ED
 PH0=$TMP/ph/points_00.ply PH3=$TMP/ph/points_03.ply
@@ -284,6 +287,100 @@ expect 2 "--apex takes a direction" track "$PH0" "$PH3" -o "$TMP/no" --apex 1e99
 expect 2 "from the long axis found" track "$PH0" "$PH3" -o "$TMP/sa" --septum 0,0.1,1
 axis=$(awk '$1 == "\"long_axis\":" { gsub(/[][ ]/, ""); sub(/^"long_axis":/, ""); sub(/,$/, ""); print }' "$TMP/fw.json")
 expect 2 "is 0.0 degrees from the long axis found" track "$PH0" "$PH3" -o "$TMP/sa" --septum "$axis"
+# the heart wall: the phantom's epicardium tracked with its cavity (--epi); the LV mass within 2 % of the truth
+# 'sqffd phantom --epi' prints; the report, segments.csv, motion.ply, thickening.svg and --json agree
+expect 0 "true LV mass  ED" phantom -o "$TMP/wph" --frames 8 --points 3000 --noise 0.01 --epi
+true_mass=$(awk '/true LV mass/ { print $5, $8 }' "$TMP/out")
+[ "$(ls "$TMP"/wph/epi_points_*.ply | wc -l)" -eq 8 ] && [ "$(head -n 1 "$TMP/wph/truth.csv")" = "frame,phase,volume,myocardium" ] &&
+    ok || bad "phantom --epi did not write 8 epicardial point files and the myocardium's truth"
+EPI=$(ls "$TMP"/wph/epi_points_*.ply | paste -sd, -)
+expect 0 "LV mass          ED" track "$TMP"/wph/points_*.ply --epi "$EPI" -o "$TMP/wtr" --septum -1,0,0 --json "$TMP/wtr.json" --ascii
+cp "$TMP/out" "$TMP/wtr.out"
+mass=$(awk '/^  LV mass/ { print $4, $7 }' "$TMP/wtr.out")
+echo "$mass $true_mass" | awk '{ exit !($1 > 0 && $3 > 0 && ($1 / $3 - 1) ^ 2 < 0.02 ^ 2 && ($2 / $4 - 1) ^ 2 < 0.02 ^ 2) }' && ok ||
+    bad "track --epi: LV mass ED, ES $mass g, not within 2 % of the phantom's $true_mass"
+grep -q "global thickening" "$TMP/wtr.out" && grep -q "dysfunctional (thickening < 20 %)" "$TMP/wtr.out" && ok ||
+    bad "track --epi: the report lacks the thickening or the dysfunctional rule"
+[ "$(ls "$TMP"/wtr/epi_frame_*.ply | wc -l)" -eq 8 ] && ok || bad "track --epi did not write 8 epicardial meshes"
+check_ply "$TMP/wtr/epi_frame_04.ply"
+check_ply "$TMP/wtr/motion.ply"
+# motion.ply: thickness_ed > 0 where measured, NaN on the valve plane; thickening NaN where thickness_ed is (and
+# where the ES thickness is not measured)
+ply_rows "$TMP/wtr/motion.ply" | LC_ALL=C awk '
+    NR == 1 { np = NF; for (k = 0; k < np; k++) prop[k] = $(k + 1); next }
+    {
+        for (k = 0; k < np; k++) v[prop[k]] = $(k + 1)
+        t = v["thickness_ed"]; g = v["thickening"]
+        if ((t ~ /nan/ && g !~ /nan/) || (v["segment"] == 0 && t !~ /nan/)) bad++
+        if (t !~ /nan/) { if (t <= 0) bad++; n++ }
+        if (g !~ /nan/) measured++
+    }
+    END { exit (np != 9 || prop[7] != "thickness_ed" || prop[8] != "thickening" || bad || measured < 1000 || n < measured) }' &&
+    ok || bad "motion.ply: no thickness_ed and thickening, or wrong values"
+head -n 1 "$TMP/wtr/segments.csv" | grep -q ',hypokinetic,thickness_ed_mm,thickness_es_mm,thickening_percent,dysfunctional$' && ok ||
+    bad "segments.csv: no wall columns: $(head -n 1 "$TMP/wtr/segments.csv")"
+# per segment: the CSV's thickening and flag as the report's, and the flag is the rule (thickening < 20 %)
+awk -F, 'NR == FNR { if (FNR > 1) { t[$1] = sprintf("%.1f", $10); tn[$1] = $10 + 0; d[$1] = $11 }; next }
+         /thickness ED mm/ { table = 1; next }
+         table && seen < 17 { seen++; k = $1
+             if (t[k] != $(NF - 1) || (d[k] == 1) != ($NF == "yes") || (tn[k] < 20) != (d[k] == 1)) bad++ }
+         END { exit bad || seen != 17 }' "$TMP/wtr/segments.csv" FS=' ' "$TMP/wtr.out" && ok ||
+    bad "track --epi: segments.csv and the report disagree on thickening or the flag"
+[ "$(grep -c 'id="segment-' "$TMP/wtr/thickening.svg")" -eq 17 ] &&
+    [ "$(grep -c 'class="segment dysfunctional"' "$TMP/wtr/thickening.svg")" -eq "$(awk -F, 'NR > 1 && $11 == 1' "$TMP/wtr/segments.csv" | wc -l)" ] &&
+    ok || bad "thickening.svg: not 17 segments, or not the CSV's dysfunctional ones"
+if command -v python3 >/dev/null 2>&1; then
+    python3 - "$TMP/wtr.json" "$TMP/wtr.out" "$TMP/wtr/segments.csv" <<'PY' && ok || bad "track --epi --json: the summary disagrees (see above)"
+import csv, json, re, sys
+j = json.load(open(sys.argv[1]), parse_constant=lambda c: sys.exit("%s is no JSON" % c))
+report = open(sys.argv[2]).read()
+m = re.search(r"LV mass +ED (\S+) g, ES (\S+) g", report)
+assert m and "%.4g" % j["mass_ed_g"] == m.group(1) and "%.4g" % j["mass_es_g"] == m.group(2), (m and m.groups(), j["mass_ed_g"])
+g = re.search(r"global thickening (\S+) %", report)
+assert g and "%.1f" % j["thickening_percent"] == g.group(1), (g and g.group(1), j["thickening_percent"])
+assert abs(j["thickening_percent"] - 100 * (j["thickness_es_mm"] / j["thickness_ed_mm"] - 1)) < 1e-9
+rows = list(csv.DictReader(open(sys.argv[3])))
+for s, r in zip(j["segments"], rows):
+    for key in ("thickness_ed_mm", "thickness_es_mm", "thickening_percent"):
+        assert abs(s[key] - float(r[key])) <= 1e-8 * abs(s[key]), (key, s, r)
+    assert s["dysfunctional"] == (r["dysfunctional"] == "1") == (s["thickening_percent"] < j["dysfunctional_thickening_percent"]), s
+for f in j["frames"]:
+    assert f["epi_file"].endswith("epi_points_%02d.ply" % j["frames"].index(f)) and f["epi_points"] == 3000, f
+    assert f["myocardium_ml"] > 0
+PY
+else
+    grep -q '"mass_ed_g": ' "$TMP/wtr.json" && grep -q '"dysfunctional": ' "$TMP/wtr.json" && ok || bad "track --epi --json: no mass or flags"
+fi
+# without --epi: no wall columns, and the epicardial meshes of the earlier run in the reused folder removed
+expect 0 "" track "$TMP"/wph/points_00.ply "$TMP"/wph/points_04.ply -o "$TMP/wtr" --septum -1,0,0 --quiet
+[ ! -e "$TMP/wtr/epi_frame_00.ply" ] && ! head -n 1 "$TMP/wtr/segments.csv" | grep -q thickness && ok ||
+    bad "track without --epi: epicardial meshes left, or wall columns: $(ls "$TMP/wtr")"
+# refused up front: a count mismatch, a bad epicardial frame (named), --myocardium-label without --label or on point files
+EPI7=$(ls "$TMP"/wph/epi_points_*.ply | head -n 7 | paste -sd, -)
+expect 2 "--epi gives 7 epicardial frames, the FRAME inputs 8 frames" track "$TMP"/wph/points_*.ply --epi "$EPI7" -o "$TMP/wno"
+expect 2 "--epi takes FILE,FILE,..." track "$PH0" "$PH3" --epi "$TMP/wph/epi_points_00.ply," -o "$TMP/wno"
+expect 1 "$TMP/two.xyz (epicardial frame 1): 2 points: a frame needs at least 13" track "$PH0" "$PH3" --epi "$TMP/wph/epi_points_00.ply,$TMP/two.xyz" -o "$TMP/wno"
+expect 1 "$TMP/flat.xyz (epicardial frame 0): the points are all in one place" track "$PH0" "$PH3" --epi "$TMP/flat.xyz,$TMP/wph/epi_points_04.ply" -o "$TMP/wno"
+expect 1 "$TMP/missing.xyz: cannot open" track "$PH0" "$PH3" --epi "$TMP/wph/epi_points_00.ply,$TMP/missing.xyz" -o "$TMP/wno"
+expect 2 "--myocardium-label needs --label" track "$PH0" "$PH3" --myocardium-label 2 -o "$TMP/wno"
+expect 2 "--epi and --myocardium-label exclude each other" track "$PH0" "$PH3" --label 3 --myocardium-label 2 --epi "$PH0,$PH3" -o "$TMP/wno"
+expect 1 "a point file, and --label applies to volumes only" track "$PH0" "$PH3" --label 3 --myocardium-label 2 -o "$TMP/wno"
+[ -e "$TMP/wno" ] && bad "track --epi: a refused run left an output folder" || ok
+# a label map (ACDC's labels): a ball of cavity (3) in a shell of myocardium (2), a block of right ventricle (1)
+# beside it; ED: radii 10 and 16, ES: 8 and 15: the wall 6 then 7 voxels thick (1 mm), thickening 16.7 %
+for f in 0:10:16 1:8:15; do
+    awk -v ri="$(echo $f | cut -d: -f2)" -v ro="$(echo $f | cut -d: -f3)" 'BEGIN {
+        print "# vtk DataFile Version 3.0\nwall\nASCII\nDATASET STRUCTURED_POINTS\nDIMENSIONS 44 40 40"
+        print "SPACING 1 1 1\nORIGIN 0 0 0\nPOINT_DATA 70400\nSCALARS label unsigned_char\nLOOKUP_TABLE default"
+        for (k = 0; k < 40; k++) for (j = 0; j < 40; j++) for (i = 0; i < 44; i++) {
+            r2 = (i - 19.5) ^ 2 + (j - 19.5) ^ 2 + (k - 19.5) ^ 2
+            print (r2 < ri * ri ? 3 : r2 < ro * ro ? 2 : i >= 37 && j > 10 && j < 30 && k > 10 && k < 30 ? 1 : 0) } }' >"$TMP/wall_${f%%:*}.vtk"
+done
+expect 0 "LV mass          ED" track "$TMP/wall_0.vtk" "$TMP/wall_1.vtk" --label 3 --myocardium-label 2 -o "$TMP/wlab" --apex 0,0,-1 --septum -1,0,0 --json "$TMP/wlab.json"
+awk '/^  wall thickness/ { ed = $4; es = $7 } /^  LV mass/ { m = $4 }
+     END { pi = 3.14159265358979; truth = 1.05 * 4 / 3 * pi * (16 ^ 3 - 10 ^ 3) / 1000
+           exit !((ed - 6) ^ 2 < 0.5 ^ 2 && (es - 7) ^ 2 < 0.5 ^ 2 && (m / truth - 1) ^ 2 < 0.05 ^ 2) }' "$TMP/out" && ok ||
+    bad "track --myocardium-label: wall thickness ED, ES not 6, 7 (+-0.5) or the mass not within 5 % of the shell's: $(grep -E 'wall thickness|LV mass' "$TMP/out")"
 # examples/study_csv.py: three exams (a sphere shrinking to 0.8 and 0.9 of its radius: EF 48.8 and 27.1 %; one the
 # model cannot follow) in a pool of two, one CSV; two shards concatenated hold the same rows
 if command -v python3 >/dev/null 2>&1; then

@@ -309,6 +309,61 @@ static void test_iso_largest_component(void)
     free(small.data);
 }
 
+/* Two labels together (labelled 2): a ball labelled 3 in a shell labelled 2
+   beside a block labelled 1 (ACDC's cavity, myocardium, right ventricle)
+   gives exactly the points of the map with the ball relabelled 2 (the
+   outer border, none between ball and shell), fewer than the shell's own
+   border, more than the ball's; a label2 that is not finite is refused. */
+static void test_iso_label_union(void)
+{
+    enum { N = 24 };
+    static unsigned char map[N * N * N], merged[N * N * N];
+    double spacing[3] = {1, 1, 1.5}, origin[3] = {-3, 2, 1}, affine[16], *pts, *nrm, *ref, *ref_n;
+    size_t dims[3] = {N, N, N}, i, j, k, n_union, n_merged, n_ball, n_shell;
+    sqffd_iso_options o = sqffd_iso_options_default();
+    sphere_volume v;
+    make_affine(0.3, spacing, origin, affine);
+    for (k = 0; k < N; k++)
+        for (j = 0; j < N; j++)
+            for (i = 0; i < N; i++) {
+                double r2 = (i - 11.2) * (i - 11.2) + (j - 11.7) * (j - 11.7) + (k - 11.4) * (k - 11.4);
+                size_t at = i + N * (j + N * k);
+                map[at] = r2 < 25.0 ? 3 : r2 < 64.0 ? 2 : i > 19 && j > 4 && j < 18 && k > 4 && k < 18 ? 1 : 0;
+                merged[at] = map[at] == 3 ? 2 : map[at];
+            }
+    memset(&v, 0, sizeof v);
+    v.v.data = map;
+    v.v.type = SQFFD_VOXEL_U8;
+    memcpy(v.v.dims, dims, sizeof dims);
+    v.v.strides[0] = 1; v.v.strides[1] = N; v.v.strides[2] = N * N;
+    memcpy(v.v.affine, affine, sizeof affine);
+    o.labelled = 2;
+    o.label = 3.0;
+    o.label2 = 2.0;
+    CHECK_RESULT(iso(&v.v, &o, &pts, &nrm, &n_union), SQFFD_OK);
+    v.v.data = merged;
+    o.labelled = 1;
+    o.label = 2.0;
+    CHECK_RESULT(iso(&v.v, &o, &ref, &ref_n, &n_merged), SQFFD_OK);
+    CHECK_MSG(n_union == n_merged && n_union > 0, "%zu points, the merged map's %zu", n_union, n_merged);
+    if (n_union == n_merged) {
+        CHECK(memcmp(pts, ref, 3 * n_union * sizeof *pts) == 0);
+        CHECK(memcmp(nrm, ref_n, 3 * n_union * sizeof *nrm) == 0);
+    }
+    free(pts); free(nrm); free(ref); free(ref_n);
+    v.v.data = map;
+    CHECK_RESULT(iso(&v.v, &o, &pts, &nrm, &n_shell), SQFFD_OK); /* the shell's inner and outer border */
+    free(pts); free(nrm);
+    o.label = 3.0;
+    CHECK_RESULT(iso(&v.v, &o, &pts, &nrm, &n_ball), SQFFD_OK);
+    free(pts); free(nrm);
+    CHECK_MSG(n_ball < n_union && n_union < n_shell, "ball %zu, union %zu, shell %zu", n_ball, n_union, n_shell);
+    o.labelled = 2;
+    o.label2 = NAN;
+    CHECK_RESULT(iso(&v.v, &o, &pts, &nrm, &n_union), SQFFD_ERROR_INVALID_ARGUMENT);
+    free(pts); free(nrm);
+}
+
 /* Otsu: two classes of values (with noise) split between them; the range. */
 static void test_volume_otsu(void)
 {
@@ -414,6 +469,7 @@ void suite_volume(void)
     RUN_TEST(test_iso_counts_scale);
     RUN_TEST(test_iso_views);
     RUN_TEST(test_iso_largest_component);
+    RUN_TEST(test_iso_label_union);
     RUN_TEST(test_volume_otsu);
     RUN_TEST(test_volume_bad_input);
 }

@@ -33,11 +33,12 @@ from typing import List
 import numpy as np
 
 __all__ = [
-    "fit", "track", "motion", "load", "stack_detect", "stack_lids", "stack_shifts", "Model", "Stack", "SliceShifts",
+    "fit", "track", "motion", "wall", "load", "stack_detect", "stack_lids", "stack_shifts", "Model", "Stack", "SliceShifts",
     "SqffdError", "Result", "Stage",
     "SqCost", "SqOptimizer", "Regularization", "Solver",
     "Superquadric", "SuperquadricReport", "DistanceStats", "FitReport", "SegmentMotion", "Motion",
-    "fit_options_default", "track_options_default", "motion_options_default",
+    "SegmentWall", "Wall", "wall",
+    "fit_options_default", "track_options_default", "motion_options_default", "wall_options_default",
 ]
 
 # ---- the library -------------------------------------------------------------------------------
@@ -224,6 +225,26 @@ class _MotionReport(ctypes.Structure):
                 ("segments", _SegmentMotion * _SEGMENTS)]
 
 
+class _WallOptions(ctypes.Structure):
+    _fields_ = [("dysfunctional_thickening", _double), ("stacks", _pointer)]
+
+
+class _WallOutputs(ctypes.Structure):
+    _fields_ = [("myocardium", _pointer), ("thickness_ed", _pointer), ("thickness_es", _pointer),
+                ("thickening", _pointer)]
+
+
+class _SegmentWall(ctypes.Structure):
+    _fields_ = [("thickness_ed", _double), ("thickness_es", _double), ("thickening", _double),
+                ("dysfunctional", _int)]
+
+
+class _WallReport(ctypes.Structure):
+    _fields_ = [("myocardium_ed", _double), ("myocardium_es", _double), ("thickness_ed", _double),
+                ("thickness_es", _double), ("thickening", _double), ("measured", _size), ("unmeasured", _size),
+                ("segments", _SegmentWall * _SEGMENTS)]
+
+
 class _Stack(ctypes.Structure):
     _fields_ = [("axis", _double * 3), ("planes", _size), ("level", _double * _STACK_PLANES), ("spacing", _double)]
 
@@ -241,6 +262,8 @@ _MIRRORS = {
     "sqffd_track_options": _TrackOptions, "sqffd_motion_options": _MotionOptions,
     "sqffd_motion_outputs": _MotionOutputs, "sqffd_segment_motion": _SegmentMotion,
     "sqffd_motion_report": _MotionReport, "sqffd_stack": _Stack, "sqffd_slice_shifts": _SliceShifts,
+    "sqffd_wall_options": _WallOptions, "sqffd_wall_outputs": _WallOutputs, "sqffd_segment_wall": _SegmentWall,
+    "sqffd_wall_report": _WallReport,
 }
 
 
@@ -278,6 +301,10 @@ _declare("sqffd_motion_options_default", _MotionOptions)
 _declare("sqffd_motion_workspace_size", _int, _P(_Model), _size, _P(_size))
 _declare("sqffd_motion", _int, _P(_Model), _size, _P(_MotionOptions), _P(_MotionOutputs), _P(_MotionReport),
          _pointer, _size)
+_declare("sqffd_wall_options_default", _WallOptions)
+_declare("sqffd_wall_workspace_size", _int, _P(_Model), _P(_Model), _size, _P(_size))
+_declare("sqffd_wall", _int, _P(_Model), _P(_Model), _size, _P(_MotionReport), _pointer, _P(_WallOptions),
+         _P(_WallOutputs), _P(_WallReport), _pointer, _size)
 
 
 def _check(result, operation, frame=None):
@@ -315,7 +342,7 @@ def _points(points, what="points"):
 # ---- options: keyword arguments by the C field names ---------------------------------------------
 
 _ENUM_FIELDS = {"cost": SqCost, "optimizer": SqOptimizer, "regularization": Regularization, "solver": Solver}
-_HIDDEN_FIELDS = ("progress_user", "stacks")  # a Python callable carries its own state; motion(stacks=) sets stacks
+_HIDDEN_FIELDS = ("progress_user", "stacks")  # a Python callable carries its own state; motion/wall(stacks=) set stacks
 
 
 class _Progress:
@@ -386,6 +413,7 @@ _OPTION_RANGES = {
     _MotionOptions: {
         "low_motion_fraction": _AT_LEAST_0, "hypokinetic_share": _Range(0.0, 1.0),
         "apex_fraction": _Range(0.0, 1.0, high_open=True)},
+    _WallOptions: {"dysfunctional_thickening": _Range(-1.0, _INF, low_open=True, high_open=True)},
 }
 
 
@@ -495,6 +523,11 @@ def track_options_default():
 def motion_options_default():
     """sqffd_motion_options_default() as a dict: the names and defaults motion() accepts."""
     return _options_dict(_lib.sqffd_motion_options_default())
+
+
+def wall_options_default():
+    """sqffd_wall_options_default() as a dict: the names and defaults wall() accepts."""
+    return _options_dict(_lib.sqffd_wall_options_default())
 
 
 # ---- reports -------------------------------------------------------------------------------------
@@ -929,3 +962,94 @@ def motion(models, stacks=None, **options):
                   report.ed_frame, report.es_frame, report.edv, report.esv, report.ejection_fraction,
                   _array(report.axis), _array(report.apex), report.length, _array(report.anterior),
                   _array(report.septum), report.median_excursion, segments)
+
+
+# ---- the heart wall ------------------------------------------------------------------------------
+
+@dataclasses.dataclass(eq=False)
+class SegmentWall:
+    """sqffd_segment_wall: one AHA segment's wall (thicknesses 0 and not dysfunctional where no
+    vertex was measured)."""
+    thickness_ed: float       # ED-area-weighted mean over its measured vertices
+    thickness_es: float
+    thickening: float         # thickness_es / thickness_ed - 1
+    dysfunctional: bool       # thickening < the options' dysfunctional_thickening
+
+
+@dataclasses.dataclass(eq=False)
+class Wall:
+    """sqffd_wall's outputs and report. Per-vertex arrays follow the endocardium's grid mesh (as
+    Motion's), NaN where not measured (the valve plane, no epicardium along the normal);
+    segments[k] is AHA segment k + 1. Volumes and lengths in the models' units."""
+    myocardium: np.ndarray    # (frames,) V_epi - V_endo
+    thickness_ed: np.ndarray  # (M,) along the ED endocardium's normal to the ED epicardium
+    thickness_es: np.ndarray  # (M,) the same at ES
+    thickening: np.ndarray    # (M,) thickness_es / thickness_ed - 1
+    myocardium_ed: float
+    myocardium_es: float
+    global_thickness_ed: float  # over the whole wall (the report's thickness_ed)
+    global_thickness_es: float
+    global_thickening: float
+    measured: int             # wall vertices
+    unmeasured: int
+    segments: List[SegmentWall]
+
+
+def _motion_report(motion_result):
+    """A Motion's report as the C struct sqffd_wall reads."""
+    report = _MotionReport()
+    for name in ("ed_frame", "es_frame", "edv", "esv", "ejection_fraction", "length", "median_excursion"):
+        setattr(report, name, getattr(motion_result, name))
+    for name in ("axis", "apex", "anterior", "septum"):
+        getattr(report, name)[:] = [float(x) for x in getattr(motion_result, name)]
+    for k, s in enumerate(motion_result.segments):
+        report.segments[k] = _SegmentMotion(s.area, s.mean_displacement, s.mean_excursion, s.low_motion_share,
+                                            int(s.hypokinetic))
+    return report
+
+
+def wall(endo_models, epi_models, motion_result, stacks=None, **options):
+    """The heart wall (sqffd_wall) in the endocardium's segment frame: endo_models, track()'s models
+    of the cavity's border; epi_models, track()'s models of the wall's outer border, the same frames
+    in the same order; motion_result, motion() of endo_models (its ED and ES frames, long axis and
+    segments define the AHA segments of both surfaces). stacks: the epicardium's Stack a frame (the
+    myocardium between its outer slices +- half a spacing, as motion() measures the cavity), or None
+    (closed volumes). options: sqffd_wall_options fields (dysfunctional_thickening, default 0.2).
+    Returns a Wall: the myocardial volume per frame (x 1.05 g/ml for a mass), the wall thickness
+    along each endocardial vertex's normal at ED and ES, thickening per vertex, per segment and
+    over the wall."""
+    endo_models, epi_models, structs = list(endo_models), list(epi_models), []
+    for name, models in (("endo_models", endo_models), ("epi_models", epi_models)):
+        for t, model in enumerate(models):
+            if not isinstance(model, Model):
+                raise TypeError(f"{name}[{t}]: expected an sqffd.Model, got {type(model).__name__}")
+        structs.append((_Model * max(len(models), 1))(*(model._struct for model in models)))
+    count = len(endo_models)
+    if len(epi_models) != count:
+        raise ValueError(f"epi_models: {len(epi_models)} models, endo_models {count}: one a frame each")
+    if not isinstance(motion_result, Motion):
+        raise TypeError("motion_result: expected sqffd.motion()'s result")
+    struct_options = _lib.sqffd_wall_options_default()
+    _set_options(struct_options, options, "", [])
+    if stacks is not None:
+        stack_structs = _stack_array(stacks, count, "frame")  # (alive until the call returns)
+        struct_options.stacks = ctypes.cast(stack_structs, _pointer)
+    work, work_size = _workspace(_lib.sqffd_wall_workspace_size, "wall", structs[0], structs[1], count)
+    segment = np.ascontiguousarray(motion_result.segment, dtype=np.uint8)
+    m = segment.size
+    myocardium, thickness_ed, thickness_es, thickening = np.empty(count), np.empty(m), np.empty(m), np.empty(m)
+    outputs = _WallOutputs(myocardium.ctypes.data, thickness_ed.ctypes.data, thickness_es.ctypes.data,
+                           thickening.ctypes.data)
+    report = _WallReport()
+    vertex_count = _size()
+    _check(_lib.sqffd_model_mesh_size(structs[0][0].grid[0], structs[0][0].grid[1], ctypes.byref(vertex_count), None),
+           "wall")
+    if vertex_count.value != m:  # (sqffd_wall reads a segment a vertex)
+        raise ValueError(f"motion_result: {m} vertices, endo_models' grid mesh {vertex_count.value}: not their motion")
+    _check(_lib.sqffd_wall(structs[0], structs[1], count, _motion_report(motion_result), segment.ctypes.data,
+                           struct_options, outputs, report, work.ctypes.data, work_size), "wall")
+    segments = [SegmentWall(s.thickness_ed, s.thickness_es, s.thickening, bool(s.dysfunctional))
+                for s in report.segments]
+    return Wall(myocardium, thickness_ed, thickness_es, thickening, report.myocardium_ed, report.myocardium_es,
+                report.thickness_ed, report.thickness_es, report.thickening, report.measured, report.unmeasured,
+                segments)

@@ -166,6 +166,32 @@ int main(void)
     FIELD(sqffd_slice_shifts, shift);
     FIELD(sqffd_slice_shifts, tolerance);
 
+    STRUCT(sqffd_wall_options);
+    FIELD(sqffd_wall_options, dysfunctional_thickening);
+    FIELD(sqffd_wall_options, stacks);
+
+    STRUCT(sqffd_wall_outputs);
+    FIELD(sqffd_wall_outputs, myocardium);
+    FIELD(sqffd_wall_outputs, thickness_ed);
+    FIELD(sqffd_wall_outputs, thickness_es);
+    FIELD(sqffd_wall_outputs, thickening);
+
+    STRUCT(sqffd_segment_wall);
+    FIELD(sqffd_segment_wall, thickness_ed);
+    FIELD(sqffd_segment_wall, thickness_es);
+    FIELD(sqffd_segment_wall, thickening);
+    FIELD(sqffd_segment_wall, dysfunctional);
+
+    STRUCT(sqffd_wall_report);
+    FIELD(sqffd_wall_report, myocardium_ed);
+    FIELD(sqffd_wall_report, myocardium_es);
+    FIELD(sqffd_wall_report, thickness_ed);
+    FIELD(sqffd_wall_report, thickness_es);
+    FIELD(sqffd_wall_report, thickening);
+    FIELD(sqffd_wall_report, measured);
+    FIELD(sqffd_wall_report, unmeasured);
+    FIELD(sqffd_wall_report, segments);
+
     /* sizes of the enums the mirrors hold as C int */
     STRUCT(sqffd_result);
     STRUCT(sqffd_sq_cost);

@@ -4,7 +4,9 @@
 
    reference phantom DIR FRAMES POINTS
        the beating phantom (examples/sqffd_phantom.h, 1% noise) at FRAMES
-       phases into DIR/frame_NN.f64 (POINTS x y z doubles, native order)
+       phases into DIR/frame_NN.f64 (POINTS x y z doubles, native order),
+       its epicardium's into DIR/epi_frame_NN.f64 and its true myocardial
+       volume at each phase into DIR/myocardium.f64 (FRAMES doubles)
    reference fit POINTS.f64 OUT [NAME=VALUE ...]
        sqffd_fit with the defaults changed by NAME=VALUE (sqffd_fit_options
        field names: lattice=L,M,N, grid=E,O, sq.robust=1, alpha=1e-4 ...;
@@ -233,27 +235,31 @@ static int with_suffix(char *path, size_t size, const char *prefix, const char *
 
 static int cmd_phantom(int argc, char **argv)
 {
-    phantom_lv p = phantom_lv_default();
+    phantom_lv p = phantom_lv_default(), outer = p;
     int frames, t;
     size_t n;
-    double *points;
+    double *points, myocardium[1024];
+    char path[4096];
     if (argc != 5) return fail("phantom", "usage: reference phantom DIR FRAMES POINTS");
     frames = atoi(argv[3]);
     n = (size_t)strtoul(argv[4], NULL, 10);
-    if (frames < 1 || n < 1) return fail("phantom", "FRAMES and POINTS must be positive");
+    if (frames < 1 || frames > 1024 || n < 1) return fail("phantom", "FRAMES (at most 1024) and POINTS must be positive");
+    outer.epicardium = 1;
     points = (double *)malloc(3 * n * sizeof *points);
     if (!points) return fail("phantom", "out of memory");
-    for (t = 0; t < frames; t++) {
-        char path[4096];
-        phantom_lv_frame(&p, (double)t / frames, n, 0.01, 2026u + (uint64_t)t, points, NULL);
-        snprintf(path, sizeof path, "%s/frame_%02d.f64", argv[2], t);
+    for (t = 0; t < 2 * frames; t++) { /* the cavity's frames, then the epicardium's */
+        phantom_lv_frame(t < frames ? &p : &outer, (double)(t % frames) / frames, n, 0.01, 2026u + (uint64_t)t, points,
+                         NULL);
+        snprintf(path, sizeof path, "%s/%sframe_%02d.f64", argv[2], t < frames ? "" : "epi_", t % frames);
         if (!write_file(path, points, 3 * n * sizeof *points)) {
             free(points);
             return 1;
         }
+        if (t < frames) myocardium[t] = phantom_lv_myocardium(&p, (double)t / frames);
     }
     free(points);
-    return 0;
+    snprintf(path, sizeof path, "%s/myocardium.f64", argv[2]);
+    return write_file(path, myocardium, (size_t)frames * sizeof *myocardium) ? 0 : 1;
 }
 
 static int cmd_fit(int argc, char **argv)

@@ -175,6 +175,55 @@ class SameAsC(unittest.TestCase):
         FINDINGS["ef"] = result.ejection_fraction
 
 
+class HeartWall(unittest.TestCase):
+    """wall() on the phantom's thick wall (reference.c's frames: the cavity's and the epicardium's,
+    4 phases of 3,000 points with 1 % noise), each surface tracked, in the cavity's segment frame."""
+
+    @classmethod
+    def setUpClass(cls):
+        epi_frames = [np.fromfile(Data.path(f"epi_frame_{t:02d}.f64")).reshape(-1, 3) for t in range(4)]
+        cls.endo, cls.epi = sqffd.track(Data.frames), sqffd.track(epi_frames)
+        cls.motion = sqffd.motion(cls.endo, septum_direction=(-1, 0, 0))
+        cls.wall = sqffd.wall(cls.endo, cls.epi, cls.motion)
+        cls.truth = np.fromfile(Data.path("myocardium.f64"))
+
+    def test_mass_and_thickening(self):
+        w, m = self.wall, self.motion
+        self.assertEqual((m.ed_frame, m.es_frame), (0, 2))  # (phase 0.5: ES)
+        self.assertEqual((w.myocardium_ed, w.myocardium_es), (w.myocardium[0], w.myocardium[2]))
+        for t in (0, 2):  # the phantom's truth: the closed epicardium less the closed cavity
+            self.assertAlmostEqual(w.myocardium[t] / self.truth[t], 1.0, delta=0.02, msg=f"frame {t}")
+        valve = m.segment == 0
+        self.assertTrue(np.all(np.isnan(w.thickness_ed[valve])) and np.all(np.isnan(w.thickening[valve])))
+        measured = ~np.isnan(w.thickening)
+        self.assertEqual(int(measured.sum()), w.measured)
+        self.assertEqual(int((~valve).sum()), w.measured + w.unmeasured)
+        self.assertTrue(np.allclose(w.thickening[measured], w.thickness_es[measured] / w.thickness_ed[measured] - 1))
+        # the phantom: 8 mm at ED, 35 % thickening off the hypokinetic zone (in segment 12), 7 % on its plateau
+        self.assertAlmostEqual(w.global_thickness_ed, 8.0, delta=0.3)
+        self.assertAlmostEqual(w.global_thickening, w.global_thickness_es / w.global_thickness_ed - 1, delta=1e-12)
+        for k, s in enumerate(w.segments):
+            self.assertEqual(s.dysfunctional, s.thickening < 0.2, f"segment {k + 1}")
+        self.assertTrue(w.segments[11].dysfunctional, w.segments[11])
+        for k in (7, 8, 9, 13, 14):  # septal and inferior: normal wall, thickening 35 %
+            self.assertAlmostEqual(w.segments[k].thickening, 0.35, delta=0.06, msg=f"segment {k + 1}")
+        FINDINGS["wall"] = (w.myocardium[0] / self.truth[0], w.myocardium[2] / self.truth[2], w.global_thickening)
+
+    def test_rule_and_refusals(self):
+        strict = sqffd.wall(self.endo, self.epi, self.motion, dysfunctional_thickening=0.5)
+        self.assertTrue(all(s.dysfunctional for s in strict.segments if s.thickness_ed > 0))
+        self.assertTrue(np.array_equal(strict.thickening, self.wall.thickening, equal_nan=True))
+        with self.assertRaises(ValueError):
+            sqffd.wall(self.endo, self.epi, self.motion, dysfunctional_thickening=-1.0)
+        with self.assertRaises(ValueError):
+            sqffd.wall(self.endo, self.epi[:3], self.motion)
+        with self.assertRaises(TypeError):
+            sqffd.wall(self.endo, self.epi, None)
+        with self.assertRaises(sqffd.SqffdError) as caught:  # inside out: no epicardium ahead of the normals
+            sqffd.wall(self.epi, self.endo, sqffd.motion(self.epi, septum_direction=(-1, 0, 0)))
+        self.assertEqual(caught.exception.code, sqffd.Result.DEGENERATE)
+
+
 class ModelUse(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
@@ -359,6 +408,12 @@ class BadInput(unittest.TestCase):
                     return True
                 except sqffd.SqffdError:
                     return False
+            if struct_type is sqffd._WallOptions:  # (a wall of one surface measures nothing: DEGENERATE, not refused)
+                try:
+                    sqffd.wall([model], [model], sqffd.motion([model]), **options)
+                    return True
+                except sqffd.SqffdError as error:
+                    return error.code != sqffd.Result.INVALID_ARGUMENT
             track = sqffd._lib.sqffd_track_options_default()
             nested = {sqffd._TrackOptions: {}, sqffd._FitOptions: {"fit": options},
                       sqffd._SqFitOptions: {"fit": {"sq": options}}}[struct_type] or options
@@ -367,7 +422,8 @@ class BadInput(unittest.TestCase):
             return sqffd._lib.sqffd_track_view_workspace_size(ctypes.byref(view), 1, track, ctypes.byref(size)) == 0
 
         defaults = {sqffd._FitOptions: sqffd.fit_options_default(), sqffd._SqFitOptions: sqffd.fit_options_default()["sq"],
-                    sqffd._TrackOptions: sqffd.track_options_default(), sqffd._MotionOptions: sqffd.motion_options_default()}
+                    sqffd._TrackOptions: sqffd.track_options_default(), sqffd._MotionOptions: sqffd.motion_options_default(),
+                    sqffd._WallOptions: sqffd.wall_options_default()}
         checked = 0
         original = sqffd._check_options
         sqffd._check_options = lambda struct, prefix="": None
@@ -552,6 +608,7 @@ if __name__ == "__main__":
     print(f"python wrapper: {result.testsRun} tests passed (python {sys.version.split()[0]}, numpy {np.__version__}): "
           f"layouts match sqffd.h; fit (bunny {100 * FINDINGS['bunny']:.4f} %, phantom), track and motion "
           f"(EF {100 * FINDINGS['ef']:.1f} %) and the stack pipeline (EF {100 * FINDINGS['stack_ef']:.1f} %) "
-          f"byte-identical to C; "
+          f"byte-identical to C; the phantom's wall (myocardium {FINDINGS['wall'][0]:.3f} / {FINDINGS['wall'][1]:.3f} "
+          f"of the truth at ED / ES, thickening {100 * FINDINGS['wall'][2]:.1f} %); "
           f"resident memory {FINDINGS['growth'] / 1024:+.0f} KB over {Memory.FITS:,} fits; "
           f"the {FINDINGS['option_bounds']} option bounds the module checks are the library's")
