@@ -52,9 +52,9 @@ static int cmd_help(int argc, char **argv);
 
 static const cli_command commands[] = {
     {"fit", "fit a superquadric + free-form deformation model to a point file",
-     "sqffd fit INPUT -o OUT.ply [--iso V|auto|--label N] [--sample N] [--slice-shifts] [--lattice N|LxMxN] [--alpha A] [--model-to-data W] "
-     "[--min-jacobian J|none] "
-     "[--iterations K] [--coarse-iterations K] [--robust] [--no-taper] [--vtk] [--json FILE] [--svg FILE] [--quiet]",
+     "sqffd fit INPUT -o OUT.ply [--iso V|auto|--label N] [--all-components] [--sample N] [--slice-shifts] [--no-lids] "
+     "[--lattice N|LxMxN] [--alpha A] [--model-to-data W] [--min-jacobian J|none] [--iterations K] [--coarse-iterations K] "
+     "[--robust] [--no-taper] [--mesh N] [--vtk] [--ascii] [--points FILE] [--json FILE] [--svg FILE] [--quiet]",
      fit_details,
      cmd_fit},
     {"track", "track a model through a sequence of point files: motion, volumes, ejection fraction, 17 segments",
@@ -64,7 +64,7 @@ static const cli_command commands[] = {
      track_details,
      cmd_track},
     {"phantom", "write a synthetic beating left ventricle as point files that 'sqffd track' reads",
-     "sqffd phantom -o DIR [--frames N] [--points N] [--noise S] [--low-motion U,THETA,RADIUS,FACTOR] [--seed N] [--epi]",
+     "sqffd phantom -o DIR [--frames N] [--points N] [--noise S] [--low-motion U,THETA,RADIUS,FACTOR] [--seed N] [--epi] [--quiet]",
      phantom_details,
      cmd_phantom},
     {"info", "what a file holds: a volume's dims, spacing, type, value range and affine; a point file's format, count and box",

@@ -26,6 +26,21 @@ expect() {
     fi
 }
 
+# every option a command's help describes is in its usage line (the README's synopsis is that line;
+# track's names fit's options as a group)
+fit_usage=$("$SQFFD" fit --help 2>&1 | head -n 1)
+for cmd in fit track phantom; do
+    "$SQFFD" $cmd --help >"$TMP/help" 2>&1
+    usage=$(head -n 1 "$TMP/help")
+    for opt in $(tail -n +2 "$TMP/help" | grep -o -- '^ *--[a-z-]*' | tr -d ' ' | sort -u); do
+        case "$usage" in
+        *"$opt"*) ok ;;
+        *"options of fit"*) case "$fit_usage" in *"$opt"*) ok ;; *) bad "$cmd's usage line lacks $opt" ;; esac ;;
+        *) bad "$cmd's usage line lacks $opt" ;;
+        esac
+    done
+done
+
 # check_ply FILE: the header's counts agree with the file's size (binary) or line count (ascii)
 check_ply() {
     LC_ALL=C awk '/^end_header/ { exit } { print }' "$1" >"$TMP/header"
