@@ -24,6 +24,7 @@
 #include <time.h>
 #include <math.h>
 #include <dirent.h>
+#include <signal.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -345,7 +346,65 @@ static int output_same(const output_file *a, const output_file *b)
 
 /* Adds path to the set: the checks above, then its temporary; 0, or 1
    after a message on stderr. */
+/* An interrupted run (SIGINT, SIGTERM, SIGHUP) leaves no temporary behind:
+   the handler removes those of the live output set, then dies of the
+   signal. The set's own functions run with those signals blocked, so the
+   handler never sees it half changed. */
+static output_set *volatile live_outputs;
+static int guard_depth;
+
+static void output_guard(int enter)
+{
+    sigset_t s;
+    sigemptyset(&s);
+    sigaddset(&s, SIGINT);
+    sigaddset(&s, SIGTERM);
+    sigaddset(&s, SIGHUP);
+    if (enter ? guard_depth++ == 0 : --guard_depth == 0) sigprocmask(enter ? SIG_BLOCK : SIG_UNBLOCK, &s, NULL);
+}
+
+static void output_interrupted(int sig)
+{
+    output_set *set = live_outputs;
+    size_t i;
+    if (set) {
+        for (i = 0; i < set->count; i++)
+            if (set->file[i].temp) unlink(set->file[i].temp);
+        if (set->folder) rmdir(set->folder);
+    }
+    signal(sig, SIG_DFL);
+    raise(sig);
+}
+
+static void output_watch(output_set *set)
+{
+    static const int signals[] = {SIGINT, SIGTERM, SIGHUP};
+    struct sigaction sa;
+    size_t i;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = output_interrupted;
+    sigemptyset(&sa.sa_mask);
+    for (i = 0; i < sizeof signals / sizeof signals[0]; i++) {
+        struct sigaction old;
+        if (sigaction(signals[i], NULL, &old) == 0 && old.sa_handler != SIG_IGN) /* (nohup's stays ignored) */
+            sigaction(signals[i], &sa, NULL);
+    }
+    live_outputs = set;
+}
+
+static int output_add_guarded(output_set *set, const char *path);
+
 static int output_add(output_set *set, const char *path)
+{
+    int r;
+    output_guard(1);
+    if (live_outputs != set) output_watch(set);
+    r = output_add_guarded(set, path);
+    output_guard(0);
+    return r;
+}
+
+static int output_add_guarded(output_set *set, const char *path)
 {
     output_file *grown, *o;
     struct stat link;
@@ -458,6 +517,7 @@ static FILE *output_open(output_set *set, const char *path, char *err, size_t er
 static void output_abort(output_set *set)
 {
     size_t i;
+    output_guard(1);
     if (set->open) fclose(set->open);
     set->open = NULL;
     for (i = 0; i < set->count; i++) {
@@ -471,6 +531,8 @@ static void output_abort(output_set *set)
     set->file = NULL;
     set->count = 0;
     set->folder = NULL;
+    if (live_outputs == set) live_outputs = NULL;
+    output_guard(0);
 }
 
 /* Closes the last output written; when all were written whole, renames
@@ -480,7 +542,9 @@ static int output_commit(output_set *set)
 {
     char err[512];
     size_t i;
-    int status = output_close(set, err, sizeof err);
+    int status;
+    output_guard(1);
+    status = output_close(set, err, sizeof err);
     if (status) fprintf(stderr, "%s\n", err);
     for (i = 0; i < set->count && !status; i++) {
         output_file *o = &set->file[i];
@@ -492,6 +556,7 @@ static int output_commit(output_set *set)
     }
     if (!status) set->folder = NULL; /* (kept) */
     output_abort(set);
+    output_guard(0);
     return status;
 }
 
@@ -526,7 +591,10 @@ static int output_folder(output_set *set, const char *dir, const char *prefix, c
             fprintf(stderr, "%s: cannot make the output folder: %s\n", dir, strerror(errno));
             return 1;
         }
+        output_guard(1);
         set->folder = dir;
+        if (live_outputs != set) output_watch(set);
+        output_guard(0);
         return 0;
     }
     if (!S_ISDIR(st.st_mode)) {

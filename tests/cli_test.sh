@@ -607,6 +607,25 @@ expect 1 "$TMP/no/dir: cannot make the output folder" track "$TMP/missing.ply" "
 expect 2 "at least two are needed" track "$DATA" -o "$TMP/newdir"
 [ ! -e "$TMP/newdir" ] && ok || bad "a failed track left the folder it made"
 
+# an interrupted run leaves no temporary (nor the output folder it made) behind, and dies of the signal
+mkdir "$TMP/int"
+# (a background job of a script ignores SIGINT, which sqffd then leaves ignored: SIGTERM here)
+"$SQFFD" fit "$DATA" -o "$TMP/int/o.ply" --json "$TMP/int/o.json" --iterations 10000 --quiet >/dev/null 2>&1 &
+pid=$!
+sleep 0.5
+kill -TERM $pid 2>/dev/null
+wait $pid
+st=$?
+left=$(ls -A "$TMP/int")
+[ -z "$left" ] && ok || bad "an interrupted fit left: $left"
+[ $st -eq 143 ] && ok || bad "an interrupted fit exited $st, not 143 (SIGTERM)"
+"$SQFFD" track "$DATA" "$DATA" -o "$TMP/int/made" --frame-iterations 10000 --iterations 10000 --quiet >/dev/null 2>&1 &
+pid=$!
+sleep 0.5
+kill -TERM $pid 2>/dev/null
+wait $pid
+[ ! -e "$TMP/int/made" ] && ok || bad "an interrupted track left its folder: $(ls -A "$TMP/int/made")"
+
 # ---- the numeric options: the ends of each range work, beyond them a usage error names the option and the range
 expect 2 "--alpha must be in [0, 1e12], not '1e18'" fit "$DATA" -o "$TMP/x.ply" --alpha 1e18
 for v in 1e307 2e12 -0.5 -1e-300; do expect 2 "--alpha must be in [0, 1e12]" fit "$DATA" -o "$TMP/x.ply" --alpha "$v"; done
