@@ -4896,6 +4896,8 @@ SQFFD_DEF sqffd_result sqffd_sq_fit_view(sqffd_points points, const sqffd_sq_fit
     sets.m_polish = m_polish;
     sets.start = start_pts;
     sets.m_start = m_start;
+    if (list->count == 0) return SQFFD_ERROR_DEGENERATE; /* (no start screened: the screen adds the first always) */
+    best = list->sq[0];
     for (k = 0; k < list->count && fit.status == SQFFD_OK; k++) {
         double cost;
         if (k > 0 && (list->cost[0] < SQFFD__SQ_CLEAR_WIN * list->cost[k] || best_cost < SQFFD__SQ_EXACT * (double)m_polish))
@@ -8355,7 +8357,7 @@ static sqffd_result sqffd__fit_sq_error(const sqffd_superquadric *sq, const sqff
         if (!sqffd__finite3(w->x + 3 * v)) return SQFFD_ERROR_NON_FINITE;
     sqffd__fit_search_init(&search, w->x, s->grid, s->rings, w->tree_ws, w->tree_size, &w->bvh);
     res = sqffd__fit_pass(points, &search, diagonal, robust ? w->next : NULL, NULL, &stats);
-    *error = robust ? sqffd__sq_select(w->next, n, n * 3 / 4) : stats.rms;
+    if (res == SQFFD_OK) *error = robust ? sqffd__sq_select(w->next, n, n * 3 / 4) : stats.rms;
     return res;
 }
 
