@@ -9509,7 +9509,7 @@ SQFFD_DEF sqffd_wall_options sqffd_wall_options_default(void)
 
 typedef struct sqffd__wall_work {
     double *ed, *es;         /* M x 3: the endocardium's ED and ES vertices (ed: each frame's first, for its volume) */
-    double *area, *scratch;  /* M: ED vertex areas; another frame's (not used) */
+    double *area;            /* M: vertex areas of the frame last measured (ED's weigh the means) */
     double *normal;          /* M x 3: ED, then ES normals */
     double *thickness[2];    /* M: at ED and ES */
     double *thickening;      /* M */
@@ -9524,7 +9524,6 @@ static void sqffd__wall_layout(sqffd__arena *a, size_t m, size_t e, size_t trian
     w->ed = (double *)sqffd__arena_take(a, m, 3 * sizeof(double));
     w->es = (double *)sqffd__arena_take(a, m, 3 * sizeof(double));
     w->area = (double *)sqffd__arena_take(a, m, sizeof(double));
-    w->scratch = (double *)sqffd__arena_take(a, m, sizeof(double));
     w->normal = (double *)sqffd__arena_take(a, m, 3 * sizeof(double));
     w->thickness[0] = (double *)sqffd__arena_take(a, m, sizeof(double));
     w->thickness[1] = (double *)sqffd__arena_take(a, m, sizeof(double));
@@ -9587,15 +9586,15 @@ static double sqffd__wall_ray(const double *x, const uint32_t *tri, size_t trian
    epicardium model epi) into thickness: NaN off the wall, without a
    crossing, or where the crossing is on the epicardium's valve plane (a
    triangle facing the base, as sqffd_motion's valve rule: the normal leaves
-   through the base, where the wall is cut, not across it); w->normal and
-   w->scratch are overwritten. */
+   through the base, where the wall is cut, not across it); the vertices'
+   areas and normals into w->area and w->normal. */
 static void sqffd__wall_thickness(const sqffd_model *endo, const sqffd_model *epi, const double *x,
                                   const unsigned char *segment, const double axis[3], const sqffd__wall_work *w,
                                   size_t triangles, double *thickness)
 {
     size_t m = sqffd__fit_grid_count(endo->grid), v, hit = 0;
     sqffd__fit_surface(epi, epi->grid, w->epi);
-    sqffd__motion_areas(endo->grid, x, w->scratch, w->normal);
+    sqffd__motion_areas(endo->grid, x, w->area, w->normal);
     for (v = 0; v < m; ++v) {
         double n[3], e1[3], e2[3], face[3], d;
         const uint32_t *t;
@@ -9664,7 +9663,6 @@ SQFFD_DEF sqffd_result sqffd_wall(const sqffd_model *endo, const sqffd_model *ep
     sqffd__wall_thickness(endo, epi + motion->es_frame, w.es, segment, motion->axis, &w, triangles, w.thickness[1]);
     sqffd__fit_surface(endo + motion->ed_frame, endo->grid, w.ed);
     sqffd__wall_thickness(endo, epi + motion->ed_frame, w.ed, segment, motion->axis, &w, triangles, w.thickness[0]);
-    sqffd__motion_areas(endo->grid, w.ed, w.area, w.normal);
     memset(sum, 0, sizeof sum);
     for (v = 0; v < m; ++v) {
         w.thickening[v] = w.thickness[1][v] / w.thickness[0][v] - 1.0; /* (NaN where either is) */
