@@ -6284,9 +6284,35 @@ static void sqffd__fit_order(const sqffd_points *points, uint32_t *order, uint32
 typedef struct sqffd__fit_step1 {
     double *sums;    /* M x 3: summed weighted displacements per model point (NULL: measure only) */
     double *weights; /* M: the summed weights */
+    double *planes;  /* M x 6 (may be NULL): the summed weights times n n^T, n the direction to the closest point */
     double nu2;      /* robust mode's Welsch scale squared (0: plain squares) */
     double energy;   /* out: the sum of rho(d) over the points */
 } sqffd__fit_step1;
+
+/* planes (M x 6) += robust w_k n n^T at the corners of a point's closest
+   triangle (a, b, e; barycentric weights w), n the unit direction of its
+   displacement (dx, dy, dz), or the triangle's normal where that is 0. */
+static void sqffd__fit_planes(double *planes, const size_t tri[3], const double w[3], double robust, double dx,
+                              double dy, double dz, const double *a, const double *b, const double *e)
+{
+    double n[3] = {dx, dy, dz}, len2 = dx * dx + dy * dy + dz * dz, outer[6];
+    int k;
+    if (!(len2 > 0.0)) {
+        double u[3], v[3];
+        sqffd__sub3(b, a, u);
+        sqffd__sub3(e, a, v);
+        sqffd__cross3(u, v, n);
+        len2 = sqffd__dot3(n, n);
+        if (!(len2 > 0.0)) return;
+    }
+    outer[0] = n[0] * n[0] / len2; outer[1] = n[0] * n[1] / len2; outer[2] = n[0] * n[2] / len2;
+    outer[3] = n[1] * n[1] / len2; outer[4] = n[1] * n[2] / len2; outer[5] = n[2] * n[2] / len2;
+    for (k = 0; k < 3; ++k) {
+        double *p = planes + 6 * tri[k], wk = robust * w[k];
+        int c;
+        for (c = 0; c < 6; ++c) p[c] += wk * outer[c];
+    }
+}
 
 /* One pass over the data against the search's mesh: each point's distance
    to the mesh (the error) into the statistics and per_point (may be NULL).
@@ -6334,6 +6360,7 @@ static sqffd_result sqffd__fit_pass(const sqffd_points *points, sqffd__fit_searc
                     s[0] += wk * dx; s[1] += wk * dy; s[2] += wk * dz;
                     step1->weights[tri[j][k]] += wk;
                 }
+                if (step1->planes) sqffd__fit_planes(step1->planes, tri[j], wj, robust, dx, dy, dz, a, b, e);
             }
         }
     }
@@ -6875,7 +6902,7 @@ typedef struct sqffd__fit_system {
 
 /* The fold-free step's state (its section follows the least squares). */
 typedef struct sqffd__fit_fold sqffd__fit_fold;
-static void sqffd__fit_fold_layout(sqffd__arena *a, const int dims[3], sqffd__fit_fold *f);
+static void sqffd__fit_fold_layout(sqffd__arena *a, const int dims[3], size_t m, int newton, sqffd__fit_fold *f);
 
 /* The iteration's scratch: model-sized, plus the optional subsample and data tree. */
 typedef struct sqffd__fit_work {
@@ -6915,9 +6942,7 @@ typedef struct sqffd__fit_work {
     double *v;           /* L x L: SVD solves: V (NULL: Cholesky only) */
     void *svd_ws;
     size_t svd_size;
-    sqffd__fit_fold *fold; /* the fold-free steps' and the report's Jacobian bound (in the workspace: 0.3 KB) */
-    double *normal;      /* L x L: the step's normal matrix A, lower triangle, kept for the fold-free step (sqffd__fit_solve
-                            copies it before factoring; NULL without a floor) */
+    sqffd__fit_fold *fold; /* the fold-free step's state and the report's Jacobian bound */
 } sqffd__fit_work;
 
 /* At most cap of n points (cap 0: all of them). */
@@ -7020,8 +7045,7 @@ static void sqffd__fit_work_layout(sqffd__arena *a, size_t n, const int dims[3],
     if (w->sample_count <= SQFFD__FIT_ORDER_MAX) w->order = (uint32_t *)sqffd__arena_take(a, w->sample_count, sizeof(uint32_t));
     sqffd__fit_bvh_layout(a, grid, &w->bvh);
     w->fold = fold;
-    sqffd__fit_fold_layout(a, dims, fold); /* (NULL while the arena measures: it gives no memory then) */
-    if (o->min_jacobian > -HUGE_VAL) w->normal = (double *)sqffd__arena_take(a, l * l, sizeof(double));
+    sqffd__fit_fold_layout(a, dims, m, o->min_jacobian > -HUGE_VAL, fold); /* (NULL while the arena measures) */
     if (o->model_to_data > 0.0) {
         w->data_count = sqffd__fit_cap(w->sample_count, SQFFD__FIT_DATA_MAX);
         if (w->data_count < w->sample_count) w->data = (double *)sqffd__arena_take(a, w->data_count, 3 * sizeof(double));
@@ -7046,7 +7070,7 @@ static void sqffd__fit_ordered(const sqffd_points *points, sqffd__fit_work *w, s
     search->order = w->order;
 }
 
-/* matrix (L x L, lower triangle) += B^T diag(scale w) B, run by run (w NULL: all 1). */
+/* matrix (L x L, lower triangle) += B^T diag(scale w) B, run by run (w NULL: all 1; w may be negative). */
 static void sqffd__fit_gram(const sqffd__fit_system *s, const double *w, double scale, double *SQFFD__RESTRICT pairs,
                             double (*SQFFD__RESTRICT ab)[SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE],
                             double *SQFFD__RESTRICT matrix)
@@ -7057,15 +7081,17 @@ static void sqffd__fit_gram(const sqffd__fit_system *s, const double *w, double 
         const double *c = s->weights + (size_t)s->run[r] * s->stride + d[0] + d[1];
         memset(pairs, 0, lm * lm * sizeof(double));
         for (v = s->run[r]; v < s->run[r + 1]; v += 4) { /* pairs += W_v (a (x) b)(a (x) b)^T, lower triangle, */
-            for (k = 0; k < 4; ++k) {                                  /* four vertices at a time (a quarter of the stores) */
+            double sign[4];                                            /* four vertices at a time (a quarter of the stores) */
+            for (k = 0; k < 4; ++k) {
                 int inside = v + k < s->run[r + 1];
                 const double *a = s->weights + (inside ? v + k : v) * s->stride, *b = a + d[0];
-                double root = inside ? sqrt(scale * (w ? w[v + k] : 1.0)) : 0.0; /* (past the run: zeros) */
+                double wk = inside ? scale * (w ? w[v + k] : 1.0) : 0.0, root = sqrt(fabs(wk)); /* (past the run: zeros) */
+                sign[k] = wk < 0.0 ? -1.0 : 1.0;
                 for (e = 0; e < (size_t)d[0]; ++e)
                     for (f = 0; f < (size_t)d[1]; ++f) ab[k][e * (size_t)d[1] + f] = root * a[e] * b[f];
             }
             for (e = 0; e < lm; ++e) {
-                const double a0 = ab[0][e], a1 = ab[1][e], a2 = ab[2][e], a3 = ab[3][e];
+                const double a0 = sign[0] * ab[0][e], a1 = sign[1] * ab[1][e], a2 = sign[2] * ab[2][e], a3 = sign[3] * ab[3][e];
                 double *row = pairs + e * lm;
                 for (f = 0; f + 4 <= e + 1; f += 4) /* four columns a round, written out: gcc -O2 packs them into vectors */
                     for (k = 0; k < 4; ++k)
@@ -7217,8 +7243,6 @@ static sqffd_result sqffd__fit_solve(const sqffd__fit_system *s, sqffd__fit_work
     sqffd_result res = SQFFD_ERROR_NOT_POSITIVE_DEFINITE;
     memcpy(w->matrix, s->fixed, l * l * sizeof(double));
     sqffd__fit_gram(s, w->weights, 1.0, w->pairs, w->block, w->matrix);
-    if (w->normal) /* the fold-free step starts from A (sqffd__fit_fold_free) */
-        memcpy(w->normal, w->matrix, l * l * sizeof(double));
     if (w->solver == SQFFD_SOLVER_CHOLESKY) res = sqffd_cholesky_factor(w->matrix, l);
     w->factored = res == SQFFD_OK;
     if (res == SQFFD_OK) {
@@ -7372,139 +7396,341 @@ static sqffd_result sqffd__fit_step(const sqffd__fit_system *s, sqffd__fit_work 
 }
 
 /* ---- the fold-free step ---------------------------------------------------
-   A step must leave the lattice's Jacobian bound (sqffd__ffd_jacobian_min)
-   at or above the run's floor: min_jacobian, or the start's bound where that
-   is lower (a start that folds may not fold more). The free step G(P) - P
-   minimises the quadratic bound of the energy, Q(Delta) = 1/2 Delta^T A
-   Delta - r^T Delta (A the step's normal matrix, one per coordinate). Where
-   it breaks the floor the step minimises instead
-     Q(Delta) + mu/2 Delta^T K Delta   under   c(P) + g_c . Delta >= keep_c,
-   K the lattice's graph Laplacian (springs on the step itself), c the
-   Jacobian coefficients the step breaks, linearised at P with gradients
-   g_c, each keeping SQFFD__FIT_FOLD_KEEP of its slack at P (the cubic's
-   curvature then rarely carries it past the floor; what is left is
-   shortened by halves, and a step no share of which keeps the floor gives
-   way to the next stiffer one). The constraints come in rounds, each adding what
-   the last solution breaks, at most SQFFD__FIT_FOLD_ACTIVE in all; the
-   multipliers lambda >= 0 minimise 1/2 lambda^T H lambda + need^T lambda,
-   H_ij = g_i^T (A + mu K)^-1 g_j (the problem's dual), by Lawson and
-   Hanson's active-set method; a coefficient the linearised step still
-   leaves below the floor gets its constraint raised by that shortfall (a
-   second-order correction) in the next round. mu starts at 0 and grows by
-   tens of the springs' weight while the unconstrained step breaks more
-   coefficients than that (alpha 0: from a millionth of A's mean
-   diagonal): stiffer steps are smoother (neighbouring control
-   points move alike) and break fewer. The added term is nonnegative and
-   zero at Delta = 0, and Delta = 0 meets every constraint, so the step's
-   bound is not above the energy at P and the energy never rises
-   (majorisation-minimisation). A direct step without a factor of A (the
-   SVD's, A singular) starts at the first mu > 0. A lagged
-   (conjugate-gradient) step only approximates G(P): it is shortened by
-   halves and the next step is direct. */
-#define SQFFD__FIT_FOLD_ACTIVE 32
-#define SQFFD__FIT_FOLD_ROUNDS 4
-#define SQFFD__FIT_FOLD_TRIES 12
-#define SQFFD__FIT_FOLD_KEEP 0.25
-#define SQFFD__FIT_FOLD_HALVINGS 12
+   Under a floor (min_jacobian) the model may not fold where it lives: J, the
+   lattice's Jacobian in the box's coordinates (1 for P0), stays at or above
+   the run's floor over THE REGION, the cells of the box's
+   SQFFD__FIT_REGION^3 partition that hold a model point of the grid or
+   whose centre lies inside the superquadric, and their neighbours (a
+   cell's width around them): the superquadric's solid, the model's surface
+   and interior map from it, and a band around it. Outside it (the box's
+   corners) nothing is fitted and nothing is held.
+   The step is Newton's on the energy plus a log barrier,
+     E(P) - mu sum_s log(J(X_s; P) - floor),
+   over samples X_s of the region (the corners of its cells, and the points
+   the certificate adds): the data -> model term by Gauss-Newton on its
+   point-to-plane residuals (a data point's squared distance changes to
+   first order only along the direction to its closest point n: per model
+   point a 3 x 3 weight sum w n n^T, so the step's matrix couples x, y and
+   z), the model -> data term, the springs and the tether exactly, the
+   barrier by its Gauss-Newton matrix sum mu g g^T / (J - floor)^2 (g = dJ /
+   dP). One dense 3L x 3L system. Levenberg-Marquardt damping lambda times
+   the point-to-point matrix keeps steps where the linear model holds:
+   lambda falls after a step that lowered the energy as predicted and rises
+   after one that did not (rejected: the control points go back). A step
+   goes at most SQFFD__FIT_BOUNDARY of the way to the floor at every sample
+   (halved until it does). mu starts at SQFFD__FIT_MU_START of the energy
+   per sample and falls tenfold with each accepted step down to
+   SQFFD__FIT_MU_END of it: the barrier's minimiser is then within that
+   share of the energy of the constrained one (a log barrier's duality
+   gap: samples x mu).
+   CERTIFIED: an accepted model's J is checked on every region cell by its
+   Bernstein coefficients (J lies between them), halved up to
+   SQFFD__FIT_CERT_DEPTH times where they dip below the floor; a cell still
+   below it gives a new sample at its lowest coefficient and the step is
+   taken again from the accepted model. The report's min_jacobian is the
+   certified bound over the region. */
+#define SQFFD__FIT_REGION 8
+#define SQFFD__FIT_REGION_CELLS (SQFFD__FIT_REGION * SQFFD__FIT_REGION * SQFFD__FIT_REGION)
+#define SQFFD__FIT_REGION_NODES ((SQFFD__FIT_REGION + 1) * (SQFFD__FIT_REGION + 1) * (SQFFD__FIT_REGION + 1))
+#define SQFFD__FIT_REGION_LEVELS 3 /* log2 SQFFD__FIT_REGION */
+#define SQFFD__FIT_SAMPLES_ADDED 256 /* samples the certificate may add to a run */
+#define SQFFD__FIT_CERT_DEPTH 4
+#define SQFFD__FIT_CERT_FAILS 16 /* new samples one certificate gives at most */
+#define SQFFD__FIT_BOUNDARY (getenv("BOUNDARY") ? atof(getenv("BOUNDARY")) : 0.9)
+#define SQFFD__FIT_MU_START 1e-1
+#define SQFFD__FIT_MU_END 1e-4
 
 struct sqffd__fit_fold {
-    sqffd__jacobian_work at;   /* at the candidate steps */
-    sqffd__jacobian_work from; /* at P, with the gradients' products */
+    sqffd__jacobian_work at;   /* J's coefficients over the box */
     double floor;              /* the run's */
-    double *r;                 /* 3L, planar: A (G(P) - P) */
-    double *grad;              /* 3L, planar: a constraint's gradient g_c */
-    double *solved;            /* SQFFD__FIT_FOLD_ACTIVE x 3L, planar: y_c = L^-1 g_c, L (A + mu K)'s factor */
-    double *gram;              /* SQFFD__FIT_FOLD_ACTIVE^2 */
-    double *factor, *z, *slope; /* the multipliers' solve: SQFFD__FIT_FOLD_ACTIVE^2, and two of SQFFD__FIT_FOLD_ACTIVE */
-    unsigned char *free_set;   /* SQFFD__FIT_FOLD_ACTIVE: multiplier i is free (> 0) */
-    double *lambda, *need;     /* SQFFD__FIT_FOLD_ACTIVE: multipliers; g_c . free step - (keep_c - c(P)) */
-    uint32_t *active;          /* SQFFD__FIT_FOLD_ACTIVE: the coefficients (w->coef's order) */
-    double *move, *free;       /* 3L, planar: the step, and the unconstrained one at this mu */
-    uint32_t watch[SQFFD__FIT_FOLD_ACTIVE + 1]; /* coefficients the last full count found broken: a check that
-                                                   needs only to know whether more than a few break looks first
-                                                   at these (sqffd__fit_fold_broken) */
-    size_t watching;
+    double mu, lambda;         /* the barrier's weight (energy units), the damping */
+    unsigned char region[SQFFD__FIT_REGION_CELLS]; /* the region's cells, then the coarser levels' (a cell
+                                                      meets the region where one of its children does) */
+    unsigned char coarse[SQFFD__FIT_REGION_CELLS / 7 + 1];
+    double (*sample)[3];       /* stu of the samples */
+    double *value;             /* J - floor at each, for the accepted model */
+    double *trial;             /* and for the trial */
+    size_t samples, capacity;
+    double *tensor;            /* the certificate's coefficients, one tensor a level */
+    double fails[SQFFD__FIT_CERT_FAILS][3];
+    size_t failed;
+    double *hessian;           /* 3L x 3L lower triangle, planar unknowns: the linearised energy at the accepted model */
+    double *factor;            /* 3L x 3L: hessian + barrier + damping, then its Cholesky factor */
+    double *rhs;               /* 3L: minus the energy's gradient there */
+    double *move;              /* 3L: the step */
+    double *grad;              /* 3L: a sample's dJ / dP */
+    double *damping;           /* L x L lower: B^T diag(point-to-point weights) B */
+    double *planes;            /* M x 6: the pass's sums of w n n^T (xx xy xz yy yz zz) */
 };
 
-static void sqffd__fit_fold_layout(sqffd__arena *a, const int dims[3], sqffd__fit_fold *f)
+static void sqffd__fit_fold_layout(sqffd__arena *a, const int dims[3], size_t m, int newton, sqffd__fit_fold *f)
 {
-    size_t l = (size_t)dims[0] * (size_t)dims[1] * (size_t)dims[2], k = SQFFD__FIT_FOLD_ACTIVE;
+    size_t l = (size_t)dims[0] * (size_t)dims[1] * (size_t)dims[2], size = 3 * l;
+    int ej[3];
     sqffd__fit_fold measuring;
     if (!f) f = &measuring;
-    f->floor = -HUGE_VAL; /* (no floor until a run sets its own; nothing watched yet) */
-    f->watching = 0;
     sqffd__ffd_jacobian_layout(a, dims, 1, &f->at);
-    sqffd__ffd_jacobian_layout(a, dims, 3, &f->from);
-    f->r = (double *)sqffd__arena_take(a, 3 * l, sizeof(double));
-    f->grad = (double *)sqffd__arena_take(a, 3 * l, sizeof(double));
-    f->solved = (double *)sqffd__arena_take(a, k * 3 * l, sizeof(double));
-    f->gram = (double *)sqffd__arena_take(a, k * k, sizeof(double));
-    f->factor = (double *)sqffd__arena_take(a, k * k, sizeof(double));
-    f->z = (double *)sqffd__arena_take(a, k, sizeof(double));
-    f->slope = (double *)sqffd__arena_take(a, k, sizeof(double));
-    f->free_set = (unsigned char *)sqffd__arena_take(a, k, 1);
-    f->lambda = (double *)sqffd__arena_take(a, k, sizeof(double));
-    f->need = (double *)sqffd__arena_take(a, k, sizeof(double));
-    f->active = (uint32_t *)sqffd__arena_take(a, k, sizeof(uint32_t));
-    f->move = (double *)sqffd__arena_take(a, 3 * l, sizeof(double));
-    f->free = (double *)sqffd__arena_take(a, 3 * l, sizeof(double));
+    sqffd__jacobian_extent(dims, 3, ej);
+    f->tensor = (double *)sqffd__arena_take(a, (SQFFD__FIT_REGION_LEVELS + SQFFD__FIT_CERT_DEPTH + 1) *
+                                                   sqffd__jacobian_count(ej), sizeof(double));
+    f->capacity = 0;
+    if (!newton) return; /* (the report's bound alone) */
+    f->capacity = SQFFD__FIT_REGION_NODES + SQFFD__FIT_SAMPLES_ADDED;
+    f->sample = (double (*)[3])sqffd__arena_take(a, f->capacity, 3 * sizeof(double));
+    f->value = (double *)sqffd__arena_take(a, f->capacity, sizeof(double));
+    f->trial = (double *)sqffd__arena_take(a, f->capacity, sizeof(double));
+    f->hessian = (double *)sqffd__arena_take(a, size * size, sizeof(double));
+    f->factor = (double *)sqffd__arena_take(a, size * size, sizeof(double));
+    f->rhs = (double *)sqffd__arena_take(a, size, sizeof(double));
+    f->move = (double *)sqffd__arena_take(a, size, sizeof(double));
+    f->grad = (double *)sqffd__arena_take(a, size, sizeof(double));
+    f->damping = (double *)sqffd__arena_take(a, l * l, sizeof(double));
+    f->planes = (double *)sqffd__arena_take(a, m, 6 * sizeof(double));
 }
 
-/* How many of J's coefficients control + tau move (planar) leaves below the
-   floor (in f->at.coef); scratch: out (3L). A caller that needs only to
-   know whether more than `limit` break gets limit + 1 as soon as that many
-   of the watched coefficients (the last full count's broken ones) break,
-   and f->at.coef is then incomplete; else (and with limit SIZE_MAX) the
-   full count. Either way the same answer to "more than limit?": the
-   coefficients are the same numbers, computed alone or all together. */
-static size_t sqffd__fit_fold_broken(const sqffd__fit_system *s, sqffd__fit_fold *f, const double *control,
-                                     const double *move, double tau, const double inverse[9], double *out,
-                                     size_t limit)
+/* The region's cells for the model's superquadric and box (rest: the
+   system's model points of P0), its coarser levels, and the samples at the
+   corners of its cells. */
+static void sqffd__fit_region(const sqffd_model *model, const sqffd__fit_system *s, sqffd__fit_fold *f)
 {
-    size_t l = s->lattice, p, count = 0, n;
-    int c, ej[3];
-    double eps;
-    for (p = 0; p < l; ++p)
-        for (c = 0; c < 3; ++c) out[3 * p + (size_t)c] = control[3 * p + (size_t)c] + tau * move[(size_t)c * l + p];
-    eps = sqffd__ffd_jacobian_derivatives(s->dims, out, inverse, &f->at); /* (sqffd__ffd_jacobian_min's steps) */
-    if (2.0 - (1.0 + eps) * (1.0 + eps) * (1.0 + eps) >= f->floor) return 0;
-    sqffd__ffd_jacobian_products(s->dims, 1, &f->at);
-    if (limit < f->watching) {
-        for (p = 0; p < f->watching; ++p)
-            if (sqffd__ffd_jacobian_coefficient(s->dims, &f->at, f->watch[p]) < f->floor && ++count > limit) return count;
-        count = 0;
-    }
-    if (sqffd__ffd_jacobian_coefficients(s->dims, &f->at) >= f->floor) return 0;
-    sqffd__jacobian_extent(s->dims, 3, ej);
-    n = sqffd__jacobian_count(ej);
-    for (p = 0; p < n; ++p)
-        if (f->at.coef[p] < f->floor) {
-            if (count <= SQFFD__FIT_FOLD_ACTIVE) f->watch[count] = (uint32_t)p;
-            ++count;
+    const int r = SQFFD__FIT_REGION;
+    unsigned char seed[SQFFD__FIT_REGION_CELLS];
+    size_t v, offset, at;
+    int i, j, k, di, dj, dk, level, size;
+    size_t rows = (size_t)s->grid[0], cols = (size_t)s->grid[1];
+    memset(seed, 0, sizeof seed);
+    for (v = 0; v < rows * cols; ++v) /* the mesh's edges: to the next point in the row, the column, or the pole */
+        for (k = 0; k < 3; ++k) {
+            size_t other = k == 0 ? v - v % cols + (v + 1) % cols
+                           : k == 1 ? (v + cols < rows * cols ? v + cols : rows * cols + 1)
+                                    : (v < cols ? rows * cols : v);
+            for (i = 0; i < 4; ++i) {
+                double point[3], stu[3];
+                int e, cell[3];
+                for (e = 0; e < 3; ++e) point[e] = s->rest[3 * v + (size_t)e] + 0.25 * i * (s->rest[3 * other + (size_t)e] - s->rest[3 * v + (size_t)e]);
+                sqffd__ffd_local(&model->ffd, point, stu);
+                for (e = 0; e < 3; ++e) {
+                    double x = floor(stu[e] * r);
+                    cell[e] = x < 0.0 ? 0 : x > r - 1 ? r - 1 : (int)x;
+                }
+                seed[(cell[0] * r + cell[1]) * r + cell[2]] = 1;
+            }
         }
-    f->watching = count <= SQFFD__FIT_FOLD_ACTIVE ? count : SQFFD__FIT_FOLD_ACTIVE + 1;
-    return count;
+    for (i = 0; i < r; ++i)
+        for (j = 0; j < r; ++j)
+            for (k = 0; k < r; ++k) {
+                double centre[3], value;
+                int e;
+                for (e = 0; e < 3; ++e)
+                    centre[e] = model->ffd.origin[e] + ((i + 0.5) * model->ffd.edges[e] + (j + 0.5) * model->ffd.edges[3 + e] +
+                                                        (k + 0.5) * model->ffd.edges[6 + e]) / r;
+                if (sqffd_sq_inside_outside(&model->sq, centre, &value) == SQFFD_OK && value <= 1.0)
+                    seed[(i * r + j) * r + k] = 1;
+            }
+    memset(f->region, 0, sizeof f->region); /* the seeds and their neighbours */
+    for (i = 0; i < r; ++i)
+        for (j = 0; j < r; ++j)
+            for (k = 0; k < r; ++k)
+                if (seed[(i * r + j) * r + k])
+                    for (di = i > 0 ? -1 : 0; di <= (i < r - 1); ++di)
+                        for (dj = j > 0 ? -1 : 0; dj <= (j < r - 1); ++dj)
+                            for (dk = k > 0 ? -1 : 0; dk <= (k < r - 1); ++dk)
+                                f->region[((i + di) * r + j + dj) * r + k + dk] = 1;
+    /* the coarser levels, finest first: level of size cells an axis at coarse[offset..] */
+    memset(f->coarse, 0, sizeof f->coarse);
+    for (offset = 0, size = r / 2, level = SQFFD__FIT_REGION_LEVELS - 1; level >= 0; --level, size /= 2) {
+        int child = size * 2;
+        const unsigned char *from = level == SQFFD__FIT_REGION_LEVELS - 1 ? f->region : f->coarse + offset - (size_t)(child * child * child);
+        for (i = 0; i < child; ++i)
+            for (j = 0; j < child; ++j)
+                for (k = 0; k < child; ++k)
+                    if (from[(i * child + j) * child + k]) f->coarse[offset + (size_t)(((i / 2) * size + j / 2) * size + k / 2)] = 1;
+        offset += (size_t)(size * size * size);
+    }
+    f->samples = 0;
+    for (i = 0; i <= r && f->capacity; ++i)
+        for (j = 0; j <= r; ++j)
+            for (k = 0; k <= r; ++k) {
+                int near = 0;
+                for (di = i > 0 ? i - 1 : 0; di <= (i < r ? i : r - 1) && !near; ++di)
+                    for (dj = j > 0 ? j - 1 : 0; dj <= (j < r ? j : r - 1) && !near; ++dj)
+                        for (dk = k > 0 ? k - 1 : 0; dk <= (k < r ? k : r - 1) && !near; ++dk)
+                            near = f->region[(di * r + dj) * r + dk];
+                if (!near) continue;
+                at = f->samples++;
+                f->sample[at][0] = (double)i / r;
+                f->sample[at][1] = (double)j / r;
+                f->sample[at][2] = (double)k / r;
+            }
 }
 
-/* Adds the coefficients f->at.coef breaks, most broken first, to the
-   active set of `count`; returns its new size. */
-static size_t sqffd__fit_fold_activate(const sqffd__fit_system *s, sqffd__fit_fold *f, size_t count)
+/* Whether the cell (cells an axis at its level, index) meets the region. */
+static int sqffd__fit_region_meets(const sqffd__fit_fold *f, int cells, const int index[3])
 {
-    int ej[3];
-    size_t n, i, k;
-    sqffd__jacobian_extent(s->dims, 3, ej);
-    n = sqffd__jacobian_count(ej);
-    while (count < SQFFD__FIT_FOLD_ACTIVE) {
-        size_t worst = n;
-        for (i = 0; i < n; ++i) {
-            if (f->at.coef[i] >= f->floor || (worst < n && f->at.coef[i] >= f->at.coef[worst])) continue;
-            for (k = 0; k < count && f->active[k] != i; ++k) {}
-            if (k == count) worst = i;
-        }
-        if (worst == n) break;
-        f->active[count++] = (uint32_t)worst;
+    size_t offset = 0;
+    int size = SQFFD__FIT_REGION / 2;
+    if (cells >= SQFFD__FIT_REGION) {
+        int shift = cells / SQFFD__FIT_REGION;
+        return f->region[((index[0] / shift) * SQFFD__FIT_REGION + index[1] / shift) * SQFFD__FIT_REGION + index[2] / shift];
     }
-    return count;
+    while (size > cells) {
+        offset += (size_t)(size * size * size);
+        size /= 2;
+    }
+    return f->coarse[offset + (size_t)((index[0] * cells + index[1]) * cells + index[2])];
+}
+
+/* 1-D Bernstein values b and derivatives db of degree d at t. */
+static void sqffd__bernstein_derivatives(int d, double t, double *b, double *db)
+{
+    double low[SQFFD_MAX_LATTICE];
+    int i;
+    sqffd__ffd_bernstein(d, t, b);
+    if (d == 0) { db[0] = 0.0; return; }
+    sqffd__ffd_bernstein(d - 1, t, low);
+    for (i = 0; i <= d; ++i) db[i] = (double)d * ((i > 0 ? low[i - 1] : 0.0) - (i < d ? low[i] : 0.0));
+}
+
+/* J at box point stu for control points in sqffd_ffd's layout; with grad
+   (3L, planar) its gradient with respect to them. */
+static double sqffd__fit_fold_sample(const int dims[3], const double *control, const double inverse[9],
+                                     const double stu[3], double *grad)
+{
+    double b[3][SQFFD_MAX_LATTICE], db[3][SQFFD_MAX_LATTICE], world[3][3], d[3][3], cross[3][3], m[3][3];
+    size_t l = (size_t)dims[0] * (size_t)dims[1] * (size_t)dims[2], p;
+    int a, c, i, j, k;
+    for (a = 0; a < 3; ++a) sqffd__bernstein_derivatives(dims[a] - 1, stu[a], b[a], db[a]);
+    memset(world, 0, sizeof world); /* world[a]: d x / d stu_a */
+    for (i = 0, p = 0; i < dims[0]; ++i)
+        for (j = 0; j < dims[1]; ++j)
+            for (k = 0; k < dims[2]; ++k, ++p) {
+                const double *q = control + 3 * p;
+                double ds = db[0][i] * b[1][j] * b[2][k], dt = b[0][i] * db[1][j] * b[2][k], du = b[0][i] * b[1][j] * db[2][k];
+                for (c = 0; c < 3; ++c) {
+                    world[0][c] += ds * q[c];
+                    world[1][c] += dt * q[c];
+                    world[2][c] += du * q[c];
+                }
+            }
+    for (a = 0; a < 3; ++a) sqffd__mat3_vec(inverse, world[a], d[a]);
+    sqffd__cross3(d[1], d[2], cross[0]);
+    sqffd__cross3(d[2], d[0], cross[1]);
+    sqffd__cross3(d[0], d[1], cross[2]);
+    if (grad) { /* dJ / dP_p = inverse^T (sum_a dB_p / d stu_a cross[a]) */
+        for (a = 0; a < 3; ++a) sqffd__mat3t_vec(inverse, cross[a], m[a]);
+        for (i = 0, p = 0; i < dims[0]; ++i)
+            for (j = 0; j < dims[1]; ++j)
+                for (k = 0; k < dims[2]; ++k, ++p) {
+                    double ds = db[0][i] * b[1][j] * b[2][k], dt = b[0][i] * db[1][j] * b[2][k], du = b[0][i] * b[1][j] * db[2][k];
+                    for (c = 0; c < 3; ++c) grad[(size_t)c * l + p] = ds * m[0][c] + dt * m[1][c] + du * m[2][c];
+                }
+    }
+    return sqffd__dot3(d[0], cross[0]);
+}
+
+/* J - floor at every sample for these control points into out; the
+   smallest. */
+static double sqffd__fit_fold_values(const int dims[3], const sqffd__fit_fold *f, const double *control,
+                                     const double inverse[9], double *out)
+{
+    double least = HUGE_VAL;
+    size_t i;
+    for (i = 0; i < f->samples; ++i) {
+        out[i] = sqffd__fit_fold_sample(dims, control, inverse, f->sample[i], NULL) - f->floor;
+        if (!(out[i] >= least)) least = out[i];
+    }
+    return least;
+}
+
+/* sum of -log(J - floor) over the samples from their values (HUGE_VAL where one is not above the floor). */
+static double sqffd__fit_barrier(const sqffd__fit_fold *f, const double *value)
+{
+    double sum = 0.0;
+    size_t i;
+    for (i = 0; i < f->samples; ++i) {
+        if (!(value[i] > 0.0)) return HUGE_VAL;
+        sum -= log(value[i]);
+    }
+    return sum;
+}
+
+/* The tensor t (extents ext) restricted to half `side` of axis `axis`, in
+   place (de Casteljau at 1/2). */
+static void sqffd__bernstein_halve(double *t, const int ext[3], int axis, int side)
+{
+    size_t stride = axis == 0 ? (size_t)(ext[1] * ext[2]) : axis == 1 ? (size_t)ext[2] : 1, n = (size_t)ext[axis];
+    size_t lines = sqffd__jacobian_count(ext) / n, line, r, i;
+    for (line = 0; line < lines; ++line) {
+        size_t base = axis == 0 ? line : axis == 1 ? (line / (size_t)ext[2]) * (size_t)(ext[1] * ext[2]) + line % (size_t)ext[2]
+                                                   : line * n;
+        double *v = t + base;
+        for (r = 1; r < n; ++r)
+            if (side == 0)
+                for (i = n - 1; i >= r; --i) v[i * stride] = 0.5 * (v[(i - 1) * stride] + v[i * stride]);
+            else
+                for (i = 0; i + r < n; ++i) v[i * stride] = 0.5 * (v[i * stride] + v[(i + 1) * stride]);
+    }
+}
+
+/* The certificate below a cell (level: halvings of the box; index: its
+   place; its coefficients at f->tensor's level slot): the smallest
+   coefficient over the region's part of it, refined where below the floor.
+   A cell at the deepest level still below the floor adds the point of its
+   lowest coefficient to f->fails. */
+static double sqffd__fit_fold_certify_cell(const int dims[3], sqffd__fit_fold *f, double target, int level, const int index[3])
+{
+    int ej[3], child, a, side[3];
+    size_t count, i, lowest = 0;
+    double *t, least = HUGE_VAL, bound = HUGE_VAL;
+    sqffd__jacobian_extent(dims, 3, ej);
+    count = sqffd__jacobian_count(ej);
+    t = f->tensor + (size_t)level * count;
+    for (i = 0; i < count; ++i)
+        if (t[i] < least) { least = t[i]; lowest = i; }
+    if (least >= target || (level >= SQFFD__FIT_REGION_LEVELS && least >= f->floor)) return least;
+    if (level == SQFFD__FIT_REGION_LEVELS + SQFFD__FIT_CERT_DEPTH) {
+        if (least < f->floor && f->failed < SQFFD__FIT_CERT_FAILS) { /* the lowest coefficient's Greville point */
+            int g[3], cells = 1 << level;
+            g[2] = (int)(lowest % (size_t)ej[2]);
+            g[1] = (int)(lowest / (size_t)ej[2] % (size_t)ej[1]);
+            g[0] = (int)(lowest / ((size_t)ej[1] * (size_t)ej[2]));
+            for (a = 0; a < 3; ++a) f->fails[f->failed][a] = (index[a] + (double)g[a] / (ej[a] - 1)) / cells;
+            ++f->failed;
+        }
+        return least;
+    }
+    for (child = 0; child < 8; ++child) {
+        int sub[3];
+        double b;
+        for (a = 0; a < 3; ++a) {
+            side[a] = (child >> (2 - a)) & 1;
+            sub[a] = 2 * index[a] + side[a];
+        }
+        if (level + 1 <= SQFFD__FIT_REGION_LEVELS && !sqffd__fit_region_meets(f, 1 << (level + 1), sub)) continue;
+        memcpy(t + count, t, count * sizeof(double));
+        for (a = 0; a < 3; ++a) sqffd__bernstein_halve(t + count, ej, a, side[a]);
+        b = sqffd__fit_fold_certify_cell(dims, f, target, level + 1, sub);
+        if (b < bound) bound = b;
+    }
+    return bound;
+}
+
+/* The certified lower bound of J over the region for these control points
+   (at least the floor: certified; below it, f->fails holds up to
+   SQFFD__FIT_CERT_FAILS points where it may dip). */
+static double sqffd__fit_fold_certify(const int dims[3], sqffd__fit_fold *f, const double *control, const double inverse[9],
+                                 double target)
+{
+    int ej[3], origin[3] = {0, 0, 0};
+    double near = 2.0, eps = sqffd__ffd_jacobian_derivatives(dims, control, inverse, &f->at);
+    near -= (1.0 + eps) * (1.0 + eps) * (1.0 + eps);
+    f->failed = 0;
+    if (near >= target) return near; /* (a lattice near the regular one: no coefficients needed) */
+    sqffd__ffd_jacobian_products(dims, 1, &f->at);
+    sqffd__ffd_jacobian_coefficients(dims, &f->at);
+    sqffd__jacobian_extent(dims, 3, ej);
+    memcpy(f->tensor, f->at.coef, sqffd__jacobian_count(ej) * sizeof(double));
+    return sqffd__fit_fold_certify_cell(dims, f, target, 0, origin);
 }
 
 /* y = A x for a symmetric n x n A given by its lower triangle (row-major). */
@@ -7517,172 +7743,80 @@ static void sqffd__fit_symmetric_times(const double *a, size_t n, const double *
     }
 }
 
-/* lambda >= 0 minimising 1/2 lambda^T H lambda + need^T lambda (H = f->gram,
-   k x k, positive semi-definite; a ridge of 1e-12 its largest diagonal
-   keeps it definite), Lawson-Hanson: grow the free set by the most
-   negative slope, solve on it, step back to the first multiplier that
-   would turn negative. At most 3k solves. */
-static void sqffd__fit_fold_multipliers(sqffd__fit_fold *f, size_t k)
+/* matrix (3L x 3L lower, planar unknowns) += the symmetric L x L block
+   (lower triangle given) at block row c, column c2 (c >= c2). */
+static void sqffd__fit_fold_scatter(size_t l, const double *block, size_t c, size_t c2, double *matrix)
 {
-    const size_t stride = SQFFD__FIT_FOLD_ACTIVE;
-    double ridge = 0.0;
-    size_t i, j, r, n, solves = 0;
-    unsigned char map[SQFFD__FIT_FOLD_ACTIVE]; /* (the free set's multipliers; SQFFD__FIT_FOLD_ACTIVE <= 256) */
-    for (i = 0; i < k; ++i) {
-        f->lambda[i] = 0.0;
-        f->free_set[i] = 0;
-        if (f->gram[i * stride + i] > ridge) ridge = f->gram[i * stride + i];
+    size_t size = 3 * l, p, q;
+    for (p = 0; p < l; ++p) {
+        double *row = matrix + (c * l + p) * size + c2 * l;
+        for (q = 0; q <= p; ++q) row[q] += block[p * l + q];
+        if (c != c2)
+            for (q = p + 1; q < l; ++q) row[q] += block[q * l + p];
     }
-    ridge *= 1e-12;
-    for (;;) {
-        size_t enter = k;
-        double most = 0.0;
-        for (i = 0; i < k; ++i) { /* the slope need + H lambda; the most negative one not free enters */
-            f->slope[i] = f->need[i] + sqffd__la_dot(f->gram + i * stride, f->lambda, k);
-            if (!f->free_set[i] && f->slope[i] < most) { most = f->slope[i]; enter = i; }
-        }
-        if (enter == k) return;
-        f->free_set[enter] = 1;
-        for (;;) {
-            double step = 1.0;
-            if (++solves > 3 * k) return;
-            for (n = 0, i = 0; i < k; ++i) if (f->free_set[i]) map[n++] = (unsigned char)i;
-            for (r = 0; r < n; ++r) { /* z = -H_FF^-1 need_F on the free set */
-                for (j = 0; j <= r; ++j) f->factor[r * n + j] = f->gram[map[r] * stride + map[j]] + (r == j ? ridge : 0.0);
-                f->slope[r] = -f->need[map[r]];
-            }
-            if (sqffd_cholesky_factor(f->factor, n) != SQFFD_OK) { f->free_set[enter] = 0; return; }
-            sqffd_cholesky_solve(f->factor, n, f->slope);
-            for (i = 0; i < k; ++i) f->z[i] = 0.0;
-            for (r = 0; r < n; ++r) f->z[map[r]] = f->slope[r];
-            for (r = 0; r < n; ++r) { /* the way from lambda to z, up to the first multiplier that reaches 0 */
-                i = map[r];
-                if (f->z[i] <= 0.0) {
-                    double t = f->lambda[i] / (f->lambda[i] - f->z[i]);
-                    if (t < step) step = t;
-                }
-            }
-            for (i = 0; i < k; ++i) f->lambda[i] += step * (f->z[i] - f->lambda[i]);
-            if (step == 1.0) break;
-            for (i = 0; i < k; ++i)
-                if (f->free_set[i] && f->lambda[i] <= 0.0) { f->free_set[i] = 0; f->lambda[i] = 0.0; }
+}
+
+/* The barrier's terms of samples from..samples-1 at control points whose
+   J - floor there is f->value, weight M mu: their pull into f->rhs, their
+   Gauss-Newton matrix into f->hessian. */
+static void sqffd__fit_fold_barrier_terms(const sqffd__fit_system *s, sqffd__fit_fold *f, const double *control,
+                                          const double inverse[9], double weight, size_t from)
+{
+    size_t size = 3 * s->lattice, i, p, q;
+    for (i = from; i < f->samples; ++i) {
+        double gap = f->value[i], pull = weight / gap, curve = pull / gap;
+        sqffd__fit_fold_sample(s->dims, control, inverse, f->sample[i], f->grad);
+        for (p = 0; p < size; ++p) {
+            double gp = curve * f->grad[p];
+            double *row = f->hessian + p * size;
+            f->rhs[p] += pull * f->grad[p];
+            for (q = 0; q <= p; ++q) row[q] += gp * f->grad[q];
         }
     }
 }
 
-/* The constrained step at the stiffening whose factor w->matrix holds
-   (f->free its unconstrained step, which breaks `broken` coefficients, all
-   of them counted into f->at.coef), into f->move. Returns 1 when f->move is
-   known to keep the floor (the last round's check found nothing broken). */
-static int sqffd__fit_fold_constrained(const sqffd__fit_system *s, sqffd__fit_work *w, const double *control,
-                                       const double inverse[9], size_t broken)
+/* The damped step (hessian + lambda damping) move = rhs into f->move
+   (planar); lambda grows tenfold until the matrix factors. Returns the
+   decrease the linear model predicts (step units), or -1 when it never
+   factors. */
+static double sqffd__fit_fold_solve(const sqffd__fit_system *s, sqffd__fit_fold *f)
 {
-    sqffd__fit_fold *f = w->fold;
-    size_t l = s->lattice, size = 3 * l, count = 0, done = 0, i, j, p;
-    int round, k;
-    memcpy(f->move, f->free, size * sizeof(double));
-    for (round = 0; round < SQFFD__FIT_FOLD_ROUNDS; ++round) {
-        if (round > 0) broken = sqffd__fit_fold_broken(s, f, control, f->move, 1.0, inverse, w->cg, (size_t)-1);
-        if (!broken) return 1;
-        for (i = 0; i < count; ++i) /* the linearised step's shortfalls: raised by them */
-            if (f->at.coef[f->active[i]] < f->floor) f->need[i] -= f->floor - f->at.coef[f->active[i]];
-        count = sqffd__fit_fold_activate(s, f, count);
-        for (i = done; i < count; ++i) { /* the new constraints: g_c, y_c = L^-1 g_c, their Gram row y_i . y_j */
-            double *y = f->solved + i * size, now = f->from.coef[f->active[i]];
-            double keep = now > f->floor ? f->floor + SQFFD__FIT_FOLD_KEEP * (now - f->floor) : now;
-            sqffd__ffd_jacobian_gradient(s->dims, inverse, &f->from, f->active[i], f->grad);
-            f->need[i] = sqffd__la_dot(f->grad, f->free, size) - (keep - now); /* >= 0: the free step keeps c */
-            memcpy(y, f->grad, size * sizeof(double));
-            for (k = 0; k < 3; ++k) sqffd__la_forward(w->matrix, l, y + (size_t)k * l);
-            for (j = 0; j <= i; ++j)
-                f->gram[i * SQFFD__FIT_FOLD_ACTIVE + j] = f->gram[j * SQFFD__FIT_FOLD_ACTIVE + i] =
-                    sqffd__la_dot(y, f->solved + j * size, size);
+    size_t l = s->lattice, size = 3 * l, c, p, q;
+    int tries;
+    for (tries = 0; tries < 40; ++tries) {
+        memcpy(f->factor, f->hessian, size * size * sizeof(double));
+        for (c = 0; c < 3; ++c)
+            for (p = 0; p < l; ++p) {
+                double *row = f->factor + (c * l + p) * size + c * l;
+                for (q = 0; q <= p; ++q) row[q] += f->lambda * f->damping[p * l + q];
+            }
+        if (sqffd_cholesky_factor(f->factor, size) == SQFFD_OK) {
+            memcpy(f->move, f->rhs, size * sizeof(double));
+            sqffd_cholesky_solve(f->factor, size, f->move);
+            return 0.5 * sqffd__la_dot(f->move, f->rhs, size);
         }
-        done = count;
-        sqffd__fit_fold_multipliers(f, count);
-        memset(f->move, 0, size * sizeof(double)); /* the free step + (A + mu K)^-1 sum lambda_c g_c */
-        for (i = 0; i < count; ++i)
-            for (p = 0; p < size; ++p) f->move[p] += f->lambda[i] * f->solved[i * size + p];
-        for (k = 0; k < 3; ++k) sqffd__la_backward(w->matrix, l, f->move + (size_t)k * l);
-        for (p = 0; p < size; ++p) f->move[p] += f->free[p];
+        f->lambda = f->lambda > 0.0 ? 10.0 * f->lambda : 1e-6;
     }
-    return 0;
+    return -1.0;
 }
 
-/* The share tau of f->move that keeps the floor: 1, or halved until it
-   does (0 after SQFFD__FIT_FOLD_HALVINGS). Only whether a check breaks
-   anything is asked; broken_at_one: tau 1 is known to break. */
-static double sqffd__fit_fold_shorten(const sqffd__fit_system *s, sqffd__fit_fold *f, const double *control,
-                                      const double inverse[9], double *scratch, int broken_at_one)
+/* The trial control points accepted + tau move into control, tau halved
+   from 1 until every sample keeps 1 - SQFFD__FIT_BOUNDARY of its way to the
+   floor (J - floor at them into f->trial); returns tau (0: none). */
+static double sqffd__fit_fold_trial(const sqffd__fit_system *s, sqffd__fit_fold *f, const double *accepted,
+                                    const double inverse[9], double *control)
 {
+    size_t l = s->lattice, p, i;
     double tau = 1.0;
-    int k;
-    for (k = 0; tau > 0.0 && ((k == 0 && broken_at_one) ||
-                              sqffd__fit_fold_broken(s, f, control, f->move, tau, inverse, scratch, 0) > 0);
-         ++k)
-        tau = k < SQFFD__FIT_FOLD_HALVINGS ? 0.5 * tau : 0.0;
-    return tau;
-}
-
-/* The step w->rhs = G(P) - P (and w->plain, and bmove = B (G(P) - P)) made
-   fold-free, as above. direct: w->matrix holds the factor of its A.
-   Returns 1 when the step taken is the plain one under the constraints,
-   0 when stiffening or halving made it shorter: a step the floor damped is
-   no sign of convergence. */
-static int sqffd__fit_fold_free(const sqffd__fit_system *s, sqffd__fit_work *w, const double *control,
-                                const double inverse[9], int direct, double *bmove)
-{
-    sqffd__fit_fold *f = w->fold;
-    size_t l = s->lattice, size = 3 * l, p, broken;
-    double *scratch = w->cg, tau = 1.0, unit = 0.0;
-    int k, tries = 0, found = 0; /* found: f->move x tau keeps the floor */
-    sqffd__fit_planar(w->rhs, l, f->free);
-    broken = sqffd__fit_fold_broken(s, f, control, f->free, 1.0, inverse, scratch, SQFFD__FIT_FOLD_ACTIVE);
-    if (!broken) return 1;
-    memcpy(f->move, f->free, size * sizeof(double));
-    if (direct) { /* (a direct step's sqffd__fit_solve kept A in w->normal); r = A (G(P) - P) */
-        for (k = 0; k < 3; ++k) sqffd__fit_symmetric_times(w->normal, l, f->free + (size_t)k * l, f->r + (size_t)k * l);
-        sqffd__ffd_jacobian_derivatives(s->dims, control, inverse, &f->from);
-        sqffd__ffd_jacobian_products(s->dims, 3, &f->from);
-        sqffd__ffd_jacobian_coefficients(s->dims, &f->from);
-        for (p = 0; p < l; ++p) unit += w->normal[p * l + p];
-        unit = s->spring > 0.0 ? s->spring : 1e-6 * unit / (double)l; /* (alpha 0: a millionth of A's diagonal) */
-        for (tries = w->factored ? 0 : 1; tries < SQFFD__FIT_FOLD_TRIES; ++tries) {
-            if (tries > 0) { /* the step's problem with mu = 10^tries springs' weights */
-                memcpy(w->matrix, w->normal, l * l * sizeof(double));
-                sqffd__fit_add_springs(s->dims, l, unit * pow(10.0, (double)tries), w->matrix);
-                if (sqffd_cholesky_factor(w->matrix, l) != SQFFD_OK) continue;
-                memcpy(f->free, f->r, size * sizeof(double));
-                for (k = 0; k < 3; ++k) sqffd_cholesky_solve(w->matrix, l, f->free + (size_t)k * l);
-                broken = sqffd__fit_fold_broken(s, f, control, f->free, 1.0, inverse, scratch, SQFFD__FIT_FOLD_ACTIVE);
-            } /* (tries 0: the free step, counted above) */
-            if (broken > SQFFD__FIT_FOLD_ACTIVE) continue;
-            if (sqffd__fit_fold_constrained(s, w, control, inverse, broken) ||
-                (tau = sqffd__fit_fold_shorten(s, f, control, inverse, scratch, 0)) > 0.0) {
-                found = 1;
-                break;
-            }
-            tau = 1.0; /* no share of it keeps the floor (a coefficient on the floor that the linearised step
-                          leaves there, and the cubic's curvature takes below): a stiffer step, whose
-                          curvature shrinks with its square */
-        }
+    int k, c;
+    for (k = 0; k < 40; ++k, tau *= 0.5) {
+        for (p = 0; p < l; ++p)
+            for (c = 0; c < 3; ++c) control[3 * p + (size_t)c] = accepted[3 * p + (size_t)c] + tau * f->move[(size_t)c * l + p];
+        sqffd__fit_fold_values(s->dims, f, control, inverse, f->trial);
+        for (i = 0; i < f->samples && f->trial[i] >= (1.0 - SQFFD__FIT_BOUNDARY) * f->value[i]; ++i) {}
+        if (i == f->samples) return tau;
     }
-    w->factored = 0;
-    if (!found) tau = sqffd__fit_fold_shorten(s, f, control, inverse, scratch, 1); /* (f->move breaks it: tried above) */
-    for (p = 0; p < size; ++p) f->move[p] *= tau;
-    sqffd__fit_interleave(f->move, l, w->rhs);
-    for (p = 0; p < size; ++p) w->plain[p] = control[p] + w->rhs[p];
-    sqffd__fit_evaluate(s, (const double (*)[3])w->rhs, (double (*)[4])w->block, bmove);
-    return tau == 1.0 && tries == 0;
-}
-
-/* Whether the over-relaxed control + omega w->rhs keeps the floor. */
-static int sqffd__fit_fold_relaxed(const sqffd__fit_system *s, sqffd__fit_work *w, const double *control,
-                                   double omega, const double inverse[9])
-{
-    if (w->fold->floor == -HUGE_VAL) return 1;
-    sqffd__fit_planar(w->rhs, s->lattice, w->fold->move);
-    return !sqffd__fit_fold_broken(s, w->fold, control, w->fold->move, omega, inverse, w->cg, 0);
+    return 0.0;
 }
 
 /* ---- the iteration --------------------------------------------------------- */
@@ -7799,6 +7933,7 @@ typedef struct sqffd__fit_iteration {
     sqffd__fit_origin origin;
     double accepted;               /* the energy of w->accepted */
     double omega;                  /* the over-relaxation of the last extrapolation */
+    double *planes;                /* the fold-free step's point-to-plane sums (NULL: none) */
 } sqffd__fit_iteration;
 
 /* The control points changed: their model points into it->x, and the
@@ -7855,13 +7990,8 @@ static void sqffd__fit_begin(sqffd__fit_iteration *it, const sqffd_points *point
     if (data_tree)
         for (v = 0; v < s->count; ++v) w->data_near[SQFFD__FIT_DATA_KNN * v] = UINT32_MAX;
     w->factored = 0;
-    w->fold->floor = o->min_jacobian; /* (a start below it may not fold more) */
-    w->fold->watching = 0;
-    if (o->min_jacobian > -HUGE_VAL) {
-        double start = sqffd__ffd_jacobian_min(s->dims, &model->ffd.control[0][0], model->ffd.inverse, &w->fold->at,
-                                               o->min_jacobian);
-        if (start < w->fold->floor) w->fold->floor = start;
-    }
+    w->fold->floor = -HUGE_VAL;
+    it->planes = NULL;
     it->step1.weights = w->weights;
     it->step1.nu2 = w->nu2;
     it->origin = SQFFD__FIT_FROM_START;
@@ -7904,10 +8034,12 @@ static sqffd_result sqffd__fit_measure(sqffd__fit_iteration *it, int last, doubl
     double reverse = 0.0;
     sqffd_result res;
     it->step1.sums = last ? NULL : w->target; /* (the last pass only measures) */
+    it->step1.planes = last ? NULL : it->planes;
     if (it->step1.sums) {
         memset(w->target, 0, 3 * m * sizeof(double));
         memset(w->weights, 0, m * sizeof(double));
     }
+    if (it->step1.planes) memset(it->planes, 0, 6 * m * sizeof(double));
     it->search.x = it->x;
     sqffd__fit_pass_kind(it, last);
     res = sqffd__fit_pass(it->points, &it->search, it->diagonal, NULL, &it->step1, stats);
@@ -8011,28 +8143,29 @@ static sqffd_result sqffd__fit_advance(sqffd__fit_iteration *it)
     size_t m = s->count, size = 3 * s->lattice, i;
     double *control = &it->model->ffd.control[0][0];
     double length; /* of the step along G(P) - P */
-    int direct, extrapolate, plain = 1; /* plain: the step is not one the floor damped */
+    int direct, extrapolate;
     sqffd_result res;
     sqffd__fit_targets(it);
     res = sqffd__fit_step(s, w, control, it->x, w->target, it->next, &direct); /* (B (G(P) - P) into it->next,
                                                                                  read by the targets before) */
     if (res != SQFFD_OK) return res;
-    if (w->fold->floor > -HUGE_VAL) plain = sqffd__fit_fold_free(s, w, control, it->model->ffd.inverse, direct, it->next);
     rep->step = sqrt(sqffd__la_dot(it->next, it->next, 3 * m) / (double)m) / it->diagonal;
     ++rep->iterations;
-    rep->converged = rep->step <= it->o->tolerance && direct && plain;
+    rep->converged = rep->step <= it->o->tolerance && direct;
     if (rep->step <= it->o->tolerance && !direct) w->factored = 0;
     it->omega = it->origin == SQFFD__FIT_FROM_EXTRAPOLATION
                     ? (it->omega * SQFFD__FIT_RELAX_GROW < SQFFD__FIT_RELAX_MAX ? it->omega * SQFFD__FIT_RELAX_GROW
                                                                                : SQFFD__FIT_RELAX_MAX)
                     : SQFFD__FIT_RELAX;
-    extrapolate = !rep->converged && sqffd__fit_fold_relaxed(s, w, control, it->omega, it->model->ffd.inverse);
+    extrapolate = !rep->converged;
     length = extrapolate ? it->omega : 1.0;
     for (i = 0; i < size; ++i) control[i] += length * w->rhs[i];
     it->origin = extrapolate ? SQFFD__FIT_FROM_EXTRAPOLATION : SQFFD__FIT_FROM_PLAIN;
     sqffd__fit_control_changed(it);
     return SQFFD_OK;
 }
+
+static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it);
 
 static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagonal, const sqffd_fit_options *o,
                                        const sqffd__fit_system *s, const sqffd_kdtree *data_tree, sqffd__fit_work *w,
@@ -8045,6 +8178,7 @@ static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagon
         res = sqffd__fit_scale(&it);
         if (res != SQFFD_OK) return res;
     }
+    if (o->min_jacobian > -HUGE_VAL) return sqffd__fit_iterate_fold_free(&it);
     for (;;) {
         double energy;
         sqffd_distance_stats stats;
@@ -8056,8 +8190,8 @@ static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagon
             res = sqffd__fit_measure(&it, 1, &energy, &stats);                  /* too, then measured exactly */
         if (res == SQFFD_OK) res = sqffd__fit_record(&it, energy, &stats);
         if (last) {
-            rep->min_jacobian = sqffd__ffd_jacobian_min(s->dims, &model->ffd.control[0][0], model->ffd.inverse,
-                                                        &w->fold->at, HUGE_VAL);
+            sqffd__fit_region(model, s, w->fold); /* the region's bound, refined where it folds */
+            rep->min_jacobian = sqffd__fit_fold_certify(s->dims, w->fold, &model->ffd.control[0][0], model->ffd.inverse, 0.0);
             rep->stop = rep->converged ? SQFFD_FIT_CONVERGED
                         : it.origin == SQFFD__FIT_FROM_ACCEPTED ? SQFFD_FIT_STALLED : SQFFD_FIT_CAPPED;
         }
@@ -8065,6 +8199,188 @@ static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagon
         res = sqffd__fit_advance(&it);
         if (res != SQFFD_OK) return res;
     }
+}
+
+/* ---- the fold-free iteration ----------------------------------------------
+   The loop of the fold-free step (its section above): measure the start;
+   then per iteration a damped Newton step from the accepted model, kept
+   inside the floor at the samples, measured by a pass; accepted when it
+   lowers the energy with the barrier and the certificate passes (then the
+   energy is linearised anew from that pass), else rolled back (lambda up,
+   or the certificate's points added as samples). The energy never rises:
+   the accepted model is the only one reported. A start that breaks the
+   floor on the region runs with the floor lowered under its certified
+   bound, raised after each step toward min_jacobian (a rising threshold
+   that untangles it where it can). */
+#define SQFFD__FIT_LAMBDA_START 1e-2 /* damping of the first step: a hundredth of the point-to-point matrix */
+
+/* The linearised energy at the current model from its pass (w->target,
+   w->weights, f->planes; it->next: the holding model points' nearest
+   data), with the barrier's terms at weight M mu: f->hessian, f->rhs,
+   f->damping. */
+static void sqffd__fit_fold_linearise(sqffd__fit_iteration *it)
+{
+    static const int entry[3][3] = {{0, 1, 2}, {1, 3, 4}, {2, 4, 5}}; /* f->planes' order */
+    const sqffd__fit_system *s = it->s;
+    sqffd__fit_work *w = it->w;
+    sqffd__fit_fold *f = w->fold;
+    size_t m = s->count, l = s->lattice, size = 3 * l, v, c, c2;
+    double scale = (double)m / (double)it->points->count;
+    double hold = it->o->model_to_data * (double)m / (double)it->holding;
+    const double *control = &it->model->ffd.control[0][0];
+    double *t = w->target, *plane = f->planes;
+    for (v = 0; v < m; ++v) { /* minus the gradient per model point; the point-to-point and -to-plane weights */
+        int held = it->data_tree && sqffd__fit_holds(s, v);
+        for (c = 0; c < 3; ++c) t[3 * v + c] = scale * t[3 * v + c] + (held ? hold * (it->next[3 * v + c] - it->x[3 * v + c]) : 0.0);
+        w->weights[v] = scale * w->weights[v] + (held ? hold : 0.0);
+        for (c = 0; c < 6; ++c) plane[6 * v + c] = scale * plane[6 * v + c] + (held && (c == 0 || c == 3 || c == 5) ? hold : 0.0);
+    }
+    memset(f->damping, 0, l * l * sizeof(double));
+    sqffd__fit_gram(s, w->weights, 1.0, w->pairs, w->block, f->damping);
+    memset(f->hessian, 0, size * size * sizeof(double));
+    for (c = 0; c < 3; ++c)
+        for (c2 = 0; c2 <= c; ++c2) {
+            for (v = 0; v < m; ++v) w->weights[v] = plane[6 * v + (size_t)entry[c][c2]];
+            if (c == c2) memcpy(w->matrix, s->fixed, l * l * sizeof(double));
+            else memset(w->matrix, 0, l * l * sizeof(double));
+            sqffd__fit_gram(s, w->weights, 1.0, w->pairs, w->block, w->matrix);
+            sqffd__fit_fold_scatter(l, w->matrix, c, c2, f->hessian);
+        }
+    sqffd__fit_project(s, t, NULL, s->rhs0, (double (*)[3])w->block, f->rhs); /* B^T t + rhs0 - fixed P */
+    sqffd__fit_planar(control, l, f->move);
+    for (c = 0; c < 3; ++c) {
+        sqffd__fit_symmetric_times(s->fixed, l, f->move + c * l, f->grad);
+        for (v = 0; v < l; ++v) f->rhs[c * l + v] -= f->grad[v];
+    }
+    sqffd__fit_fold_barrier_terms(s, f, control, it->model->ffd.inverse, (double)m * f->mu, 0);
+}
+
+/* The control points back to the accepted ones, with their matches. */
+static void sqffd__fit_fold_roll_back(sqffd__fit_iteration *it)
+{
+    memcpy(&it->model->ffd.control[0][0], it->w->accepted, 3 * it->s->lattice * sizeof(double));
+    memcpy(it->w->matched, it->w->matched_accepted, it->points->count * sizeof *it->w->matched);
+    sqffd__fit_control_changed(it);
+}
+
+/* Adds the certificate's points as samples (J - floor at the accepted
+   control points: above 0, the accepted model is certified) with their
+   barrier terms; returns how many. */
+static size_t sqffd__fit_fold_add_samples(sqffd__fit_iteration *it)
+{
+    sqffd__fit_fold *f = it->w->fold;
+    size_t from = f->samples, i;
+    for (i = 0; i < f->failed && f->samples < f->capacity; ++i) {
+        double gap = sqffd__fit_fold_sample(it->s->dims, it->w->accepted, it->model->ffd.inverse, f->fails[i], NULL) - f->floor;
+        if (!(gap > 0.0)) continue;
+        memcpy(f->sample[f->samples], f->fails[i], sizeof f->fails[i]);
+        f->value[f->samples++] = gap;
+    }
+    sqffd__fit_fold_barrier_terms(it->s, f, it->w->accepted, it->model->ffd.inverse, (double)it->s->count * f->mu, from);
+    return f->samples - from;
+}
+
+static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
+{
+    const sqffd__fit_system *s = it->s;
+    const sqffd_fit_options *o = it->o;
+    sqffd__fit_work *w = it->w;
+    sqffd__fit_fold *f = w->fold;
+    sqffd_fit_report *rep = it->rep;
+    sqffd_model *model = it->model;
+    double *control = &model->ffd.control[0][0], *swap;
+    const double *inverse = model->ffd.inverse;
+    size_t size = 3 * s->lattice, m = s->count, v;
+    double energy, barrier, bound, margin;
+    sqffd_distance_stats stats, accepted_stats;
+    int stalled = 0;
+    sqffd_result res;
+    sqffd__fit_region(model, s, f);
+    if (getenv("FOLD_DEBUG")) { int q, cnt = 0; for (q = 0; q < SQFFD__FIT_REGION_CELLS; q++) cnt += f->region[q]; fprintf(stderr, "region %d cells grid %d %d\n", cnt, s->grid[0], s->grid[1]); }
+    f->floor = o->min_jacobian;
+    bound = sqffd__fit_fold_certify(s->dims, f, control, inverse, o->min_jacobian);
+    margin = 1e-3 * (fabs(bound) > 1.0 ? fabs(bound) : 1.0); /* (strictly inside: the samples' logs stay finite) */
+    if (bound < f->floor) f->floor = bound - margin;
+    it->planes = f->planes;
+    res = sqffd__fit_measure(it, 0, &energy, &stats);
+    if (res == SQFFD_OK) res = sqffd__fit_record(it, energy, &stats);
+    if (res != SQFFD_OK) return res;
+    sqffd__fit_fold_values(s->dims, f, control, inverse, f->value);
+    barrier = sqffd__fit_barrier(f, f->value);
+    f->mu = (getenv("MU0") ? atof(getenv("MU0")) : SQFFD__FIT_MU_START) * energy / (double)(f->samples ? f->samples : 1);
+    f->lambda = SQFFD__FIT_LAMBDA_START;
+    sqffd__fit_fold_linearise(it);
+    it->accepted = energy;
+    accepted_stats = stats;
+    memcpy(w->accepted, control, size * sizeof(double));
+    memcpy(w->matched_accepted, w->matched, it->points->count * sizeof *w->matched);
+    while (rep->iterations < o->max_iterations && !rep->converged && !stalled) {
+        double predicted = sqffd__fit_fold_solve(s, f), tau, move = 0.0, trial_barrier;
+        if (predicted < 0.0 || !((tau = sqffd__fit_fold_trial(s, f, w->accepted, inverse, control)) > 0.0)) {
+            memcpy(control, w->accepted, size * sizeof(double));
+            stalled = 1;
+            break;
+        }
+        sqffd__fit_control_changed(it); /* (it->next: the accepted model points) */
+        for (v = 0; v < 3 * m; ++v) move += (it->x[v] - it->next[v]) * (it->x[v] - it->next[v]);
+        it->origin = SQFFD__FIT_FROM_PLAIN;
+        ++rep->iterations;
+        res = sqffd__fit_measure(it, 0, &energy, &stats);
+        if (res != SQFFD_OK) return res;
+        trial_barrier = sqffd__fit_barrier(f, f->trial);
+        if (getenv("FOLD_DEBUG")) fprintf(stderr, "it %d pred %g tau %g lambda %g mu %g samples %zu floor %g E %g -> %g bar %g -> %g\n", rep->iterations, predicted, tau, f->lambda, f->mu, f->samples, f->floor, it->accepted, energy, barrier, trial_barrier);
+        if (energy + f->mu * trial_barrier < it->accepted + f->mu * barrier) {
+            double gain = (it->accepted + f->mu * barrier - energy - f->mu * trial_barrier) * (double)m / (tau * predicted);
+            double target = o->min_jacobian, least = HUGE_VAL;
+            bound = sqffd__fit_fold_certify(s->dims, f, control, inverse, target);
+            if (bound >= f->floor) { /* accepted */
+                if (f->floor < o->min_jacobian) { /* the rising threshold */
+                    double raised = bound - margin < o->min_jacobian ? bound - margin : o->min_jacobian;
+                    if (raised > f->floor) {
+                        f->floor = raised;
+                        least = sqffd__fit_fold_values(s->dims, f, control, inverse, f->trial);
+                    }
+                }
+                swap = f->value; f->value = f->trial; f->trial = swap;
+                (void)least;
+                f->lambda = gain > 0.75 ? f->lambda / 3.0 : gain < 0.25 ? 2.0 * f->lambda : f->lambda;
+                rep->step = sqrt(move / (double)m) / it->diagonal;
+                {
+                    double end = SQFFD__FIT_MU_END * energy / (double)(f->samples ? f->samples : 1);
+                    rep->converged = rep->step <= o->tolerance && tau == 1.0 && f->mu <= end;
+                    if (getenv("MU_MODE") && tau == 1.0) f->mu = 0.1 * f->mu > end ? 0.1 * f->mu : end;
+                    else if (!getenv("MU_MODE")) f->mu = 0.1 * f->mu > end ? 0.1 * f->mu : end;
+                }
+                barrier = sqffd__fit_barrier(f, f->value);
+                it->accepted = energy;
+                accepted_stats = stats;
+                memcpy(w->accepted, control, size * sizeof(double));
+                memcpy(w->matched_accepted, w->matched, it->points->count * sizeof *w->matched);
+                sqffd__fit_fold_linearise(it);
+            } else {
+                sqffd__fit_fold_roll_back(it);
+                if (!sqffd__fit_fold_add_samples(it)) f->lambda *= 8.0;
+                barrier = sqffd__fit_barrier(f, f->value);
+            }
+        } else {
+            sqffd__fit_fold_roll_back(it);
+            f->lambda *= 8.0;
+        }
+        res = sqffd__fit_record(it, it->accepted, &accepted_stats);
+        if (res != SQFFD_OK) return res;
+    }
+    /* the accepted model, measured again where the last pass must be exact */
+    it->origin = SQFFD__FIT_FROM_ACCEPTED;
+    it->planes = NULL;
+    if ((it->mode & SQFFD__FIT_EXACT_END) && !it->search.exact) {
+        res = sqffd__fit_measure(it, 1, &energy, &accepted_stats);
+        if (res != SQFFD_OK) return res;
+        it->accepted = energy;
+    }
+    res = sqffd__fit_record(it, it->accepted, &accepted_stats);
+    rep->min_jacobian = sqffd__fit_fold_certify(s->dims, f, control, inverse, o->min_jacobian);
+    rep->stop = rep->converged ? SQFFD_FIT_CONVERGED : stalled ? SQFFD_FIT_STALLED : SQFFD_FIT_CAPPED;
+    return res;
 }
 
 /* ---- public entry points ------------------------------------------------- */
