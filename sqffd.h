@@ -8343,7 +8343,8 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
                 }
                 swap = f->value; f->value = f->trial; f->trial = swap;
                 (void)least;
-                f->lambda = gain > 0.75 ? f->lambda / 3.0 : gain < 0.25 ? 2.0 * f->lambda : f->lambda;
+                if (tau < 1.0) f->lambda = (f->lambda > 0.0 ? f->lambda : 1e-6) * (tau < 0.125 ? 8.0 : 2.0 / tau); /* the floor cut it */
+                else f->lambda = gain > 0.75 ? f->lambda / 3.0 : gain < 0.25 ? 2.0 * f->lambda : f->lambda;
                 rep->step = sqrt(move / (double)m) / it->diagonal;
                 {
                     double end = SQFFD__FIT_MU_END * energy / (double)(f->samples ? f->samples : 1);
