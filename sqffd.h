@@ -1951,6 +1951,57 @@ static void sqffd__la_backward(const double *l, size_t n, double *b)
     }
 }
 
+/* The lower-triangular factor of sqffd_cholesky_factor (row-major, n x n)
+   transposed in place: its rows become those of L^T, the form the two
+   functions below use (each row contiguous where they run along it). */
+static void sqffd__la_transpose_lower(double *l, size_t n)
+{
+    size_t i, j;
+    for (i = 0; i < n; ++i)
+        for (j = 0; j < i; ++j) l[j * n + i] = l[i * n + j];
+}
+
+/* Solves L L^T x = b in place, L^T's rows in u. */
+static void sqffd__la_upper_solve(const double *u, size_t n, double *b)
+{
+    size_t i, j;
+    for (j = 0; j < n; ++j) { /* L y = b, column by column of L (rows of u) */
+        const double *row = u + j * n;
+        b[j] /= row[j];
+        for (i = j + 1; i < n; ++i) b[i] -= row[i] * b[j];
+    }
+    for (i = n; i-- > 0;) { /* L^T x = y */
+        const double *row = u + i * n;
+        double sum = b[i];
+        for (j = i + 1; j < n; ++j) sum -= row[j] * b[j];
+        b[i] = sum / row[i];
+    }
+}
+
+/* The factor of A (rows of L^T in u) made that of A + sign x x^T (sign 1 or
+   -1; x overwritten). 0 when a downdate would leave A not positive
+   definite (u is then spoilt: factor again). */
+static int sqffd__la_upper_update(double *u, size_t n, double *x, double sign)
+{
+    size_t k, i;
+    for (k = 0; k < n; ++k) {
+        double *row = u + k * n, d = row[k], r2 = d * d + sign * x[k] * x[k], r, c, s;
+        if (!(r2 > 0.0)) return 0;
+        r = sqrt(r2);
+        c = r / d;
+        s = x[k] / d;
+        row[k] = r;
+        {
+            double inverse_c = 1.0 / c, ss = sign * s;
+            for (i = k + 1; i < n; ++i) {
+                row[i] = (row[i] + ss * x[i]) * inverse_c;
+                x[i] = c * x[i] - s * row[i];
+            }
+        }
+    }
+    return 1;
+}
+
 SQFFD_DEF sqffd_result sqffd_cholesky_solve(const double *l, size_t n, double *b)
 {
     if (!l || !b || n < 1) return SQFFD_ERROR_INVALID_ARGUMENT;
@@ -7399,35 +7450,34 @@ static sqffd_result sqffd__fit_step(const sqffd__fit_system *s, sqffd__fit_work 
    Under a floor (min_jacobian) the model may not fold where it lives: J, the
    lattice's Jacobian in the box's coordinates (1 for P0), stays at or above
    the run's floor over THE REGION, the cells of the box's
-   SQFFD__FIT_REGION^3 partition that hold a model point of the grid or
-   whose centre lies inside the superquadric, and their neighbours (a
-   cell's width around them): the superquadric's solid, the model's surface
-   and interior map from it, and a band around it. Outside it (the box's
-   corners) nothing is fitted and nothing is held.
-   The step is Newton's on the energy plus a log barrier,
-     E(P) - mu sum_s log(J(X_s; P) - floor),
-   over samples X_s of the region (the corners of its cells, and the points
-   the certificate adds): the data -> model term by Gauss-Newton on its
-   point-to-plane residuals (a data point's squared distance changes to
-   first order only along the direction to its closest point n: per model
-   point a 3 x 3 weight sum w n n^T, so the step's matrix couples x, y and
-   z), the model -> data term, the springs and the tether exactly, the
-   barrier by its Gauss-Newton matrix sum mu g g^T / (J - floor)^2 (g = dJ /
-   dP). One dense 3L x 3L system. Levenberg-Marquardt damping lambda times
-   the point-to-point matrix keeps steps where the linear model holds:
-   lambda falls after a step that lowered the energy as predicted and rises
-   after one that did not (rejected: the control points go back). A step
-   goes at most SQFFD__FIT_BOUNDARY of the way to the floor at every sample
-   (halved until it does). mu starts at SQFFD__FIT_MU_START of the energy
-   per sample and falls tenfold with each accepted step down to
-   SQFFD__FIT_MU_END of it: the barrier's minimiser is then within that
-   share of the energy of the constrained one (a log barrier's duality
-   gap: samples x mu).
+   SQFFD__FIT_REGION^3 partition that the model's mesh passes through or
+   whose centre lies inside the superquadric, and their neighbours (a cell
+   around them): the superquadric's solid, which the model's surface and
+   interior map from, and a band around it. Outside it (the box's corners)
+   nothing is fitted and nothing is held.
+   THE STEP: Gauss-Newton on the energy, with J held above the floor at
+   samples of the region (the corners of its cells, and the points the
+   certificate adds) by a penalty:
+     E(P) + rho/2 sum_s max(0, margin - (J(X_s; P) - floor))^2.
+   The data -> model term by its point-to-plane residuals (to first order a
+   data point's distance changes only along the direction to its closest
+   point, n: per model point a 3 x 3 weight sum w n n^T, so the step's
+   matrix couples x, y and z), the model -> data term, the springs and the
+   tether exactly: one dense 3L x 3L system. The penalty holds the samples
+   the step itself would sink under the margin, by their linearised J (an
+   active set, grown and shrunk until it settles). Levenberg-Marquardt
+   damping lambda times the lattice's graph Laplacian (scaled to the data's
+   point-to-point matrix) keeps the step smooth, so that J, cubic in P,
+   stays near its linear model: lambda falls after a step that lowered the
+   penalised energy as predicted and rises after one that did not (then the
+   control points go back). rho starts where a sample sunk by the whole
+   margin costs twice the energy, and grows tenfold while an accepted model
+   leaves a sample half the margin short.
    CERTIFIED: an accepted model's J is checked on every region cell by its
    Bernstein coefficients (J lies between them), halved up to
    SQFFD__FIT_CERT_DEPTH times where they dip below the floor; a cell still
-   below it gives a new sample at its lowest coefficient and the step is
-   taken again from the accepted model. The report's min_jacobian is the
+   below it gives a new sample at its lowest coefficient. The fit returns the
+   last accepted model that passed, and the report's min_jacobian is its
    certified bound over the region. */
 #define SQFFD__FIT_REGION 8
 #define SQFFD__FIT_REGION_CELLS (SQFFD__FIT_REGION * SQFFD__FIT_REGION * SQFFD__FIT_REGION)
@@ -7436,30 +7486,34 @@ static sqffd_result sqffd__fit_step(const sqffd__fit_system *s, sqffd__fit_work 
 #define SQFFD__FIT_SAMPLES_ADDED 256 /* samples the certificate may add to a run */
 #define SQFFD__FIT_CERT_DEPTH 4
 #define SQFFD__FIT_CERT_FAILS 16 /* new samples one certificate gives at most */
-#define SQFFD__FIT_BOUNDARY (getenv("BOUNDARY") ? atof(getenv("BOUNDARY")) : 0.9)
-#define SQFFD__FIT_MU_START 1e-1
-#define SQFFD__FIT_MU_END 1e-4
+#define SQFFD__FIT_MARGIN 0.05    /* the samples are held this far above the floor: room for J's dips between them */
+#define SQFFD__FIT_LAMBDA_START 1e-2
+#define SQFFD__FIT_ROUNDS 8       /* solves of one step's active set at most */
 
 struct sqffd__fit_fold {
     sqffd__jacobian_work at;   /* J's coefficients over the box */
     double floor;              /* the run's */
-    double mu, lambda;         /* the barrier's weight (energy units), the damping */
+    double rho, lambda;        /* the penalty's weight (energy units), the damping */
     unsigned char region[SQFFD__FIT_REGION_CELLS]; /* the region's cells, then the coarser levels' (a cell
                                                       meets the region where one of its children does) */
     unsigned char coarse[SQFFD__FIT_REGION_CELLS / 7 + 1];
     double (*sample)[3];       /* stu of the samples */
     double *value;             /* J - floor at each, for the accepted model */
     double *trial;             /* and for the trial */
+    unsigned char *active;     /* the samples the step's penalty holds */
     size_t samples, capacity;
     double *tensor;            /* the certificate's coefficients, one tensor a level */
     double fails[SQFFD__FIT_CERT_FAILS][3];
     size_t failed;
-    double *hessian;           /* 3L x 3L lower triangle, planar unknowns: the linearised energy at the accepted model */
-    double *factor;            /* 3L x 3L: hessian + barrier + damping, then its Cholesky factor */
-    double *rhs;               /* 3L: minus the energy's gradient there */
+    double *gradients;         /* samples x 3L: dJ / dP at each, for the accepted model (planar) */
+    double *hessian;           /* 3L x 3L lower triangle, planar unknowns: the energy's Gauss-Newton matrix at the
+                                  accepted model, without the penalty */
+    double *factor;            /* 3L x 3L: the step's matrix factored, stored as L^T (rows of the upper triangle) */
+    double *gradient;          /* 3L: minus the energy's gradient there, without the penalty */
+    double *rhs;               /* 3L: with the active samples' penalty */
     double *move;              /* 3L: the step */
-    double *grad;              /* 3L: a sample's dJ / dP */
-    double *damping;           /* L x L lower: B^T diag(point-to-point weights) B */
+    double *scratch;           /* 3L */
+    double *damping;           /* L x L lower: the damping's matrix */
     double *planes;            /* M x 6: the pass's sums of w n n^T (xx xy xz yy yz zz) */
 };
 
@@ -7479,11 +7533,14 @@ static void sqffd__fit_fold_layout(sqffd__arena *a, const int dims[3], size_t m,
     f->sample = (double (*)[3])sqffd__arena_take(a, f->capacity, 3 * sizeof(double));
     f->value = (double *)sqffd__arena_take(a, f->capacity, sizeof(double));
     f->trial = (double *)sqffd__arena_take(a, f->capacity, sizeof(double));
+    f->active = (unsigned char *)sqffd__arena_take(a, f->capacity, 1);
+    f->gradients = (double *)sqffd__arena_take(a, f->capacity, size * sizeof(double));
     f->hessian = (double *)sqffd__arena_take(a, size * size, sizeof(double));
     f->factor = (double *)sqffd__arena_take(a, size * size, sizeof(double));
+    f->gradient = (double *)sqffd__arena_take(a, size, sizeof(double));
     f->rhs = (double *)sqffd__arena_take(a, size, sizeof(double));
     f->move = (double *)sqffd__arena_take(a, size, sizeof(double));
-    f->grad = (double *)sqffd__arena_take(a, size, sizeof(double));
+    f->scratch = (double *)sqffd__arena_take(a, size, sizeof(double));
     f->damping = (double *)sqffd__arena_take(a, l * l, sizeof(double));
     f->planes = (double *)sqffd__arena_take(a, m, 6 * sizeof(double));
 }
@@ -7642,18 +7699,6 @@ static double sqffd__fit_fold_values(const int dims[3], const sqffd__fit_fold *f
     return least;
 }
 
-/* sum of -log(J - floor) over the samples from their values (HUGE_VAL where one is not above the floor). */
-static double sqffd__fit_barrier(const sqffd__fit_fold *f, const double *value)
-{
-    double sum = 0.0;
-    size_t i;
-    for (i = 0; i < f->samples; ++i) {
-        if (!(value[i] > 0.0)) return HUGE_VAL;
-        sum -= log(value[i]);
-    }
-    return sum;
-}
-
 /* The tensor t (extents ext) restricted to half `side` of axis `axis`, in
    place (de Casteljau at 1/2). */
 static void sqffd__bernstein_halve(double *t, const int ext[3], int axis, int side)
@@ -7756,67 +7801,92 @@ static void sqffd__fit_fold_scatter(size_t l, const double *block, size_t c, siz
     }
 }
 
-/* The barrier's terms of samples from..samples-1 at control points whose
-   J - floor there is f->value, weight M mu: their pull into f->rhs, their
-   Gauss-Newton matrix into f->hessian. */
-static void sqffd__fit_fold_barrier_terms(const sqffd__fit_system *s, sqffd__fit_fold *f, const double *control,
-                                          const double inverse[9], double weight, size_t from)
+/* The penalty rho/2 sum max(0, margin - (J - floor))^2 over the samples
+   (energy units) from their values; *worst: the largest shortfall. */
+static double sqffd__fit_fold_penalty(const sqffd__fit_fold *f, const double *value, double *worst)
 {
-    size_t size = 3 * s->lattice, i, p, q;
-    for (i = from; i < f->samples; ++i) {
-        double gap = f->value[i], pull = weight / gap, curve = pull / gap;
-        sqffd__fit_fold_sample(s->dims, control, inverse, f->sample[i], f->grad);
-        for (p = 0; p < size; ++p) {
-            double gp = curve * f->grad[p];
-            double *row = f->hessian + p * size;
-            f->rhs[p] += pull * f->grad[p];
-            for (q = 0; q <= p; ++q) row[q] += gp * f->grad[q];
+    double sum = 0.0, most = 0.0;
+    size_t i;
+    for (i = 0; i < f->samples; ++i) {
+        double v = SQFFD__FIT_MARGIN - value[i];
+        if (!(v <= 0.0)) {
+            if (!(v < HUGE_VAL)) v = HUGE_VAL;
+            sum += v * v;
+            if (v > most) most = v;
         }
     }
+    *worst = most;
+    return 0.5 * f->rho * sum;
 }
 
-/* The damped step (hessian + lambda damping) move = rhs into f->move
-   (planar); lambda grows tenfold until the matrix factors. Returns the
-   decrease the linear model predicts (step units), or -1 when it never
-   factors. */
-static double sqffd__fit_fold_solve(const sqffd__fit_system *s, sqffd__fit_fold *f)
+/* The step's matrix, the energy's plus the active samples' penalty (weight
+   M rho) and lambda x the damping, factored into f->factor (as L^T), and
+   its right-hand side into f->rhs; lambda grows tenfold until it factors.
+   0 when it never does. */
+static int sqffd__fit_fold_factor(const sqffd__fit_system *s, sqffd__fit_fold *f, double weight)
 {
-    size_t l = s->lattice, size = 3 * l, c, p, q;
+    size_t l = s->lattice, size = 3 * l, c, p, q, i;
     int tries;
-    for (tries = 0; tries < 40; ++tries) {
+    for (tries = 0; tries < 40; ++tries, f->lambda = f->lambda > 0.0 ? 10.0 * f->lambda : 1e-6) {
         memcpy(f->factor, f->hessian, size * size * sizeof(double));
+        memcpy(f->rhs, f->gradient, size * sizeof(double));
         for (c = 0; c < 3; ++c)
             for (p = 0; p < l; ++p) {
                 double *row = f->factor + (c * l + p) * size + c * l;
                 for (q = 0; q <= p; ++q) row[q] += f->lambda * f->damping[p * l + q];
             }
-        if (sqffd_cholesky_factor(f->factor, size) == SQFFD_OK) {
-            memcpy(f->move, f->rhs, size * sizeof(double));
-            sqffd_cholesky_solve(f->factor, size, f->move);
-            return 0.5 * sqffd__la_dot(f->move, f->rhs, size);
+        for (i = 0; i < f->samples; ++i) {
+            const double *g = f->gradients + i * size;
+            double shortfall = SQFFD__FIT_MARGIN - f->value[i];
+            if (!f->active[i]) continue;
+            for (p = 0; p < size; ++p) {
+                double gp = weight * g[p], *row = f->factor + p * size;
+                f->rhs[p] += shortfall * gp;
+                for (q = 0; q <= p; ++q) row[q] += gp * g[q];
+            }
         }
-        f->lambda = f->lambda > 0.0 ? 10.0 * f->lambda : 1e-6;
+        if (sqffd_cholesky_factor(f->factor, size) == SQFFD_OK) {
+            sqffd__la_transpose_lower(f->factor, size);
+            return 1;
+        }
     }
-    return -1.0;
+    return 0;
 }
 
-/* The trial control points accepted + tau move into control, tau halved
-   from 1 until every sample keeps 1 - SQFFD__FIT_BOUNDARY of its way to the
-   floor (J - floor at them into f->trial); returns tau (0: none). */
-static double sqffd__fit_fold_trial(const sqffd__fit_system *s, sqffd__fit_fold *f, const double *accepted,
-                                    const double inverse[9], double *control)
+/* The step on the energy's model plus the penalty of the samples the step
+   itself sinks under the margin (by their linearised J), into f->move
+   (planar): solved on the active set, which then becomes the samples the
+   solution sinks, until it settles (at most SQFFD__FIT_ROUNDS solves; each
+   change a rank-one change of the factor). Returns the predicted decrease
+   (step units; -1: no damping factors the matrix). */
+static double sqffd__fit_fold_step(const sqffd__fit_system *s, sqffd__fit_fold *f, double weight)
 {
-    size_t l = s->lattice, p, i;
-    double tau = 1.0;
-    int k, c;
-    for (k = 0; k < 40; ++k, tau *= 0.5) {
-        for (p = 0; p < l; ++p)
-            for (c = 0; c < 3; ++c) control[3 * p + (size_t)c] = accepted[3 * p + (size_t)c] + tau * f->move[(size_t)c * l + p];
-        sqffd__fit_fold_values(s->dims, f, control, inverse, f->trial);
-        for (i = 0; i < f->samples && f->trial[i] >= (1.0 - SQFFD__FIT_BOUNDARY) * f->value[i]; ++i) {}
-        if (i == f->samples) return tau;
+    size_t size = 3 * s->lattice, i, p;
+    int round, factored = 0;
+    double root = sqrt(weight);
+    for (i = 0; i < f->samples; ++i) f->active[i] = f->value[i] < SQFFD__FIT_MARGIN;
+    for (round = 0; round < SQFFD__FIT_ROUNDS; ++round) {
+        size_t changed = 0;
+        if (!factored && !(factored = sqffd__fit_fold_factor(s, f, weight))) return -1.0;
+        memcpy(f->move, f->rhs, size * sizeof(double));
+        sqffd__la_upper_solve(f->factor, size, f->move);
+        if (round + 1 == SQFFD__FIT_ROUNDS) break;
+        for (i = 0; i < f->samples; ++i) {
+            const double *g = f->gradients + i * size;
+            unsigned char sinks = f->value[i] + sqffd__la_dot(g, f->move, size) < SQFFD__FIT_MARGIN;
+            double sign = sinks ? 1.0 : -1.0, shortfall = SQFFD__FIT_MARGIN - f->value[i];
+            if (sinks == f->active[i]) continue;
+            f->active[i] = sinks;
+            ++changed;
+            for (p = 0; p < size; ++p) {
+                f->rhs[p] += sign * weight * shortfall * g[p];
+                f->scratch[p] = root * g[p];
+            }
+            if (factored) factored = sqffd__la_upper_update(f->factor, size, f->scratch, sign);
+        }
+        if (!changed) break;
     }
-    return 0.0;
+    return 0.5 * sqffd__la_dot(f->move, f->rhs, size);
 }
 
 /* ---- the iteration --------------------------------------------------------- */
@@ -8202,22 +8272,20 @@ static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagon
 }
 
 /* ---- the fold-free iteration ----------------------------------------------
-   The loop of the fold-free step (its section above): measure the start;
-   then per iteration a damped Newton step from the accepted model, kept
-   inside the floor at the samples, measured by a pass; accepted when it
-   lowers the energy with the barrier and the certificate passes (then the
-   energy is linearised anew from that pass), else rolled back (lambda up,
-   or the certificate's points added as samples). The energy never rises:
-   the accepted model is the only one reported. A start that breaks the
-   floor on the region runs with the floor lowered under its certified
-   bound, raised after each step toward min_jacobian (a rising threshold
-   that untangles it where it can). */
-#define SQFFD__FIT_LAMBDA_START 1e-2 /* damping of the first step: a hundredth of the point-to-point matrix */
+   The fold-free step's loop (its section above): measure the start; then
+   per iteration the damped step from the accepted model, measured by a
+   pass; accepted when it lowers the penalised energy (then linearised anew
+   from that pass and certified), else rolled back with more damping. The
+   fit ends on the last accepted model the certificate passed: its energy is
+   never above the start's. A start that breaks the floor on the region runs
+   with the floor just under its certified bound, raised after each
+   certified step toward min_jacobian (a rising threshold that untangles it
+   where it can). */
 
-/* The linearised energy at the current model from its pass (w->target,
-   w->weights, f->planes; it->next: the holding model points' nearest
-   data), with the barrier's terms at weight M mu: f->hessian, f->rhs,
-   f->damping. */
+/* The energy's Gauss-Newton matrix and gradient at the current model from
+   its pass (w->target, w->weights, f->planes; it->next: the holding model
+   points' nearest data): f->hessian, f->gradient, f->damping, and the
+   samples' gradients. */
 static void sqffd__fit_fold_linearise(sqffd__fit_iteration *it)
 {
     static const int entry[3][3] = {{0, 1, 2}, {1, 3, 4}, {2, 4, 5}}; /* f->planes' order */
@@ -8225,7 +8293,7 @@ static void sqffd__fit_fold_linearise(sqffd__fit_iteration *it)
     sqffd__fit_work *w = it->w;
     sqffd__fit_fold *f = w->fold;
     size_t m = s->count, l = s->lattice, size = 3 * l, v, c, c2;
-    double scale = (double)m / (double)it->points->count;
+    double scale = (double)m / (double)it->points->count, trace = 0.0, laplacian = 0.0;
     double hold = it->o->model_to_data * (double)m / (double)it->holding;
     const double *control = &it->model->ffd.control[0][0];
     double *t = w->target, *plane = f->planes;
@@ -8235,8 +8303,16 @@ static void sqffd__fit_fold_linearise(sqffd__fit_iteration *it)
         w->weights[v] = scale * w->weights[v] + (held ? hold : 0.0);
         for (c = 0; c < 6; ++c) plane[6 * v + c] = scale * plane[6 * v + c] + (held && (c == 0 || c == 3 || c == 5) ? hold : 0.0);
     }
+    /* the damping: the lattice's Laplacian, scaled to the trace of B^T W B (W: the point-to-point weights) */
+    memset(w->matrix, 0, l * l * sizeof(double));
+    sqffd__fit_gram(s, w->weights, 1.0, w->pairs, w->block, w->matrix);
     memset(f->damping, 0, l * l * sizeof(double));
-    sqffd__fit_gram(s, w->weights, 1.0, w->pairs, w->block, f->damping);
+    sqffd__fit_add_springs(s->dims, l, 1.0, f->damping);
+    for (v = 0; v < l; ++v) {
+        trace += w->matrix[v * l + v];
+        laplacian += f->damping[v * l + v];
+    }
+    for (v = 0; v < l * l; ++v) f->damping[v] *= trace / laplacian;
     memset(f->hessian, 0, size * size * sizeof(double));
     for (c = 0; c < 3; ++c)
         for (c2 = 0; c2 <= c; ++c2) {
@@ -8246,13 +8322,14 @@ static void sqffd__fit_fold_linearise(sqffd__fit_iteration *it)
             sqffd__fit_gram(s, w->weights, 1.0, w->pairs, w->block, w->matrix);
             sqffd__fit_fold_scatter(l, w->matrix, c, c2, f->hessian);
         }
-    sqffd__fit_project(s, t, NULL, s->rhs0, (double (*)[3])w->block, f->rhs); /* B^T t + rhs0 - fixed P */
+    sqffd__fit_project(s, t, NULL, s->rhs0, (double (*)[3])w->block, f->gradient); /* B^T t + rhs0 - fixed P */
     sqffd__fit_planar(control, l, f->move);
     for (c = 0; c < 3; ++c) {
-        sqffd__fit_symmetric_times(s->fixed, l, f->move + c * l, f->grad);
-        for (v = 0; v < l; ++v) f->rhs[c * l + v] -= f->grad[v];
+        sqffd__fit_symmetric_times(s->fixed, l, f->move + c * l, f->scratch);
+        for (v = 0; v < l; ++v) f->gradient[c * l + v] -= f->scratch[v];
     }
-    sqffd__fit_fold_barrier_terms(s, f, control, it->model->ffd.inverse, (double)m * f->mu, 0);
+    for (v = 0; v < f->samples; ++v)
+        sqffd__fit_fold_sample(s->dims, control, it->model->ffd.inverse, f->sample[v], f->gradients + v * size);
 }
 
 /* The control points back to the accepted ones, with their matches. */
@@ -8263,21 +8340,15 @@ static void sqffd__fit_fold_roll_back(sqffd__fit_iteration *it)
     sqffd__fit_control_changed(it);
 }
 
-/* Adds the certificate's points as samples (J - floor at the accepted
-   control points: above 0, the accepted model is certified) with their
-   barrier terms; returns how many. */
-static size_t sqffd__fit_fold_add_samples(sqffd__fit_iteration *it)
+/* The certificate's points as new samples (as many as there is room for). */
+static void sqffd__fit_fold_add_samples(sqffd__fit_iteration *it, const double *control)
 {
     sqffd__fit_fold *f = it->w->fold;
-    size_t from = f->samples, i;
-    for (i = 0; i < f->failed && f->samples < f->capacity; ++i) {
-        double gap = sqffd__fit_fold_sample(it->s->dims, it->w->accepted, it->model->ffd.inverse, f->fails[i], NULL) - f->floor;
-        if (!(gap > 0.0)) continue;
+    size_t i;
+    for (i = 0; i < f->failed && f->samples < f->capacity; ++i, ++f->samples) {
         memcpy(f->sample[f->samples], f->fails[i], sizeof f->fails[i]);
-        f->value[f->samples++] = gap;
+        f->value[f->samples] = sqffd__fit_fold_sample(it->s->dims, control, it->model->ffd.inverse, f->fails[i], NULL) - f->floor;
     }
-    sqffd__fit_fold_barrier_terms(it->s, f, it->w->accepted, it->model->ffd.inverse, (double)it->s->count * f->mu, from);
-    return f->samples - from;
 }
 
 static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
@@ -8288,98 +8359,96 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
     sqffd__fit_fold *f = w->fold;
     sqffd_fit_report *rep = it->rep;
     sqffd_model *model = it->model;
-    double *control = &model->ffd.control[0][0], *swap;
+    double *control = &model->ffd.control[0][0], *swap, *best = w->plain;
     const double *inverse = model->ffd.inverse;
     size_t size = 3 * s->lattice, m = s->count, v;
-    double energy, barrier, bound, margin;
-    sqffd_distance_stats stats, accepted_stats;
-    int stalled = 0;
+    double energy, penalty, bound, below, worst, best_energy;
+    sqffd_distance_stats stats, accepted_stats, best_stats;
+    int stalled = 0, best_is_accepted = 1;
     sqffd_result res;
     sqffd__fit_region(model, s, f);
-    if (getenv("FOLD_DEBUG")) { int q, cnt = 0; for (q = 0; q < SQFFD__FIT_REGION_CELLS; q++) cnt += f->region[q]; fprintf(stderr, "region %d cells grid %d %d\n", cnt, s->grid[0], s->grid[1]); }
     f->floor = o->min_jacobian;
     bound = sqffd__fit_fold_certify(s->dims, f, control, inverse, o->min_jacobian);
-    margin = 1e-3 * (fabs(bound) > 1.0 ? fabs(bound) : 1.0); /* (strictly inside: the samples' logs stay finite) */
-    if (bound < f->floor) f->floor = bound - margin;
+    below = 1e-3 * (fabs(bound) > 1.0 ? fabs(bound) : 1.0); /* (a rising floor stays this far under the bound) */
+    if (bound < f->floor) f->floor = bound - below;
     it->planes = f->planes;
     res = sqffd__fit_measure(it, 0, &energy, &stats);
     if (res == SQFFD_OK) res = sqffd__fit_record(it, energy, &stats);
     if (res != SQFFD_OK) return res;
     sqffd__fit_fold_values(s->dims, f, control, inverse, f->value);
-    barrier = sqffd__fit_barrier(f, f->value);
-    f->mu = (getenv("MU0") ? atof(getenv("MU0")) : SQFFD__FIT_MU_START) * energy / (double)(f->samples ? f->samples : 1);
+    f->rho = 2.0 * (energy > 0.0 ? energy : 1.0) / (SQFFD__FIT_MARGIN * SQFFD__FIT_MARGIN);
+    penalty = sqffd__fit_fold_penalty(f, f->value, &worst);
     f->lambda = SQFFD__FIT_LAMBDA_START;
     sqffd__fit_fold_linearise(it);
-    it->accepted = energy;
-    accepted_stats = stats;
+    it->accepted = best_energy = energy;
+    accepted_stats = best_stats = stats;
+    rep->min_jacobian = bound;
     memcpy(w->accepted, control, size * sizeof(double));
+    memcpy(best, control, size * sizeof(double));
     memcpy(w->matched_accepted, w->matched, it->points->count * sizeof *w->matched);
     while (rep->iterations < o->max_iterations && !rep->converged && !stalled) {
-        double predicted = sqffd__fit_fold_solve(s, f), tau, move = 0.0, trial_barrier;
-        if (predicted < 0.0 || !((tau = sqffd__fit_fold_trial(s, f, w->accepted, inverse, control)) > 0.0)) {
-            memcpy(control, w->accepted, size * sizeof(double));
+        double predicted = sqffd__fit_fold_step(s, f, (double)m * f->rho), move = 0.0, trial_penalty;
+        size_t p;
+        int c;
+        if (!(predicted >= 0.0)) {
             stalled = 1;
             break;
         }
+        for (p = 0; p < s->lattice; ++p)
+            for (c = 0; c < 3; ++c) control[3 * p + (size_t)c] = w->accepted[3 * p + (size_t)c] + f->move[(size_t)c * s->lattice + p];
+        sqffd__fit_fold_values(s->dims, f, control, inverse, f->trial);
         sqffd__fit_control_changed(it); /* (it->next: the accepted model points) */
         for (v = 0; v < 3 * m; ++v) move += (it->x[v] - it->next[v]) * (it->x[v] - it->next[v]);
         it->origin = SQFFD__FIT_FROM_PLAIN;
         ++rep->iterations;
         res = sqffd__fit_measure(it, 0, &energy, &stats);
         if (res != SQFFD_OK) return res;
-        trial_barrier = sqffd__fit_barrier(f, f->trial);
-        if (getenv("FOLD_DEBUG")) fprintf(stderr, "it %d pred %g tau %g lambda %g mu %g samples %zu floor %g E %g -> %g bar %g -> %g\n", rep->iterations, predicted, tau, f->lambda, f->mu, f->samples, f->floor, it->accepted, energy, barrier, trial_barrier);
-        if (energy + f->mu * trial_barrier < it->accepted + f->mu * barrier) {
-            double gain = (it->accepted + f->mu * barrier - energy - f->mu * trial_barrier) * (double)m / (tau * predicted);
-            double target = o->min_jacobian, least = HUGE_VAL;
-            bound = sqffd__fit_fold_certify(s->dims, f, control, inverse, target);
-            if (bound >= f->floor) { /* accepted */
-                if (f->floor < o->min_jacobian) { /* the rising threshold */
-                    double raised = bound - margin < o->min_jacobian ? bound - margin : o->min_jacobian;
-                    if (raised > f->floor) {
-                        f->floor = raised;
-                        least = sqffd__fit_fold_values(s->dims, f, control, inverse, f->trial);
-                    }
+        trial_penalty = sqffd__fit_fold_penalty(f, f->trial, &worst);
+        if (energy + trial_penalty < it->accepted + penalty) {
+            double gain = (it->accepted + penalty - energy - trial_penalty) * (double)m / predicted;
+            f->lambda = gain > 0.75 ? f->lambda / 3.0 : gain < 0.25 ? 2.0 * f->lambda : f->lambda;
+            swap = f->value; f->value = f->trial; f->trial = swap;
+            it->accepted = energy;
+            accepted_stats = stats;
+            memcpy(w->accepted, control, size * sizeof(double));
+            memcpy(w->matched_accepted, w->matched, it->points->count * sizeof *w->matched);
+            rep->step = sqrt(move / (double)m) / it->diagonal;
+            bound = sqffd__fit_fold_certify(s->dims, f, control, inverse, o->min_jacobian);
+            best_is_accepted = bound >= f->floor;
+            if (best_is_accepted) {
+                memcpy(best, control, size * sizeof(double));
+                best_energy = energy;
+                best_stats = stats;
+                rep->min_jacobian = bound;
+                if (f->floor < o->min_jacobian && bound - below > f->floor) { /* the rising floor */
+                    f->floor = bound - below < o->min_jacobian ? bound - below : o->min_jacobian;
+                    sqffd__fit_fold_values(s->dims, f, control, inverse, f->value);
                 }
-                swap = f->value; f->value = f->trial; f->trial = swap;
-                (void)least;
-                if (tau < 1.0) f->lambda = (f->lambda > 0.0 ? f->lambda : 1e-6) * (tau < 0.125 ? 8.0 : 2.0 / tau); /* the floor cut it */
-                else f->lambda = gain > 0.75 ? f->lambda / 3.0 : gain < 0.25 ? 2.0 * f->lambda : f->lambda;
-                rep->step = sqrt(move / (double)m) / it->diagonal;
-                {
-                    double end = SQFFD__FIT_MU_END * energy / (double)(f->samples ? f->samples : 1);
-                    rep->converged = rep->step <= o->tolerance && tau == 1.0 && f->mu <= end;
-                    if (getenv("MU_MODE") && tau == 1.0) f->mu = 0.1 * f->mu > end ? 0.1 * f->mu : end;
-                    else if (!getenv("MU_MODE")) f->mu = 0.1 * f->mu > end ? 0.1 * f->mu : end;
-                }
-                barrier = sqffd__fit_barrier(f, f->value);
-                it->accepted = energy;
-                accepted_stats = stats;
-                memcpy(w->accepted, control, size * sizeof(double));
-                memcpy(w->matched_accepted, w->matched, it->points->count * sizeof *w->matched);
-                sqffd__fit_fold_linearise(it);
-            } else {
-                sqffd__fit_fold_roll_back(it);
-                if (!sqffd__fit_fold_add_samples(it)) f->lambda *= 8.0;
-                barrier = sqffd__fit_barrier(f, f->value);
-            }
+            } else
+                sqffd__fit_fold_add_samples(it, control);
+            if (worst > 0.5 * SQFFD__FIT_MARGIN) f->rho *= 10.0; /* the penalty let a sample sink: stiffer */
+            penalty = sqffd__fit_fold_penalty(f, f->value, &worst);
+            rep->converged = best_is_accepted && rep->step <= o->tolerance && f->lambda <= 1.0;
+            sqffd__fit_fold_linearise(it);
         } else {
             sqffd__fit_fold_roll_back(it);
             f->lambda *= 8.0;
+            stalled = f->lambda > 1e12;
         }
         res = sqffd__fit_record(it, it->accepted, &accepted_stats);
         if (res != SQFFD_OK) return res;
     }
-    /* the accepted model, measured again where the last pass must be exact */
+    /* the last certified model, measured again where the last pass must be exact */
     it->origin = SQFFD__FIT_FROM_ACCEPTED;
     it->planes = NULL;
-    if ((it->mode & SQFFD__FIT_EXACT_END) && !it->search.exact) {
-        res = sqffd__fit_measure(it, 1, &energy, &accepted_stats);
-        if (res != SQFFD_OK) return res;
-        it->accepted = energy;
+    if (!best_is_accepted || stalled) {
+        memcpy(control, best, size * sizeof(double));
+        sqffd__fit_control_changed(it);
+        if (!(it->mode & SQFFD__FIT_EXACT_END)) res = sqffd__fit_measure(it, 1, &best_energy, &best_stats);
     }
-    res = sqffd__fit_record(it, it->accepted, &accepted_stats);
-    rep->min_jacobian = sqffd__fit_fold_certify(s->dims, f, control, inverse, o->min_jacobian);
+    if (res == SQFFD_OK && (it->mode & SQFFD__FIT_EXACT_END) && !it->search.exact)
+        res = sqffd__fit_measure(it, 1, &best_energy, &best_stats);
+    if (res == SQFFD_OK) res = sqffd__fit_record(it, best_energy, &best_stats);
     rep->stop = rep->converged ? SQFFD_FIT_CONVERGED : stalled ? SQFFD_FIT_STALLED : SQFFD_FIT_CAPPED;
     return res;
 }
