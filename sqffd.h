@@ -1961,47 +1961,6 @@ static void sqffd__la_transpose_lower(double *l, size_t n)
         for (j = 0; j < i; ++j) l[j * n + i] = l[i * n + j];
 }
 
-/* Solves L L^T x = b in place, L^T's rows in u. */
-static void sqffd__la_upper_solve(const double *u, size_t n, double *b)
-{
-    size_t i, j;
-    for (j = 0; j < n; ++j) { /* L y = b, column by column of L (rows of u) */
-        const double *row = u + j * n;
-        b[j] /= row[j];
-        for (i = j + 1; i < n; ++i) b[i] -= row[i] * b[j];
-    }
-    for (i = n; i-- > 0;) { /* L^T x = y */
-        const double *row = u + i * n;
-        double sum = b[i];
-        for (j = i + 1; j < n; ++j) sum -= row[j] * b[j];
-        b[i] = sum / row[i];
-    }
-}
-
-/* The factor of A (rows of L^T in u) made that of A + sign x x^T (sign 1 or
-   -1; x overwritten). 0 when a downdate would leave A not positive
-   definite (u is then spoilt: factor again). */
-static int sqffd__la_upper_update(double *u, size_t n, double *x, double sign)
-{
-    size_t k, i;
-    for (k = 0; k < n; ++k) {
-        double *row = u + k * n, d = row[k], r2 = d * d + sign * x[k] * x[k], r, c, s;
-        if (!(r2 > 0.0)) return 0;
-        r = sqrt(r2);
-        c = r / d;
-        s = x[k] / d;
-        row[k] = r;
-        {
-            double inverse_c = 1.0 / c, ss = sign * s;
-            for (i = k + 1; i < n; ++i) {
-                row[i] = (row[i] + ss * x[i]) * inverse_c;
-                x[i] = c * x[i] - s * row[i];
-            }
-        }
-    }
-    return 1;
-}
-
 SQFFD_DEF sqffd_result sqffd_cholesky_solve(const double *l, size_t n, double *b)
 {
     if (!l || !b || n < 1) return SQFFD_ERROR_INVALID_ARGUMENT;
@@ -7488,7 +7447,8 @@ static sqffd_result sqffd__fit_step(const sqffd__fit_system *s, sqffd__fit_work 
 #define SQFFD__FIT_CERT_FAILS 16 /* new samples one certificate gives at most */
 #define SQFFD__FIT_MARGIN 0.05    /* the samples are held this far above the floor: room for J's dips between them */
 #define SQFFD__FIT_LAMBDA_START 1e-2
-#define SQFFD__FIT_ROUNDS 8       /* solves of one step's active set at most */
+#define SQFFD__FIT_ROUNDS 8       /* rounds of a step's candidate samples at most */
+#define SQFFD__FIT_CANDIDATES 96  /* samples one step's penalty holds at most */
 
 struct sqffd__fit_fold {
     sqffd__jacobian_work at;   /* J's coefficients over the box */
@@ -7513,6 +7473,14 @@ struct sqffd__fit_fold {
     double *rhs;               /* 3L: with the active samples' penalty */
     double *move;              /* 3L: the step */
     double *scratch;           /* 3L */
+    double *base;              /* 3L: L^-1 rhs, L the factor of the step's matrix without the penalty */
+    uint32_t candidate[SQFFD__FIT_CANDIDATES]; /* the samples the step's penalty may hold */
+    double *solved;            /* SQFFD__FIT_CANDIDATES x 3L: L^-1 g for each */
+    double *gram;              /* SQFFD__FIT_CANDIDATES^2: their products, plus 1 / (M rho) on the diagonal */
+    double *small;             /* SQFFD__FIT_CANDIDATES^2: the multipliers' solve */
+    double need[SQFFD__FIT_CANDIDATES], multiplier[SQFFD__FIT_CANDIDATES], z[SQFFD__FIT_CANDIDATES],
+        slope[SQFFD__FIT_CANDIDATES];
+    unsigned char free_set[SQFFD__FIT_CANDIDATES];
     double *damping;           /* L x L lower: the damping's matrix */
     double *planes;            /* M x 6: the pass's sums of w n n^T (xx xy xz yy yz zz) */
 };
@@ -7541,6 +7509,10 @@ static void sqffd__fit_fold_layout(sqffd__arena *a, const int dims[3], size_t m,
     f->rhs = (double *)sqffd__arena_take(a, size, sizeof(double));
     f->move = (double *)sqffd__arena_take(a, size, sizeof(double));
     f->scratch = (double *)sqffd__arena_take(a, size, sizeof(double));
+    f->base = (double *)sqffd__arena_take(a, size, sizeof(double));
+    f->solved = (double *)sqffd__arena_take(a, SQFFD__FIT_CANDIDATES, size * sizeof(double));
+    f->gram = (double *)sqffd__arena_take(a, SQFFD__FIT_CANDIDATES * SQFFD__FIT_CANDIDATES, sizeof(double));
+    f->small = (double *)sqffd__arena_take(a, SQFFD__FIT_CANDIDATES * SQFFD__FIT_CANDIDATES, sizeof(double));
     f->damping = (double *)sqffd__arena_take(a, l * l, sizeof(double));
     f->planes = (double *)sqffd__arena_take(a, m, 6 * sizeof(double));
 }
@@ -7835,16 +7807,6 @@ static int sqffd__fit_fold_factor(const sqffd__fit_system *s, sqffd__fit_fold *f
                 double *row = f->factor + (c * l + p) * size + c * l;
                 for (q = 0; q <= p; ++q) row[q] += f->lambda * f->damping[p * l + q];
             }
-        for (i = 0; i < f->samples; ++i) {
-            const double *g = f->gradients + i * size;
-            double shortfall = SQFFD__FIT_MARGIN - f->value[i];
-            if (!f->active[i]) continue;
-            for (p = 0; p < size; ++p) {
-                double gp = weight * g[p], *row = f->factor + p * size;
-                f->rhs[p] += shortfall * gp;
-                for (q = 0; q <= p; ++q) row[q] += gp * g[q];
-            }
-        }
         if (sqffd_cholesky_factor(f->factor, size) == SQFFD_OK) {
             sqffd__la_transpose_lower(f->factor, size);
             return 1;
@@ -7853,40 +7815,149 @@ static int sqffd__fit_fold_factor(const sqffd__fit_system *s, sqffd__fit_fold *f
     return 0;
 }
 
+/* The decrease of the penalised energy's model by the step f->move (step
+   units, the penalty's weight M rho): the energy's quadratic model, and the
+   penalty's of the samples' linearised J. */
+static double sqffd__fit_fold_predicted(const sqffd__fit_system *s, sqffd__fit_fold *f, double weight)
+{
+    size_t size = 3 * s->lattice, i;
+    double decrease = sqffd__la_dot(f->gradient, f->move, size);
+    sqffd__fit_symmetric_times(f->hessian, size, f->move, f->scratch);
+    decrease -= 0.5 * sqffd__la_dot(f->move, f->scratch, size);
+    for (i = 0; i < f->samples; ++i) {
+        double before = SQFFD__FIT_MARGIN - f->value[i], after = before - sqffd__la_dot(f->gradients + i * size, f->move, size);
+        decrease += 0.5 * weight * ((before > 0.0 ? before * before : 0.0) - (after > 0.0 ? after * after : 0.0));
+    }
+    return decrease;
+}
+
+/* The multipliers mu >= 0 minimising 1/2 mu^T H mu - need^T mu over the
+   first k candidates (H = f->gram, positive definite), by Lawson and
+   Hanson's active set: grow the free set by the steepest descent, solve on
+   it, step back to the first multiplier that would turn negative. */
+static void sqffd__fit_fold_multipliers(sqffd__fit_fold *f, size_t k)
+{
+    const size_t stride = SQFFD__FIT_CANDIDATES;
+    size_t i, j, r, n, solves = 0;
+    unsigned char map[SQFFD__FIT_CANDIDATES]; /* (SQFFD__FIT_CANDIDATES <= 256) */
+    for (i = 0; i < k; ++i) {
+        f->multiplier[i] = 0.0;
+        f->free_set[i] = 0;
+    }
+    for (;;) {
+        size_t enter = k;
+        double most = 0.0;
+        for (i = 0; i < k; ++i) { /* the slope H mu - need; the most negative one not free enters */
+            f->slope[i] = sqffd__la_dot(f->gram + i * stride, f->multiplier, k) - f->need[i];
+            if (!f->free_set[i] && f->slope[i] < most) { most = f->slope[i]; enter = i; }
+        }
+        if (enter == k) return;
+        f->free_set[enter] = 1;
+        for (;;) {
+            double step = 1.0;
+            if (++solves > 3 * k) return;
+            for (n = 0, i = 0; i < k; ++i) if (f->free_set[i]) map[n++] = (unsigned char)i;
+            for (r = 0; r < n; ++r) { /* z = H_FF^-1 need_F on the free set */
+                for (j = 0; j <= r; ++j) f->small[r * n + j] = f->gram[map[r] * stride + map[j]];
+                f->slope[r] = f->need[map[r]];
+            }
+            if (sqffd_cholesky_factor(f->small, n) != SQFFD_OK) { f->free_set[enter] = 0; return; }
+            sqffd_cholesky_solve(f->small, n, f->slope);
+            for (i = 0; i < k; ++i) f->z[i] = 0.0;
+            for (r = 0; r < n; ++r) f->z[map[r]] = f->slope[r];
+            for (r = 0; r < n; ++r) { /* the way from mu to z, up to the first multiplier that reaches 0 */
+                i = map[r];
+                if (f->z[i] <= 0.0) {
+                    double t = f->multiplier[i] / (f->multiplier[i] - f->z[i]);
+                    if (t < step) step = t;
+                }
+            }
+            for (i = 0; i < k; ++i) f->multiplier[i] += step * (f->z[i] - f->multiplier[i]);
+            if (step == 1.0) break;
+            for (i = 0; i < k; ++i)
+                if (f->free_set[i] && f->multiplier[i] <= 0.0) { f->free_set[i] = 0; f->multiplier[i] = 0.0; }
+        }
+    }
+}
+
+/* L y = b (forward) and L^T x = y (backward), L^T's rows in u. */
+static void sqffd__la_upper_forward(const double *u, size_t n, double *b)
+{
+    size_t i, j;
+    for (j = 0; j < n; ++j) {
+        const double *row = u + j * n;
+        b[j] /= row[j];
+        for (i = j + 1; i < n; ++i) b[i] -= row[i] * b[j];
+    }
+}
+
+static void sqffd__la_upper_backward(const double *u, size_t n, double *b)
+{
+    size_t i, j;
+    for (i = n; i-- > 0;) {
+        const double *row = u + i * n;
+        double sum = b[i];
+        for (j = i + 1; j < n; ++j) sum -= row[j] * b[j];
+        b[i] = sum / row[i];
+    }
+}
+
 /* The step on the energy's model plus the penalty of the samples the step
    itself sinks under the margin (by their linearised J), into f->move
-   (planar): solved on the active set, which then becomes the samples the
-   solution sinks, until it settles (at most SQFFD__FIT_ROUNDS solves; each
-   change a rank-one change of the factor). Returns the predicted decrease
-   (step units; -1: no damping factors the matrix). */
+   (planar). With A the damped matrix and b its right-hand side, the step is
+   A^-1 (b + sum mu_i g_i), the multipliers mu >= 0 those of the penalty's
+   dual, min 1/2 mu^T (G A^-1 G^T + I / (M rho)) mu - (v - G A^-1 b)^T mu
+   (v: the samples' shortfalls under the margin), over candidates: the
+   samples short now or sunk by the step without them, then those the last
+   solution sinks, most sunk first (at most SQFFD__FIT_ROUNDS rounds and
+   SQFFD__FIT_CANDIDATES samples). Returns the predicted decrease (step
+   units; -1: no damping factors the matrix). */
 static double sqffd__fit_fold_step(const sqffd__fit_system *s, sqffd__fit_fold *f, double weight)
 {
-    size_t size = 3 * s->lattice, i, p;
-    int round, factored = 0;
-    double root = sqrt(weight);
-    for (i = 0; i < f->samples; ++i) f->active[i] = f->value[i] < SQFFD__FIT_MARGIN;
+    const size_t stride = SQFFD__FIT_CANDIDATES;
+    size_t size = 3 * s->lattice, i, j, k = 0, done = 0, p;
+    int round;
+    if (!sqffd__fit_fold_factor(s, f, weight)) return -1.0;
+    memcpy(f->base, f->rhs, size * sizeof(double));
+    sqffd__la_upper_forward(f->factor, size, f->base);
+    memcpy(f->move, f->base, size * sizeof(double));
+    sqffd__la_upper_backward(f->factor, size, f->move);
+    for (i = 0; i < f->samples; ++i) f->active[i] = 0;
     for (round = 0; round < SQFFD__FIT_ROUNDS; ++round) {
-        size_t changed = 0;
-        if (!factored && !(factored = sqffd__fit_fold_factor(s, f, weight))) return -1.0;
-        memcpy(f->move, f->rhs, size * sizeof(double));
-        sqffd__la_upper_solve(f->factor, size, f->move);
-        if (round + 1 == SQFFD__FIT_ROUNDS) break;
-        for (i = 0; i < f->samples; ++i) {
-            const double *g = f->gradients + i * size;
-            unsigned char sinks = f->value[i] + sqffd__la_dot(g, f->move, size) < SQFFD__FIT_MARGIN;
-            double sign = sinks ? 1.0 : -1.0, shortfall = SQFFD__FIT_MARGIN - f->value[i];
-            if (sinks == f->active[i]) continue;
-            f->active[i] = sinks;
-            ++changed;
-            for (p = 0; p < size; ++p) {
-                f->rhs[p] += sign * weight * shortfall * g[p];
-                f->scratch[p] = root * g[p];
+        for (;;) { /* the most sunk sample not yet a candidate */
+            size_t worst = f->samples;
+            double most = 0.0;
+            if (k == SQFFD__FIT_CANDIDATES) break;
+            for (i = 0; i < f->samples; ++i) {
+                double sunk;
+                if (f->active[i]) continue;
+                sunk = SQFFD__FIT_MARGIN - f->value[i] - sqffd__la_dot(f->gradients + i * size, f->move, size);
+                if (sunk > most) { most = sunk; worst = i; }
             }
-            if (factored) factored = sqffd__la_upper_update(f->factor, size, f->scratch, sign);
+            if (worst == f->samples) break;
+            f->active[worst] = 1;
+            f->candidate[k++] = (uint32_t)worst;
+            if (k - done >= 16) break; /* (a round's worth: then solve again) */
         }
-        if (!changed) break;
+        if (k == done) break;
+        for (i = done; i < k; ++i) { /* y_i = L^-1 g_i, its products, its need */
+            double *y = f->solved + i * size;
+            memcpy(y, f->gradients + (size_t)f->candidate[i] * size, size * sizeof(double));
+            sqffd__la_upper_forward(f->factor, size, y);
+            for (j = 0; j <= i; ++j)
+                f->gram[i * stride + j] = f->gram[j * stride + i] = sqffd__la_dot(y, f->solved + j * size, size);
+            f->gram[i * stride + i] += 1.0 / weight;
+            f->need[i] = SQFFD__FIT_MARGIN - f->value[f->candidate[i]] - sqffd__la_dot(y, f->base, size);
+        }
+        done = k;
+        sqffd__fit_fold_multipliers(f, k);
+        memcpy(f->move, f->base, size * sizeof(double));
+        for (i = 0; i < k; ++i)
+            if (f->multiplier[i] > 0.0)
+                for (p = 0; p < size; ++p) f->move[p] += f->multiplier[i] * f->solved[i * size + p];
+        sqffd__la_upper_backward(f->factor, size, f->move);
     }
-    return 0.5 * sqffd__la_dot(f->move, f->rhs, size);
+    return sqffd__fit_fold_predicted(s, f, weight);
 }
 
 /* ---- the iteration --------------------------------------------------------- */
@@ -8390,9 +8461,11 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
         double predicted = sqffd__fit_fold_step(s, f, (double)m * f->rho), move = 0.0, trial_penalty;
         size_t p;
         int c;
-        if (!(predicted >= 0.0)) {
-            stalled = 1;
-            break;
+        if (!(predicted > 0.0)) { /* no factor, or the active set did not settle into a descent: damp more */
+            f->lambda *= 8.0;
+            stalled = predicted < 0.0 && f->lambda > 1e12;
+            if (predicted != predicted || f->lambda > 1e12) stalled = 1;
+            continue;
         }
         for (p = 0; p < s->lattice; ++p)
             for (c = 0; c < 3; ++c) control[3 * p + (size_t)c] = w->accepted[3 * p + (size_t)c] + f->move[(size_t)c * s->lattice + p];
@@ -8404,6 +8477,7 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
         res = sqffd__fit_measure(it, 0, &energy, &stats);
         if (res != SQFFD_OK) return res;
         trial_penalty = sqffd__fit_fold_penalty(f, f->trial, &worst);
+        if (getenv("FOLD_DEBUG")) fprintf(stderr, "it %2d lambda %8.3g pred %9.3g actual %9.3g E %.4g worst %.3g rho %.3g samples %zu\n", rep->iterations, f->lambda, predicted / (double)m, it->accepted + penalty - energy - trial_penalty, energy, worst, f->rho, f->samples);
         if (energy + trial_penalty < it->accepted + penalty) {
             double gain = (it->accepted + penalty - energy - trial_penalty) * (double)m / predicted;
             f->lambda = gain > 0.75 ? f->lambda / 3.0 : gain < 0.25 ? 2.0 * f->lambda : f->lambda;
