@@ -7924,20 +7924,17 @@ static double sqffd__fit_fold_step(const sqffd__fit_system *s, sqffd__fit_fold *
     sqffd__la_upper_backward(f->factor, size, f->move);
     for (i = 0; i < f->samples; ++i) f->active[i] = 0;
     for (round = 0; round < SQFFD__FIT_ROUNDS; ++round) {
-        for (;;) { /* the most sunk sample not yet a candidate */
+        for (i = 0; i < f->samples; ++i) /* how far the step sinks each sample under the margin */
+            f->trial[i] = f->active[i] ? 0.0 : SQFFD__FIT_MARGIN - f->value[i] - sqffd__la_dot(f->gradients + i * size, f->move, size);
+        while (k < SQFFD__FIT_CANDIDATES && k - done < 16) { /* the most sunk samples (16 a round) become candidates */
             size_t worst = f->samples;
             double most = 0.0;
-            if (k == SQFFD__FIT_CANDIDATES) break;
-            for (i = 0; i < f->samples; ++i) {
-                double sunk;
-                if (f->active[i]) continue;
-                sunk = SQFFD__FIT_MARGIN - f->value[i] - sqffd__la_dot(f->gradients + i * size, f->move, size);
-                if (sunk > most) { most = sunk; worst = i; }
-            }
+            for (i = 0; i < f->samples; ++i)
+                if (f->trial[i] > most) { most = f->trial[i]; worst = i; }
             if (worst == f->samples) break;
             f->active[worst] = 1;
+            f->trial[worst] = 0.0;
             f->candidate[k++] = (uint32_t)worst;
-            if (k - done >= 16) break; /* (a round's worth: then solve again) */
         }
         if (k == done) break;
         for (i = done; i < k; ++i) { /* y_i = L^-1 g_i, its products, its need */
