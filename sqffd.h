@@ -7442,6 +7442,7 @@ static sqffd_result sqffd__fit_step(const sqffd__fit_system *s, sqffd__fit_work 
 #define SQFFD__FIT_REGION_CELLS (SQFFD__FIT_REGION * SQFFD__FIT_REGION * SQFFD__FIT_REGION)
 #define SQFFD__FIT_REGION_NODES ((SQFFD__FIT_REGION + 1) * (SQFFD__FIT_REGION + 1) * (SQFFD__FIT_REGION + 1))
 #define SQFFD__FIT_REGION_LEVELS 3 /* log2 SQFFD__FIT_REGION */
+static const int sqffd__fit_region_grid[2] = {32, 64}; /* the superquadric's surface the region is marked from */
 #define SQFFD__FIT_SAMPLES_ADDED 256 /* samples the certificate may add to a run */
 #define SQFFD__FIT_CERT_DEPTH 4
 #define SQFFD__FIT_CERT_FAILS 16 /* new samples one certificate gives at most */
@@ -7463,6 +7464,7 @@ struct sqffd__fit_fold {
     unsigned char *active;     /* the samples the step's penalty holds */
     size_t samples, capacity;
     double *tensor;            /* the certificate's coefficients, one tensor a level */
+    double *surface;           /* the superquadric's points on the SQFFD__FIT_REGION_GRID (the region's seeds) */
     double fails[SQFFD__FIT_CERT_FAILS][3];
     size_t failed;
     double *gradients;         /* samples x 3L: dJ / dP at each, for the accepted model (planar) */
@@ -7495,6 +7497,7 @@ static void sqffd__fit_fold_layout(sqffd__arena *a, const int dims[3], size_t m,
     sqffd__jacobian_extent(dims, 3, ej);
     f->tensor = (double *)sqffd__arena_take(a, (SQFFD__FIT_REGION_LEVELS + SQFFD__FIT_CERT_DEPTH + 1) *
                                                    sqffd__jacobian_count(ej), sizeof(double));
+    f->surface = (double *)sqffd__arena_take(a, sqffd__fit_grid_count(sqffd__fit_region_grid), 3 * sizeof(double));
     f->capacity = 0;
     if (!newton) return; /* (the report's bound alone) */
     f->capacity = SQFFD__FIT_REGION_NODES + SQFFD__FIT_SAMPLES_ADDED;
@@ -7517,30 +7520,37 @@ static void sqffd__fit_fold_layout(sqffd__arena *a, const int dims[3], size_t m,
     f->planes = (double *)sqffd__arena_take(a, m, 6 * sizeof(double));
 }
 
-/* The region's cells for the model's superquadric and box (rest: the
-   system's model points of P0), its coarser levels, and the samples at the
-   corners of its cells. */
-static void sqffd__fit_region(const sqffd_model *model, const sqffd__fit_system *s, sqffd__fit_fold *f)
+/* The region's cells for the model's superquadric and box (the same for
+   every grid: the coarse stage's and the grid's), its coarser levels, and
+   the samples at the corners of its cells. The superquadric's surface
+   marks the cells it passes through: the edges of its mesh on
+   sqffd__fit_region_grid, each in pieces under a quarter of a cell. */
+static void sqffd__fit_region(const sqffd_model *model, sqffd__fit_fold *f)
 {
     const int r = SQFFD__FIT_REGION;
     unsigned char seed[SQFFD__FIT_REGION_CELLS];
-    size_t v, offset, at;
+    size_t rows = (size_t)sqffd__fit_region_grid[0], cols = (size_t)sqffd__fit_region_grid[1], v, at;
     int i, j, k, di, dj, dk, level, size;
-    size_t rows = (size_t)s->grid[0], cols = (size_t)s->grid[1];
+    size_t offset;
+    const double *x = f->surface;
     memset(seed, 0, sizeof seed);
+    sqffd__fit_sq_grid(&model->sq, sqffd__fit_region_grid, f->surface);
     for (v = 0; v < rows * cols; ++v) /* the mesh's edges: to the next point in the row, the column, or the pole */
         for (k = 0; k < 3; ++k) {
             size_t other = k == 0 ? v - v % cols + (v + 1) % cols
                            : k == 1 ? (v + cols < rows * cols ? v + cols : rows * cols + 1)
                                     : (v < cols ? rows * cols : v);
-            for (i = 0; i < 4; ++i) {
-                double point[3], stu[3];
-                int e, cell[3];
-                for (e = 0; e < 3; ++e) point[e] = s->rest[3 * v + (size_t)e] + 0.25 * i * (s->rest[3 * other + (size_t)e] - s->rest[3 * v + (size_t)e]);
-                sqffd__ffd_local(&model->ffd, point, stu);
+            double from[3], to[3], reach = 0.0;
+            int pieces, e;
+            sqffd__ffd_local(&model->ffd, x + 3 * v, from);
+            sqffd__ffd_local(&model->ffd, x + 3 * other, to);
+            for (e = 0; e < 3; ++e) reach = fabs(to[e] - from[e]) > reach ? fabs(to[e] - from[e]) : reach;
+            pieces = 1 + (int)(4.0 * r * (reach < 1.0 ? reach : 1.0));
+            for (i = 0; i <= pieces; ++i) {
+                int cell[3];
                 for (e = 0; e < 3; ++e) {
-                    double x = floor(stu[e] * r);
-                    cell[e] = x < 0.0 ? 0 : x > r - 1 ? r - 1 : (int)x;
+                    double c = floor((from[e] + (to[e] - from[e]) * i / pieces) * r);
+                    cell[e] = c < 0.0 ? 0 : c > r - 1 ? r - 1 : (int)c;
                 }
                 seed[(cell[0] * r + cell[1]) * r + cell[2]] = 1;
             }
@@ -8328,7 +8338,7 @@ static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagon
             res = sqffd__fit_measure(&it, 1, &energy, &stats);                  /* too, then measured exactly */
         if (res == SQFFD_OK) res = sqffd__fit_record(&it, energy, &stats);
         if (last) {
-            sqffd__fit_region(model, s, w->fold); /* the region's bound, refined where it folds */
+            sqffd__fit_region(model, w->fold); /* the region's bound, refined where it folds */
             rep->min_jacobian = sqffd__fit_fold_certify(s->dims, w->fold, &model->ffd.control[0][0], model->ffd.inverse, 0.0);
             rep->stop = rep->converged ? SQFFD_FIT_CONVERGED
                         : it.origin == SQFFD__FIT_FROM_ACCEPTED ? SQFFD_FIT_STALLED : SQFFD_FIT_CAPPED;
@@ -8434,7 +8444,7 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
     sqffd_distance_stats stats, accepted_stats, best_stats;
     int stalled = 0, best_is_accepted = 1;
     sqffd_result res;
-    sqffd__fit_region(model, s, f);
+    sqffd__fit_region(model, f);
     f->floor = o->min_jacobian;
     bound = sqffd__fit_fold_certify(s->dims, f, control, inverse, o->min_jacobian);
     below = 1e-3 * (fabs(bound) > 1.0 ? fabs(bound) : 1.0); /* (a rising floor stays this far under the bound) */
