@@ -7715,6 +7715,19 @@ static double sqffd__fit_fold_certify_cell(const int dims[3], sqffd__fit_fold *f
     for (i = 0; i < count; ++i)
         if (t[i] < least) { least = t[i]; lowest = i; }
     if (least >= target || (level >= SQFFD__FIT_REGION_LEVELS && least >= f->floor)) return least;
+    if (least < f->floor && level >= SQFFD__FIT_REGION_LEVELS) { /* a corner below the floor (J itself there) fails it at once */
+        int corner, cells = 1 << level;
+        if (f->failed >= SQFFD__FIT_CERT_FAILS) return least; /* (enough found: the model fails) */
+        for (corner = 0; corner < 8; ++corner) {
+            int g[3];
+            for (a = 0; a < 3; ++a) g[a] = (corner >> (2 - a)) & 1 ? ej[a] - 1 : 0;
+            if (t[((size_t)g[0] * (size_t)ej[1] + (size_t)g[1]) * (size_t)ej[2] + (size_t)g[2]] < f->floor) {
+                for (a = 0; a < 3; ++a) f->fails[f->failed][a] = (double)(index[a] + (g[a] ? 1 : 0)) / cells;
+                ++f->failed;
+                return least;
+            }
+        }
+    }
     if (level == SQFFD__FIT_REGION_LEVELS + SQFFD__FIT_CERT_DEPTH) {
         if (least < f->floor && f->failed < SQFFD__FIT_CERT_FAILS) { /* the lowest coefficient's Greville point */
             int g[3], cells = 1 << level;
@@ -8465,7 +8478,7 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
     memcpy(best, control, size * sizeof(double));
     memcpy(w->matched_accepted, w->matched, it->points->count * sizeof *w->matched);
     while (rep->iterations < o->max_iterations && !rep->converged && !stalled) {
-        double predicted = sqffd__fit_fold_step(s, f, (double)m * f->rho), move = 0.0, trial_penalty;
+        double predicted = sqffd__fit_fold_step(s, f, (double)m * f->rho), move = 0.0, trial_penalty, tau;
         size_t p;
         int c;
         if (!(predicted > 0.0)) { /* no factor, or the active set did not settle into a descent: damp more */
@@ -8474,9 +8487,13 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
             if (predicted != predicted || f->lambda > 1e12) stalled = 1;
             continue;
         }
-        for (p = 0; p < s->lattice; ++p)
-            for (c = 0; c < 3; ++c) control[3 * p + (size_t)c] = w->accepted[3 * p + (size_t)c] + f->move[(size_t)c * s->lattice + p];
-        sqffd__fit_fold_values(s->dims, f, control, inverse, f->trial);
+        for (tau = 1.0;; tau *= 0.5) { /* shortened (no pass needed) while J's curvature sinks a sample under the floor */
+            for (p = 0; p < s->lattice; ++p)
+                for (c = 0; c < 3; ++c)
+                    control[3 * p + (size_t)c] = w->accepted[3 * p + (size_t)c] + tau * f->move[(size_t)c * s->lattice + p];
+            if (!(sqffd__fit_fold_values(s->dims, f, control, inverse, f->trial) < 0.0) || tau < 1e-3) break;
+        }
+        predicted *= tau * (2.0 - tau);
         sqffd__fit_control_changed(it); /* (it->next: the accepted model points) */
         for (v = 0; v < 3 * m; ++v) move += (it->x[v] - it->next[v]) * (it->x[v] - it->next[v]);
         it->origin = SQFFD__FIT_FROM_PLAIN;
@@ -8487,7 +8504,7 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
         if (getenv("FOLD_DEBUG")) fprintf(stderr, "it %2d lambda %8.3g pred %9.3g actual %9.3g E %.4g worst %.3g rho %.3g samples %zu\n", rep->iterations, f->lambda, predicted / (double)m, it->accepted + penalty - energy - trial_penalty, energy, worst, f->rho, f->samples);
         if (energy + trial_penalty < it->accepted + penalty) {
             double gain = (it->accepted + penalty - energy - trial_penalty) * (double)m / predicted;
-            f->lambda = gain > 0.75 ? f->lambda / 3.0 : gain < 0.25 ? 2.0 * f->lambda : f->lambda;
+            f->lambda = tau < 1.0 || gain < 0.25 ? 2.0 * f->lambda : gain > 0.75 ? f->lambda / 3.0 : f->lambda;
             swap = f->value; f->value = f->trial; f->trial = swap;
             it->accepted = energy;
             accepted_stats = stats;
