@@ -7448,6 +7448,7 @@ static const int sqffd__fit_region_grid[2] = {32, 64}; /* the superquadric's sur
 #define SQFFD__FIT_CERT_FAILS 16 /* new samples one certificate gives at most */
 #define SQFFD__FIT_MARGIN 0.05    /* the samples are held this far above the floor: room for J's dips between them */
 #define SQFFD__FIT_LAMBDA_START 1e-2
+#define SQFFD__FIT_SETTLED 10.0   /* converged: a step that lowers the penalised energy by under this x tolerance of it */
 #define SQFFD__FIT_ROUNDS 8       /* rounds of a step's candidate samples at most */
 #define SQFFD__FIT_CANDIDATES 96  /* samples one step's penalty holds at most */
 
@@ -8501,7 +8502,7 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
         res = sqffd__fit_measure(it, 0, &energy, &stats);
         if (res != SQFFD_OK) return res;
         trial_penalty = sqffd__fit_fold_penalty(f, f->trial, &worst);
-        if (getenv("FOLD_DEBUG")) fprintf(stderr, "it %2d lambda %8.3g pred %9.3g actual %9.3g E %.4g worst %.3g rho %.3g samples %zu\n", rep->iterations, f->lambda, predicted / (double)m, it->accepted + penalty - energy - trial_penalty, energy, worst, f->rho, f->samples);
+        if (getenv("FOLD_DEBUG")) fprintf(stderr, "it %2d lambda %8.3g tau %.3g pred %9.3g actual %9.3g E %.6g worst %.3g rho %.3g samples %zu step %.3g\n", rep->iterations, f->lambda, tau, predicted / (double)m, it->accepted + penalty - energy - trial_penalty, energy, worst, f->rho, f->samples, sqrt(move / (double)m) / it->diagonal);
         if (energy + trial_penalty < it->accepted + penalty) {
             double gain = (it->accepted + penalty - energy - trial_penalty) * (double)m / predicted;
             f->lambda = tau < 1.0 || gain < 0.25 ? 2.0 * f->lambda : gain > 0.75 ? f->lambda / 3.0 : f->lambda;
@@ -8526,7 +8527,8 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
                 sqffd__fit_fold_add_samples(it, control);
             if (worst > 0.5 * SQFFD__FIT_MARGIN) f->rho *= 10.0; /* the penalty let a sample sink: stiffer */
             penalty = sqffd__fit_fold_penalty(f, f->value, &worst);
-            rep->converged = best_is_accepted && rep->step <= o->tolerance && f->lambda <= 1.0;
+            rep->converged = best_is_accepted && tau == 1.0 &&
+                             (rep->step <= o->tolerance || gain * predicted < SQFFD__FIT_SETTLED * o->tolerance * (it->accepted + penalty) * (double)m);
             sqffd__fit_fold_linearise(it);
         } else {
             sqffd__fit_fold_roll_back(it);
