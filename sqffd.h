@@ -7496,7 +7496,7 @@ static void sqffd__fit_fold_layout(sqffd__arena *a, const int dims[3], size_t m,
     if (!f) f = &measuring;
     sqffd__ffd_jacobian_layout(a, dims, 1, &f->at);
     sqffd__jacobian_extent(dims, 3, ej);
-    f->tensor = (double *)sqffd__arena_take(a, (SQFFD__FIT_REGION_LEVELS + SQFFD__FIT_CERT_DEPTH + 1) *
+    f->tensor = (double *)sqffd__arena_take(a, 6 * (SQFFD__FIT_REGION_LEVELS + SQFFD__FIT_CERT_DEPTH) *
                                                    sqffd__jacobian_count(ej), sizeof(double));
     f->surface = (double *)sqffd__arena_take(a, sqffd__fit_grid_count(sqffd__fit_region_grid), 3 * sizeof(double));
     f->capacity = 0;
@@ -7682,43 +7682,52 @@ static double sqffd__fit_fold_values(const int dims[3], const sqffd__fit_fold *f
     return least;
 }
 
-/* The tensor t (extents ext) restricted to half `side` of axis `axis`, in
-   place (de Casteljau at 1/2). */
-static void sqffd__bernstein_halve(double *t, const int ext[3], int axis, int side)
+/* The tensor t (extents ext) split at the middle of axis `axis` (de
+   Casteljau at 1/2) into its halves' tensors lo and hi, a slab of the later
+   axes at a time. */
+static void sqffd__bernstein_split(const double *t, const int ext[3], int axis, double *lo, double *hi)
 {
-    size_t stride = axis == 0 ? (size_t)(ext[1] * ext[2]) : axis == 1 ? (size_t)ext[2] : 1, n = (size_t)ext[axis];
-    size_t lines = sqffd__jacobian_count(ext) / n, line, r, i;
-    for (line = 0; line < lines; ++line) {
-        size_t base = axis == 0 ? line : axis == 1 ? (line / (size_t)ext[2]) * (size_t)(ext[1] * ext[2]) + line % (size_t)ext[2]
-                                                   : line * n;
-        double *v = t + base;
-        for (r = 1; r < n; ++r)
-            if (side == 0)
-                for (i = n - 1; i >= r; --i) v[i * stride] = 0.5 * (v[(i - 1) * stride] + v[i * stride]);
-            else
-                for (i = 0; i + r < n; ++i) v[i * stride] = 0.5 * (v[i * stride] + v[(i + 1) * stride]);
+    size_t slab = axis == 0 ? (size_t)(ext[1] * ext[2]) : axis == 1 ? (size_t)ext[2] : 1, n = (size_t)ext[axis];
+    size_t blocks = sqffd__jacobian_count(ext) / (n * slab), block, r, i, e;
+    for (block = 0; block < blocks; ++block) {
+        const double *v = t + block * n * slab;
+        double *left = lo + block * n * slab, *right = hi + block * n * slab;
+        memcpy(right, v, n * slab * sizeof(double)); /* right's rows hold the triangle's levels as they go */
+        memcpy(left, v, slab * sizeof(double));
+        for (r = 1; r < n; ++r) {
+            for (i = 0; i + r < n; ++i) {
+                double *to = right + i * slab;
+                const double *from = to + slab;
+                for (e = 0; e < slab; ++e) to[e] = 0.5 * (to[e] + from[e]);
+            }
+            memcpy(left + r * slab, right, slab * sizeof(double)); /* level r's first: the left half's r-th */
+        }
     }
 }
 
 /* The certificate below a cell (level: halvings of the box; index: its
-   place; its coefficients at f->tensor's level slot): the smallest
-   coefficient over the region's part of it, refined where below the floor.
-   A cell at the deepest level still below the floor adds the point of its
-   lowest coefficient to f->fails. */
-static double sqffd__fit_fold_certify_cell(const int dims[3], sqffd__fit_fold *f, double target, int level, const int index[3])
+   place; t: its coefficients): the smallest coefficient over the region's
+   part of it, refined by halving where below target (below the floor, at
+   most SQFFD__FIT_CERT_DEPTH levels below the region's cells). A corner
+   below the floor (J itself there), or a cell at the deepest level still
+   below it, adds a point to f->fails (the corner, or its lowest
+   coefficient's Greville point); past SQFFD__FIT_CERT_FAILS of them the
+   answer is known and the search ends. Its children's coefficients go to
+   f->tensor's slots for this level (two halves of each axis in turn). */
+static double sqffd__fit_fold_certify_cell(const int dims[3], sqffd__fit_fold *f, double target, int level,
+                                           const int index[3], const double *t)
 {
-    int ej[3], child, a, side[3];
+    int ej[3], a, s0, s1, s2, cells = 1 << level;
     size_t count, i, lowest = 0;
-    double *t, least = HUGE_VAL, bound = HUGE_VAL;
+    double least = HUGE_VAL, bound = HUGE_VAL, *halves;
     sqffd__jacobian_extent(dims, 3, ej);
     count = sqffd__jacobian_count(ej);
-    t = f->tensor + (size_t)level * count;
     for (i = 0; i < count; ++i)
         if (t[i] < least) { least = t[i]; lowest = i; }
     if (least >= target || (level >= SQFFD__FIT_REGION_LEVELS && least >= f->floor)) return least;
-    if (least < f->floor && level >= SQFFD__FIT_REGION_LEVELS) { /* a corner below the floor (J itself there) fails it at once */
-        int corner, cells = 1 << level;
-        if (f->failed >= SQFFD__FIT_CERT_FAILS) return least; /* (enough found: the model fails) */
+    if (least < f->floor && level >= SQFFD__FIT_REGION_LEVELS) {
+        int corner;
+        if (f->failed >= SQFFD__FIT_CERT_FAILS) return least;
         for (corner = 0; corner < 8; ++corner) {
             int g[3];
             for (a = 0; a < 3; ++a) g[a] = (corner >> (2 - a)) & 1 ? ej[a] - 1 : 0;
@@ -7728,30 +7737,33 @@ static double sqffd__fit_fold_certify_cell(const int dims[3], sqffd__fit_fold *f
                 return least;
             }
         }
-    }
-    if (level == SQFFD__FIT_REGION_LEVELS + SQFFD__FIT_CERT_DEPTH) {
-        if (least < f->floor && f->failed < SQFFD__FIT_CERT_FAILS) { /* the lowest coefficient's Greville point */
-            int g[3], cells = 1 << level;
+        if (level == SQFFD__FIT_REGION_LEVELS + SQFFD__FIT_CERT_DEPTH) {
+            int g[3];
             g[2] = (int)(lowest % (size_t)ej[2]);
             g[1] = (int)(lowest / (size_t)ej[2] % (size_t)ej[1]);
             g[0] = (int)(lowest / ((size_t)ej[1] * (size_t)ej[2]));
             for (a = 0; a < 3; ++a) f->fails[f->failed][a] = (index[a] + (double)g[a] / (ej[a] - 1)) / cells;
             ++f->failed;
+            return least;
         }
-        return least;
     }
-    for (child = 0; child < 8; ++child) {
-        int sub[3];
-        double b;
-        for (a = 0; a < 3; ++a) {
-            side[a] = (child >> (2 - a)) & 1;
-            sub[a] = 2 * index[a] + side[a];
+    halves = f->tensor + (size_t)level * 6 * count; /* [axis][side] */
+    sqffd__bernstein_split(t, ej, 0, halves, halves + count);
+    for (s0 = 0; s0 < 2; ++s0) {
+        sqffd__bernstein_split(halves + (size_t)s0 * count, ej, 1, halves + 2 * count, halves + 3 * count);
+        for (s1 = 0; s1 < 2; ++s1) {
+            sqffd__bernstein_split(halves + (size_t)(2 + s1) * count, ej, 2, halves + 4 * count, halves + 5 * count);
+            for (s2 = 0; s2 < 2; ++s2) {
+                int sub[3];
+                double b;
+                sub[0] = 2 * index[0] + s0;
+                sub[1] = 2 * index[1] + s1;
+                sub[2] = 2 * index[2] + s2;
+                if (level + 1 <= SQFFD__FIT_REGION_LEVELS && !sqffd__fit_region_meets(f, 1 << (level + 1), sub)) continue;
+                b = sqffd__fit_fold_certify_cell(dims, f, target, level + 1, sub, halves + (size_t)(4 + s2) * count);
+                if (b < bound) bound = b;
+            }
         }
-        if (level + 1 <= SQFFD__FIT_REGION_LEVELS && !sqffd__fit_region_meets(f, 1 << (level + 1), sub)) continue;
-        memcpy(t + count, t, count * sizeof(double));
-        for (a = 0; a < 3; ++a) sqffd__bernstein_halve(t + count, ej, a, side[a]);
-        b = sqffd__fit_fold_certify_cell(dims, f, target, level + 1, sub);
-        if (b < bound) bound = b;
     }
     return bound;
 }
@@ -7770,8 +7782,7 @@ static double sqffd__fit_fold_certify(const int dims[3], sqffd__fit_fold *f, con
     sqffd__ffd_jacobian_products(dims, 1, &f->at);
     sqffd__ffd_jacobian_coefficients(dims, &f->at);
     sqffd__jacobian_extent(dims, 3, ej);
-    memcpy(f->tensor, f->at.coef, sqffd__jacobian_count(ej) * sizeof(double));
-    return sqffd__fit_fold_certify_cell(dims, f, target, 0, origin);
+    return sqffd__fit_fold_certify_cell(dims, f, target, 0, origin, f->at.coef);
 }
 
 /* y = A x for a symmetric n x n A given by its lower triangle (row-major). */
