@@ -7449,6 +7449,8 @@ static const int sqffd__fit_region_grid[2] = {32, 64}; /* the superquadric's sur
 #define SQFFD__FIT_MARGIN 0.05    /* the samples are held this far above the floor: room for J's dips between them */
 #define SQFFD__FIT_LAMBDA_START 1e-2
 #define SQFFD__FIT_SETTLED 10.0   /* converged: a step that lowers the penalised energy by under this x tolerance of it */
+#define SQFFD__FIT_NEAR 10.0      /* samples within this many margins of the floor enter the step's model (a step that
+                                     moves J further than that leaves its linear model, and is shortened anyway) */
 #define SQFFD__FIT_ROUNDS 8       /* rounds of a step's candidate samples at most */
 #define SQFFD__FIT_CANDIDATES 96  /* samples one step's penalty holds at most */
 
@@ -7462,7 +7464,8 @@ struct sqffd__fit_fold {
     double (*sample)[3];       /* stu of the samples */
     double *value;             /* J - floor at each, for the accepted model */
     double *trial;             /* and for the trial */
-    unsigned char *active;     /* the samples the step's penalty holds */
+    unsigned char *active;     /* the step's candidates */
+    unsigned char *fresh;      /* whether gradients[i] is that of the accepted model */
     size_t samples, capacity;
     double *tensor;            /* the certificate's coefficients, one tensor a level */
     double *surface;           /* the superquadric's points on the SQFFD__FIT_REGION_GRID (the region's seeds) */
@@ -7506,6 +7509,7 @@ static void sqffd__fit_fold_layout(sqffd__arena *a, const int dims[3], size_t m,
     f->value = (double *)sqffd__arena_take(a, f->capacity, sizeof(double));
     f->trial = (double *)sqffd__arena_take(a, f->capacity, sizeof(double));
     f->active = (unsigned char *)sqffd__arena_take(a, f->capacity, 1);
+    f->fresh = (unsigned char *)sqffd__arena_take(a, f->capacity, 1);
     f->gradients = (double *)sqffd__arena_take(a, f->capacity, size * sizeof(double));
     f->hessian = (double *)sqffd__arena_take(a, size * size, sizeof(double));
     f->factor = (double *)sqffd__arena_take(a, size * size, sizeof(double));
@@ -7853,13 +7857,14 @@ static int sqffd__fit_fold_factor(const sqffd__fit_system *s, sqffd__fit_fold *f
 /* The decrease of the penalised energy's model by the step f->move (step
    units, the penalty's weight M rho): the energy's quadratic model, and the
    penalty's of the samples' linearised J. */
-static double sqffd__fit_fold_predicted(const sqffd__fit_system *s, sqffd__fit_fold *f, double weight)
+static double sqffd__fit_fold_predicted(const sqffd__fit_system *s, sqffd__fit_fold *f, double weight, size_t count)
 {
-    size_t size = 3 * s->lattice, i;
+    size_t size = 3 * s->lattice, k;
     double decrease = sqffd__la_dot(f->gradient, f->move, size);
     sqffd__fit_symmetric_times(f->hessian, size, f->move, f->scratch);
     decrease -= 0.5 * sqffd__la_dot(f->move, f->scratch, size);
-    for (i = 0; i < f->samples; ++i) {
+    for (k = 0; k < count; ++k) { /* (the other samples are not short before the step nor after it) */
+        size_t i = f->candidate[k];
         double before = SQFFD__FIT_MARGIN - f->value[i], after = before - sqffd__la_dot(f->gradients + i * size, f->move, size);
         decrease += 0.5 * weight * ((before > 0.0 ? before * before : 0.0) - (after > 0.0 ? after * after : 0.0));
     }
@@ -7947,32 +7952,39 @@ static void sqffd__la_upper_backward(const double *u, size_t n, double *b)
    solution sinks, most sunk first (at most SQFFD__FIT_ROUNDS rounds and
    SQFFD__FIT_CANDIDATES samples). Returns the predicted decrease (step
    units; -1: no damping factors the matrix). */
-static double sqffd__fit_fold_step(const sqffd__fit_system *s, sqffd__fit_fold *f, double weight)
+static double sqffd__fit_fold_step(const sqffd__fit_system *s, sqffd__fit_fold *f, const double *control,
+                                   const double inverse[9], double weight)
 {
     const size_t stride = SQFFD__FIT_CANDIDATES;
-    size_t size = 3 * s->lattice, i, j, k = 0, done = 0, p;
-    int round;
+    size_t size = 3 * s->lattice, l = s->lattice, i, j, k = 0, done = 0, p;
+    int round, c;
     if (!sqffd__fit_fold_factor(s, f, weight)) return -1.0;
     memcpy(f->base, f->rhs, size * sizeof(double));
     sqffd__la_upper_forward(f->factor, size, f->base);
     memcpy(f->move, f->base, size * sizeof(double));
     sqffd__la_upper_backward(f->factor, size, f->move);
-    for (i = 0; i < f->samples; ++i) f->active[i] = 0;
+    for (i = 0; i < f->samples; ++i) {
+        f->active[i] = 0;
+        if (f->value[i] < SQFFD__FIT_NEAR * SQFFD__FIT_MARGIN && !f->fresh[i]) {
+            sqffd__fit_fold_sample(s->dims, control, inverse, f->sample[i], f->gradients + i * size);
+            f->fresh[i] = 1;
+        }
+    }
     for (round = 0; round < SQFFD__FIT_ROUNDS; ++round) {
-        for (i = 0; i < f->samples; ++i) /* how far the step sinks each sample under the margin */
-            f->trial[i] = f->active[i] ? 0.0 : SQFFD__FIT_MARGIN - f->value[i] - sqffd__la_dot(f->gradients + i * size, f->move, size);
+        for (i = 0; i < f->samples; ++i) /* how far the step sinks each near sample under the margin, linearised */
+            f->trial[i] = f->value[i] < SQFFD__FIT_NEAR * SQFFD__FIT_MARGIN
+                              ? SQFFD__FIT_MARGIN - f->value[i] - sqffd__la_dot(f->gradients + i * size, f->move, size) : 0.0;
         while (k < SQFFD__FIT_CANDIDATES && k - done < 16) { /* the most sunk samples (16 a round) become candidates */
             size_t worst = f->samples;
             double most = 0.0;
             for (i = 0; i < f->samples; ++i)
-                if (f->trial[i] > most) { most = f->trial[i]; worst = i; }
+                if (!f->active[i] && f->trial[i] > most) { most = f->trial[i]; worst = i; }
             if (worst == f->samples) break;
             f->active[worst] = 1;
-            f->trial[worst] = 0.0;
             f->candidate[k++] = (uint32_t)worst;
         }
         if (k == done) break;
-        for (i = done; i < k; ++i) { /* y_i = L^-1 g_i, its products, its need */
+        for (i = done; i < k; ++i) { /* g_i (once a linearisation), y_i = L^-1 g_i, its products, its need */
             double *y = f->solved + i * size;
             memcpy(y, f->gradients + (size_t)f->candidate[i] * size, size * sizeof(double));
             sqffd__la_upper_forward(f->factor, size, y);
@@ -7989,7 +8001,7 @@ static double sqffd__fit_fold_step(const sqffd__fit_system *s, sqffd__fit_fold *
                 for (p = 0; p < size; ++p) f->move[p] += f->multiplier[i] * f->solved[i * size + p];
         sqffd__la_upper_backward(f->factor, size, f->move);
     }
-    return sqffd__fit_fold_predicted(s, f, weight);
+    return sqffd__fit_fold_predicted(s, f, weight, k);
 }
 
 /* ---- the iteration --------------------------------------------------------- */
@@ -8431,8 +8443,7 @@ static void sqffd__fit_fold_linearise(sqffd__fit_iteration *it)
         sqffd__fit_symmetric_times(s->fixed, l, f->move + c * l, f->scratch);
         for (v = 0; v < l; ++v) f->gradient[c * l + v] -= f->scratch[v];
     }
-    for (v = 0; v < f->samples; ++v)
-        sqffd__fit_fold_sample(s->dims, control, it->model->ffd.inverse, f->sample[v], f->gradients + v * size);
+    for (v = 0; v < f->samples; ++v) f->fresh[v] = 0; /* (the samples' gradients: when the step needs them) */
 }
 
 /* The control points back to the accepted ones, with their matches. */
@@ -8451,6 +8462,7 @@ static void sqffd__fit_fold_add_samples(sqffd__fit_iteration *it, const double *
     for (i = 0; i < f->failed && f->samples < f->capacity; ++i, ++f->samples) {
         memcpy(f->sample[f->samples], f->fails[i], sizeof f->fails[i]);
         f->value[f->samples] = sqffd__fit_fold_sample(it->s->dims, control, it->model->ffd.inverse, f->fails[i], NULL) - f->floor;
+        f->fresh[f->samples] = 0;
     }
 }
 
@@ -8490,7 +8502,7 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
     memcpy(best, control, size * sizeof(double));
     memcpy(w->matched_accepted, w->matched, it->points->count * sizeof *w->matched);
     while (rep->iterations < o->max_iterations && !rep->converged && !stalled) {
-        double predicted = sqffd__fit_fold_step(s, f, (double)m * f->rho), move = 0.0, trial_penalty, tau;
+        double predicted = sqffd__fit_fold_step(s, f, w->accepted, inverse, (double)m * f->rho), move = 0.0, trial_penalty, tau;
         size_t p;
         int c;
         if (!(predicted > 0.0)) { /* no factor, or the active set did not settle into a descent: damp more */
