@@ -7080,7 +7080,8 @@ static void sqffd__fit_ordered(const sqffd_points *points, sqffd__fit_work *w, s
     search->order = w->order;
 }
 
-/* matrix (L x L, lower triangle) += B^T diag(scale w) B, run by run (w NULL: all 1; w may be negative). */
+/* matrix (L x L, lower triangle) += B^T diag(scale w) B, run by run (w NULL: all 1; w may be negative; model
+   points of weight 0 and runs of them are skipped). */
 static void sqffd__fit_gram(const sqffd__fit_system *s, const double *w, double scale, double *SQFFD__RESTRICT pairs,
                             double (*SQFFD__RESTRICT ab)[SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE],
                             double *SQFFD__RESTRICT matrix)
@@ -7089,13 +7090,19 @@ static void sqffd__fit_gram(const sqffd__fit_system *s, const double *w, double 
     size_t l = s->lattice, lm = (size_t)(d[0] * d[1]), n = (size_t)d[2], r, v, e, f, k, h;
     for (r = 0; r < s->runs; ++r) {
         const double *c = s->weights + (size_t)s->run[r] * s->stride + d[0] + d[1];
+        int any = 0;
         memset(pairs, 0, lm * lm * sizeof(double));
-        for (v = s->run[r]; v < s->run[r + 1]; v += 4) { /* pairs += W_v (a (x) b)(a (x) b)^T, lower triangle, */
-            double sign[4];                                            /* four vertices at a time (a quarter of the stores) */
+        for (v = s->run[r]; v < s->run[r + 1];) { /* pairs += W_v (a (x) b)(a (x) b)^T, lower triangle, */
+            double sign[4];                          /* four vertices at a time (a quarter of the stores) */
+            size_t pick[4], picked = 0;
+            for (; picked < 4 && v < s->run[r + 1]; ++v)
+                if (!w || w[v] != 0.0) pick[picked++] = v;
+            if (!picked) break;
+            any = 1;
             for (k = 0; k < 4; ++k) {
-                int inside = v + k < s->run[r + 1];
-                const double *a = s->weights + (inside ? v + k : v) * s->stride, *b = a + d[0];
-                double wk = inside ? scale * (w ? w[v + k] : 1.0) : 0.0, root = sqrt(fabs(wk)); /* (past the run: zeros) */
+                int inside = k < picked;
+                const double *a = s->weights + (inside ? pick[k] : pick[0]) * s->stride, *b = a + d[0];
+                double wk = inside ? scale * (w ? w[pick[k]] : 1.0) : 0.0, root = sqrt(fabs(wk)); /* (past the picks: zeros) */
                 sign[k] = wk < 0.0 ? -1.0 : 1.0;
                 for (e = 0; e < (size_t)d[0]; ++e)
                     for (f = 0; f < (size_t)d[1]; ++f) ab[k][e * (size_t)d[1] + f] = root * a[e] * b[f];
@@ -7109,6 +7116,7 @@ static void sqffd__fit_gram(const sqffd__fit_system *s, const double *w, double 
                 for (; f <= e; ++f) row[f] += (a0 * ab[0][f] + a1 * ab[1][f]) + (a2 * ab[2][f] + a3 * ab[3][f]);
             }
         }
+        if (!any) continue;
         for (e = 0; e < lm; ++e) /* matrix += pairs (x) c c^T: rows e n + k, columns f n + h, f <= e */
             for (f = 0; f <= e; ++f)
                 for (k = 0; k < n; ++k) {
@@ -8397,6 +8405,26 @@ static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagon
    certified step toward min_jacobian (a rising threshold that untangles it
    where it can). */
 
+/* The point-to-plane weights (M x 6) gathered onto every other model point
+   of every other row (each takes its own, the next in its row, and those of
+   the next row: B's rows vary little across a cell of the grid, so the
+   step's matrix from them is the same to a few parts in a thousand, at a
+   quarter of the cost); the poles keep theirs. */
+static void sqffd__fit_fold_coarsen(const sqffd__fit_system *s, double *plane)
+{
+    size_t rows = (size_t)s->grid[0], cols = (size_t)s->grid[1], i, j, c;
+    for (i = 0; i < rows; ++i)
+        for (j = 0; j < cols; ++j) {
+            double *to = plane + 6 * ((i - i % 2) * cols + (j - j % 2));
+            double *from = plane + 6 * (i * cols + j);
+            if (from == to) continue;
+            for (c = 0; c < 6; ++c) {
+                to[c] += from[c];
+                from[c] = 0.0;
+            }
+        }
+}
+
 /* The energy's Gauss-Newton matrix and gradient at the current model from
    its pass (w->target, w->weights, f->planes; it->next: the holding model
    points' nearest data): f->hessian, f->gradient, f->damping, and the
@@ -8418,15 +8446,20 @@ static void sqffd__fit_fold_linearise(sqffd__fit_iteration *it)
         w->weights[v] = scale * w->weights[v] + (held ? hold : 0.0);
         for (c = 0; c < 6; ++c) plane[6 * v + c] = scale * plane[6 * v + c] + (held && (c == 0 || c == 3 || c == 5) ? hold : 0.0);
     }
-    /* the damping: the lattice's Laplacian, scaled to the trace of B^T W B (W: the point-to-point weights) */
-    memset(w->matrix, 0, l * l * sizeof(double));
-    sqffd__fit_gram(s, w->weights, 1.0, w->pairs, w->block, w->matrix);
+    /* the damping: the lattice's Laplacian, scaled to the trace of B^T W B (W: the point-to-point weights;
+       B's row at v is a (x) b (x) c, its squared norm the product of theirs) */
+    for (v = 0; v < m; ++v) {
+        const double *a = s->weights + v * s->stride;
+        double norms[3] = {0.0, 0.0, 0.0};
+        size_t e, axis, from = 0;
+        for (axis = 0; axis < 3; from += (size_t)s->dims[axis], ++axis)
+            for (e = 0; e < (size_t)s->dims[axis]; ++e) norms[axis] += a[from + e] * a[from + e];
+        trace += w->weights[v] * norms[0] * norms[1] * norms[2];
+    }
     memset(f->damping, 0, l * l * sizeof(double));
     sqffd__fit_add_springs(s->dims, l, 1.0, f->damping);
-    for (v = 0; v < l; ++v) {
-        trace += w->matrix[v * l + v];
-        laplacian += f->damping[v * l + v];
-    }
+    for (v = 0; v < l; ++v) laplacian += f->damping[v * l + v];
+    sqffd__fit_fold_coarsen(s, plane);
     for (v = 0; v < l * l; ++v) f->damping[v] *= trace / laplacian;
     memset(f->hessian, 0, size * size * sizeof(double));
     for (c = 0; c < 3; ++c)
@@ -8525,7 +8558,6 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
         res = sqffd__fit_measure(it, 0, &energy, &stats);
         if (res != SQFFD_OK) return res;
         trial_penalty = sqffd__fit_fold_penalty(f, f->trial, &worst);
-        if (getenv("FOLD_DEBUG")) fprintf(stderr, "it %2d lambda %8.3g tau %.3g pred %9.3g actual %9.3g E %.6g worst %.3g rho %.3g samples %zu step %.3g\n", rep->iterations, f->lambda, tau, predicted / (double)m, it->accepted + penalty - energy - trial_penalty, energy, worst, f->rho, f->samples, sqrt(move / (double)m) / it->diagonal);
         if (energy + trial_penalty < it->accepted + penalty) {
             double gain = (it->accepted + penalty - energy - trial_penalty) * (double)m / predicted;
             f->lambda = tau < 1.0 || gain < 0.25 ? 2.0 * f->lambda : gain > 0.75 ? f->lambda / 3.0 : f->lambda;
