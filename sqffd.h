@@ -8507,12 +8507,12 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
     sqffd__fit_fold *f = w->fold;
     sqffd_fit_report *rep = it->rep;
     sqffd_model *model = it->model;
-    double *control = &model->ffd.control[0][0], *swap, *best = w->plain;
+    double *control = &model->ffd.control[0][0], *swap;
     const double *inverse = model->ffd.inverse;
     size_t size = 3 * s->lattice, m = s->count, v;
-    double energy, penalty, bound, below, worst, best_energy;
-    sqffd_distance_stats stats, accepted_stats, best_stats;
-    int stalled = 0, best_is_accepted = 1;
+    double energy, penalty, bound, below, worst;
+    sqffd_distance_stats stats, accepted_stats;
+    int stalled = 0;
     sqffd_result res;
     sqffd__fit_region(model, f);
     f->floor = o->min_jacobian;
@@ -8528,20 +8528,19 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
     penalty = sqffd__fit_fold_penalty(f, f->value, &worst);
     f->lambda = SQFFD__FIT_LAMBDA_START;
     sqffd__fit_fold_linearise(it);
-    it->accepted = best_energy = energy;
-    accepted_stats = best_stats = stats;
+    it->accepted = energy;
+    accepted_stats = stats;
     rep->min_jacobian = bound;
     memcpy(w->accepted, control, size * sizeof(double));
-    memcpy(best, control, size * sizeof(double));
     memcpy(w->matched_accepted, w->matched, it->points->count * sizeof *w->matched);
     while (rep->iterations < o->max_iterations && !rep->converged && !stalled) {
-        double predicted = sqffd__fit_fold_step(s, f, w->accepted, inverse, (double)m * f->rho), move = 0.0, trial_penalty, tau;
+        double predicted = sqffd__fit_fold_step(s, f, w->accepted, inverse, (double)m * f->rho), move = 0.0, tau;
+        double trial_penalty, trial_worst;
         size_t p;
         int c;
-        if (!(predicted > 0.0)) { /* no factor, or the active set did not settle into a descent: damp more */
+        if (!(predicted > 0.0)) { /* no factor, or no descent in the step's model: damp more */
             f->lambda *= 8.0;
-            stalled = predicted < 0.0 && f->lambda > 1e12;
-            if (predicted != predicted || f->lambda > 1e12) stalled = 1;
+            stalled = !(f->lambda <= 1e12);
             continue;
         }
         for (tau = 1.0;; tau *= 0.5) { /* shortened (no pass needed) while J's curvature sinks a sample under the floor */
@@ -8557,53 +8556,50 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
         ++rep->iterations;
         res = sqffd__fit_measure(it, 0, &energy, &stats);
         if (res != SQFFD_OK) return res;
-        trial_penalty = sqffd__fit_fold_penalty(f, f->trial, &worst);
-        if (energy + trial_penalty < it->accepted + penalty) {
+        trial_penalty = sqffd__fit_fold_penalty(f, f->trial, &trial_worst);
+        bound = energy + trial_penalty < it->accepted + penalty
+                    ? sqffd__fit_fold_certify(s->dims, f, control, inverse, o->min_jacobian) : -HUGE_VAL;
+        if (bound >= f->floor) { /* lower and certified: accepted */
             double gain = (it->accepted + penalty - energy - trial_penalty) * (double)m / predicted;
             f->lambda = tau < 1.0 || gain < 0.25 ? 2.0 * f->lambda : gain > 0.75 ? f->lambda / 3.0 : f->lambda;
             swap = f->value; f->value = f->trial; f->trial = swap;
             it->accepted = energy;
             accepted_stats = stats;
+            rep->min_jacobian = bound;
             memcpy(w->accepted, control, size * sizeof(double));
             memcpy(w->matched_accepted, w->matched, it->points->count * sizeof *w->matched);
             rep->step = sqrt(move / (double)m) / it->diagonal;
-            bound = sqffd__fit_fold_certify(s->dims, f, control, inverse, o->min_jacobian);
-            best_is_accepted = bound >= f->floor;
-            if (best_is_accepted) {
-                memcpy(best, control, size * sizeof(double));
-                best_energy = energy;
-                best_stats = stats;
-                rep->min_jacobian = bound;
-                if (f->floor < o->min_jacobian && bound - below > f->floor) { /* the rising floor */
-                    f->floor = bound - below < o->min_jacobian ? bound - below : o->min_jacobian;
-                    sqffd__fit_fold_values(s->dims, f, control, inverse, f->value);
-                }
-            } else
-                sqffd__fit_fold_add_samples(it, control);
-            if (worst > 0.5 * SQFFD__FIT_MARGIN) f->rho *= 10.0; /* the penalty let a sample sink: stiffer */
+            if (f->floor < o->min_jacobian && bound - below > f->floor) { /* the rising floor */
+                f->floor = bound - below < o->min_jacobian ? bound - below : o->min_jacobian;
+                sqffd__fit_fold_values(s->dims, f, control, inverse, f->value);
+            }
+            if (trial_worst > 0.5 * SQFFD__FIT_MARGIN) f->rho *= 10.0; /* the penalty let a sample sink: stiffer */
             penalty = sqffd__fit_fold_penalty(f, f->value, &worst);
-            rep->converged = best_is_accepted && tau == 1.0 &&
-                             (rep->step <= o->tolerance || gain * predicted < SQFFD__FIT_SETTLED * o->tolerance * (it->accepted + penalty) * (double)m);
+            rep->converged = tau == 1.0 && (rep->step <= o->tolerance ||
+                                            gain * predicted < SQFFD__FIT_SETTLED * o->tolerance * (energy + penalty) * (double)m);
             sqffd__fit_fold_linearise(it);
-        } else {
+        } else { /* rolled back: more damping, or the certificate's points as samples */
             sqffd__fit_fold_roll_back(it);
-            f->lambda *= 8.0;
-            stalled = f->lambda > 1e12;
+            if (bound > -HUGE_VAL && f->failed && f->samples < f->capacity) {
+                sqffd__fit_fold_add_samples(it, w->accepted);
+                penalty = sqffd__fit_fold_penalty(f, f->value, &worst);
+            } else {
+                f->lambda *= 8.0;
+                stalled = !(f->lambda <= 1e12);
+            }
         }
         res = sqffd__fit_record(it, it->accepted, &accepted_stats);
         if (res != SQFFD_OK) return res;
     }
-    /* the last certified model, measured again where the last pass must be exact */
+    /* the accepted model, measured again where the last pass must be exact */
     it->origin = SQFFD__FIT_FROM_ACCEPTED;
     it->planes = NULL;
-    if (!best_is_accepted || stalled) {
-        memcpy(control, best, size * sizeof(double));
+    if (memcmp(control, w->accepted, size * sizeof(double)) != 0) {
+        memcpy(control, w->accepted, size * sizeof(double));
         sqffd__fit_control_changed(it);
-        if (!(it->mode & SQFFD__FIT_EXACT_END)) res = sqffd__fit_measure(it, 1, &best_energy, &best_stats);
     }
-    if (res == SQFFD_OK && (it->mode & SQFFD__FIT_EXACT_END) && !it->search.exact)
-        res = sqffd__fit_measure(it, 1, &best_energy, &best_stats);
-    if (res == SQFFD_OK) res = sqffd__fit_record(it, best_energy, &best_stats);
+    if ((it->mode & SQFFD__FIT_EXACT_END) && !it->search.exact) res = sqffd__fit_measure(it, 1, &it->accepted, &accepted_stats);
+    if (res == SQFFD_OK) res = sqffd__fit_record(it, it->accepted, &accepted_stats);
     rep->stop = rep->converged ? SQFFD_FIT_CONVERGED : stalled ? SQFFD_FIT_STALLED : SQFFD_FIT_CAPPED;
     return res;
 }
