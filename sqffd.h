@@ -7454,7 +7454,7 @@ static const int sqffd__fit_region_grid[2] = {32, 64}; /* the superquadric's sur
 #define SQFFD__FIT_SAMPLES_ADDED 256 /* samples the certificate may add to a run */
 #define SQFFD__FIT_CERT_DEPTH 4
 #define SQFFD__FIT_CERT_FAILS 16 /* new samples one certificate gives at most */
-#define SQFFD__FIT_MARGIN 0.05    /* the samples are held this far above the floor: room for J's dips between them */
+#define SQFFD__FIT_MARGIN 0.1     /* the samples are held this far above the floor: room for J's dips between them */
 #define SQFFD__FIT_LAMBDA_START 1e-2
 #define SQFFD__FIT_SETTLED 10.0   /* converged: a step that lowers the penalised energy by under this x tolerance of it */
 #define SQFFD__FIT_NEAR 10.0      /* samples within this many margins of the floor enter the step's model (a step that
@@ -7466,6 +7466,7 @@ struct sqffd__fit_fold {
     sqffd__jacobian_work at;   /* J's coefficients over the box */
     double floor;              /* the run's */
     double rho, lambda;        /* the penalty's weight (energy units), the damping */
+    double margin;             /* the samples are held this far above the floor */
     unsigned char region[SQFFD__FIT_REGION_CELLS]; /* the region's cells, then the coarser levels' (a cell
                                                       meets the region where one of its children does) */
     unsigned char coarse[SQFFD__FIT_REGION_CELLS / 7 + 1];
@@ -7827,7 +7828,7 @@ static double sqffd__fit_fold_penalty(const sqffd__fit_fold *f, const double *va
     double sum = 0.0, most = 0.0;
     size_t i;
     for (i = 0; i < f->samples; ++i) {
-        double v = SQFFD__FIT_MARGIN - value[i];
+        double v = f->margin - value[i];
         if (!(v <= 0.0)) {
             if (!(v < HUGE_VAL)) v = HUGE_VAL;
             sum += v * v;
@@ -7873,7 +7874,7 @@ static double sqffd__fit_fold_predicted(const sqffd__fit_system *s, sqffd__fit_f
     decrease -= 0.5 * sqffd__la_dot(f->move, f->scratch, size);
     for (k = 0; k < count; ++k) { /* (the other samples are not short before the step nor after it) */
         size_t i = f->candidate[k];
-        double before = SQFFD__FIT_MARGIN - f->value[i], after = before - sqffd__la_dot(f->gradients + i * size, f->move, size);
+        double before = f->margin - f->value[i], after = before - sqffd__la_dot(f->gradients + i * size, f->move, size);
         decrease += 0.5 * weight * ((before > 0.0 ? before * before : 0.0) - (after > 0.0 ? after * after : 0.0));
     }
     return decrease;
@@ -7973,15 +7974,15 @@ static double sqffd__fit_fold_step(const sqffd__fit_system *s, sqffd__fit_fold *
     sqffd__la_upper_backward(f->factor, size, f->move);
     for (i = 0; i < f->samples; ++i) {
         f->active[i] = 0;
-        if (f->value[i] < SQFFD__FIT_NEAR * SQFFD__FIT_MARGIN && !f->fresh[i]) {
+        if (f->value[i] < SQFFD__FIT_NEAR * f->margin && !f->fresh[i]) {
             sqffd__fit_fold_sample(s->dims, control, inverse, f->sample[i], f->gradients + i * size);
             f->fresh[i] = 1;
         }
     }
     for (round = 0; round < SQFFD__FIT_ROUNDS; ++round) {
         for (i = 0; i < f->samples; ++i) /* how far the step sinks each near sample under the margin, linearised */
-            f->trial[i] = f->value[i] < SQFFD__FIT_NEAR * SQFFD__FIT_MARGIN
-                              ? SQFFD__FIT_MARGIN - f->value[i] - sqffd__la_dot(f->gradients + i * size, f->move, size) : 0.0;
+            f->trial[i] = f->value[i] < SQFFD__FIT_NEAR * f->margin
+                              ? f->margin - f->value[i] - sqffd__la_dot(f->gradients + i * size, f->move, size) : 0.0;
         while (k < SQFFD__FIT_CANDIDATES && k - done < 16) { /* the most sunk samples (16 a round) become candidates */
             size_t worst = f->samples;
             double most = 0.0;
@@ -7999,7 +8000,7 @@ static double sqffd__fit_fold_step(const sqffd__fit_system *s, sqffd__fit_fold *
             for (j = 0; j <= i; ++j)
                 f->gram[i * stride + j] = f->gram[j * stride + i] = sqffd__la_dot(y, f->solved + j * size, size);
             f->gram[i * stride + i] += 1.0 / weight;
-            f->need[i] = SQFFD__FIT_MARGIN - f->value[f->candidate[i]] - sqffd__la_dot(y, f->base, size);
+            f->need[i] = f->margin - f->value[f->candidate[i]] - sqffd__la_dot(y, f->base, size);
         }
         done = k;
         sqffd__fit_fold_multipliers(f, k);
@@ -8524,7 +8525,8 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
     if (res == SQFFD_OK) res = sqffd__fit_record(it, energy, &stats);
     if (res != SQFFD_OK) return res;
     sqffd__fit_fold_values(s->dims, f, control, inverse, f->value);
-    f->rho = 2.0 * (energy > 0.0 ? energy : 1.0) / (SQFFD__FIT_MARGIN * SQFFD__FIT_MARGIN);
+    f->margin = SQFFD__FIT_MARGIN;
+    f->rho = 2.0 * (energy > 0.0 ? energy : 1.0) / (f->margin * f->margin);
     penalty = sqffd__fit_fold_penalty(f, f->value, &worst);
     f->lambda = SQFFD__FIT_LAMBDA_START;
     sqffd__fit_fold_linearise(it);
@@ -8573,7 +8575,7 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
                 f->floor = bound - below < o->min_jacobian ? bound - below : o->min_jacobian;
                 sqffd__fit_fold_values(s->dims, f, control, inverse, f->value);
             }
-            if (trial_worst > 0.5 * SQFFD__FIT_MARGIN) f->rho *= 10.0; /* the penalty let a sample sink: stiffer */
+            if (trial_worst > 0.5 * f->margin) f->rho *= 10.0; /* the penalty let a sample sink: stiffer */
             penalty = sqffd__fit_fold_penalty(f, f->value, &worst);
             rep->converged = tau == 1.0 && (rep->step <= o->tolerance ||
                                             gain * predicted < SQFFD__FIT_SETTLED * o->tolerance * (energy + penalty) * (double)m);
