@@ -5250,13 +5250,11 @@ SQFFD_DEF sqffd_result sqffd_ffd_weights(const int dims[3], const double stu[3],
    of the derivatives' coefficients (Vandermonde), so while every such vector
    is within eps of its rest value (1, 0, 0), (0, 1, 0) or (0, 0, 1) they are
    all at least 2 - (1 + eps)^3: a bound at O(l m n) that spares the
-   convolutions while the lattice is near regular. A coefficient is cubic in
-   the control points; its gradient takes the other two products, Du x Ds
-   and Ds x Dt (the triple product is cyclic). */
+   convolutions while the lattice is near regular. */
 typedef struct sqffd__jacobian_work {
     double *d[3];     /* the derivatives' coefficients, binomial-scaled, 3 doubles each */
     double *scale[3]; /* their binomial scales */
-    double *cross[3]; /* [a]: the product of the other two derivatives, scaled (Dt x Du, Du x Ds, Ds x Dt) */
+    double *cross;    /* Dt x Du, scaled */
     double *coef;     /* J's coefficients, unscaled */
 } sqffd__jacobian_work;
 
@@ -5279,8 +5277,7 @@ static size_t sqffd__jacobian_count(const int ext[3])
     return (size_t)ext[0] * (size_t)ext[1] * (size_t)ext[2];
 }
 
-/* products: the cross products kept (1: J alone; 3: its gradients too). */
-static void sqffd__ffd_jacobian_layout(sqffd__arena *ar, const int dims[3], int products, sqffd__jacobian_work *w)
+static void sqffd__ffd_jacobian_layout(sqffd__arena *ar, const int dims[3], sqffd__jacobian_work *w)
 {
     int a, ext[3];
     memset(w, 0, sizeof *w);
@@ -5288,22 +5285,11 @@ static void sqffd__ffd_jacobian_layout(sqffd__arena *ar, const int dims[3], int 
         sqffd__jacobian_extent(dims, a, ext);
         w->d[a] = (double *)sqffd__arena_take(ar, 3 * sqffd__jacobian_count(ext), sizeof(double));
         w->scale[a] = (double *)sqffd__arena_take(ar, sqffd__jacobian_count(ext), sizeof(double));
-        if (a < products) {
-            sqffd__jacobian_cross_extent(dims, a, ext);
-            w->cross[a] = (double *)sqffd__arena_take(ar, 3 * sqffd__jacobian_count(ext), sizeof(double));
-        }
     }
+    sqffd__jacobian_cross_extent(dims, 0, ext);
+    w->cross = (double *)sqffd__arena_take(ar, 3 * sqffd__jacobian_count(ext), sizeof(double));
     sqffd__jacobian_extent(dims, 3, ext);
     w->coef = (double *)sqffd__arena_take(ar, sqffd__jacobian_count(ext), sizeof(double));
-}
-
-/* C(d, k) (d < 3 SQFFD_MAX_LATTICE: every partial product is a binomial, exact in doubles). */
-static double sqffd__binomial(int d, int k)
-{
-    double c = 1.0;
-    int t;
-    for (t = 1; t <= k; ++t) c = c * (double)(d - k + t) / (double)t;
-    return c;
 }
 
 /* Binomials C(d, 0..d) (d < 3 SQFFD_MAX_LATTICE: exact in doubles). */
@@ -5370,13 +5356,13 @@ static void sqffd__jacobian_convolve(const double *x, const int ex[3], const dou
             }
 }
 
-/* The first `products` of Dt x Du, Du x Ds, Ds x Dt. */
-static void sqffd__ffd_jacobian_products(const int dims[3], int products, const sqffd__jacobian_work *w)
+/* Dt x Du. */
+static void sqffd__ffd_jacobian_products(const int dims[3], const sqffd__jacobian_work *w)
 {
-    int a, ext[3][3];
-    for (a = 0; a < 3; ++a) sqffd__jacobian_extent(dims, a, ext[a]);
-    for (a = 0; a < products; ++a)
-        sqffd__jacobian_convolve(w->d[(a + 1) % 3], ext[(a + 1) % 3], w->d[(a + 2) % 3], ext[(a + 2) % 3], w->cross[a]);
+    int et[3], eu[3];
+    sqffd__jacobian_extent(dims, 1, et);
+    sqffd__jacobian_extent(dims, 2, eu);
+    sqffd__jacobian_convolve(w->d[1], et, w->d[2], eu, w->cross);
 }
 
 /* J's coefficient (I, J, K) scaled by its binomials: the convolution of
@@ -5393,7 +5379,7 @@ SQFFD__INLINE double sqffd__jacobian_scaled(const sqffd__jacobian_work *w, const
         for (j = j0; j < es[1] && j <= J; ++j)
             for (k = k0; k < es[2] && k <= K; ++k) {
                 const double *s = w->d[0] + 3 * ((i * es[1] + j) * es[2] + k);
-                const double *x = w->cross[0] + 3 * (((I - i) * ec[1] + J - j) * ec[2] + K - k);
+                const double *x = w->cross + 3 * (((I - i) * ec[1] + J - j) * ec[2] + K - k);
                 sum += s[0] * x[0] + s[1] * x[1] + s[2] * x[2];
             }
     return sum;
@@ -5418,21 +5404,6 @@ static double sqffd__ffd_jacobian_coefficients(const int dims[3], const sqffd__j
     return best;
 }
 
-/* J's coefficient `index` (w->coef's order) alone: the same number as
-   sqffd__ffd_jacobian_coefficients gives it (the binomials are exact). */
-static double sqffd__ffd_jacobian_coefficient(const int dims[3], const sqffd__jacobian_work *w, size_t index)
-{
-    int es[3], ec[3], ej[3], I, J, K;
-    sqffd__jacobian_extent(dims, 0, es);
-    sqffd__jacobian_cross_extent(dims, 0, ec);
-    sqffd__jacobian_extent(dims, 3, ej);
-    K = (int)(index % (size_t)ej[2]);
-    J = (int)(index / (size_t)ej[2] % (size_t)ej[1]);
-    I = (int)(index / ((size_t)ej[2] * (size_t)ej[1]));
-    return sqffd__jacobian_scaled(w, es, ec, I, J, K) /
-           (sqffd__binomial(ej[0] - 1, I) * sqffd__binomial(ej[1] - 1, J) * sqffd__binomial(ej[2] - 1, K));
-}
-
 /* The smallest of J's coefficients for control points in sqffd_ffd's
    layout, or the near-regular bound when that is at least `enough`
    (HUGE_VAL: always the coefficients, then in w->coef). */
@@ -5442,51 +5413,8 @@ static double sqffd__ffd_jacobian_min(const int dims[3], const double *control, 
     double eps = sqffd__ffd_jacobian_derivatives(dims, control, inverse, w);
     double near = 2.0 - (1.0 + eps) * (1.0 + eps) * (1.0 + eps);
     if (near >= enough) return near;
-    sqffd__ffd_jacobian_products(dims, 1, w);
+    sqffd__ffd_jacobian_products(dims, w);
     return sqffd__ffd_jacobian_coefficients(dims, w);
-}
-
-/* The gradient of J's coefficient `index` (w->coef's order) with respect to
-   the control points, planar (all x, then y, then z; L each), from the
-   derivatives and all three products. */
-static void sqffd__ffd_jacobian_gradient(const int dims[3], const double inverse[9], const sqffd__jacobian_work *w,
-                                         size_t index, double *grad)
-{
-    size_t l = (size_t)dims[0] * (size_t)dims[1] * (size_t)dims[2];
-    int ej[3], c[3], a, b, i, j, k;
-    double unscale;
-    sqffd__jacobian_extent(dims, 3, ej);
-    c[2] = (int)(index % (size_t)ej[2]);
-    c[1] = (int)(index / (size_t)ej[2] % (size_t)ej[1]);
-    c[0] = (int)(index / ((size_t)ej[2] * (size_t)ej[1]));
-    unscale = 1.0 / (sqffd__binomial(ej[0] - 1, c[0]) * sqffd__binomial(ej[1] - 1, c[1]) *
-                     sqffd__binomial(ej[2] - 1, c[2]));
-    memset(grad, 0, 3 * l * sizeof(double));
-    for (a = 0; a < 3; ++a) {
-        int ed[3], ec[3], lo[3], hi[3];
-        size_t step = a == 0 ? (size_t)(dims[1] * dims[2]) : a == 1 ? (size_t)dims[2] : 1;
-        sqffd__jacobian_extent(dims, a, ed);
-        sqffd__jacobian_cross_extent(dims, a, ec);
-        for (b = 0; b < 3; ++b) { /* alpha with alpha <= c < alpha + ec */
-            lo[b] = c[b] - ec[b] + 1 > 0 ? c[b] - ec[b] + 1 : 0;
-            hi[b] = c[b] + 1 < ed[b] ? c[b] + 1 : ed[b];
-        }
-        for (i = lo[0]; i < hi[0]; ++i)
-            for (j = lo[1]; j < hi[1]; ++j)
-                for (k = lo[2]; k < hi[2]; ++k) {
-                    size_t e = (size_t)((i * ed[1] + j) * ed[2] + k);
-                    size_t p = (size_t)((i * dims[1] + j) * dims[2] + k), q = p + step;
-                    const double *x = w->cross[a] + 3 * (((c[0] - i) * ec[1] + c[1] - j) * ec[2] + c[2] - k);
-                    double f = (double)(dims[a] - 1) * w->scale[a][e] * unscale, g[3];
-                    int r;
-                    for (r = 0; r < 3; ++r) /* inverse^T x: box coordinates back to the world's */
-                        g[r] = f * (inverse[r] * x[0] + inverse[3 + r] * x[1] + inverse[6 + r] * x[2]);
-                    for (r = 0; r < 3; ++r) {
-                        grad[(size_t)r * l + q] += g[r];
-                        grad[(size_t)r * l + p] -= g[r];
-                    }
-                }
-    }
 }
 
 SQFFD_DEF sqffd_result sqffd_ffd_jacobian_workspace_size(const int dims[3], size_t *size)
@@ -5497,7 +5425,7 @@ SQFFD_DEF sqffd_result sqffd_ffd_jacobian_workspace_size(const int dims[3], size
     *size = 0;
     if (!dims || !sqffd__ffd_dims_valid(dims)) return SQFFD_ERROR_INVALID_ARGUMENT;
     sqffd__arena_measure(&a);
-    sqffd__ffd_jacobian_layout(&a, dims, 1, &w);
+    sqffd__ffd_jacobian_layout(&a, dims, &w);
     return sqffd__arena_size(&a, size);
 }
 
@@ -5511,7 +5439,7 @@ SQFFD_DEF sqffd_result sqffd_ffd_jacobian_bound(const sqffd_ffd *ffd, double *mi
     if (!ffd || !min) return SQFFD_ERROR_INVALID_ARGUMENT;
     if ((r = sqffd_ffd_validate(ffd)) != SQFFD_OK) return r;
     sqffd__arena_init(&a, workspace, workspace_size);
-    sqffd__ffd_jacobian_layout(&a, ffd->dims, 1, &w);
+    sqffd__ffd_jacobian_layout(&a, ffd->dims, &w);
     if (a.overflow) return sqffd__arena_error(&a);
     bound = sqffd__ffd_jacobian_min(ffd->dims, &ffd->control[0][0], ffd->inverse, &w, HUGE_VAL);
     if (!isfinite(bound)) return SQFFD_ERROR_NON_FINITE;
@@ -7506,7 +7434,7 @@ static void sqffd__fit_fold_layout(sqffd__arena *a, const int dims[3], size_t m,
     int ej[3];
     sqffd__fit_fold measuring;
     if (!f) f = &measuring;
-    sqffd__ffd_jacobian_layout(a, dims, 1, &f->at);
+    sqffd__ffd_jacobian_layout(a, dims, &f->at);
     sqffd__jacobian_extent(dims, 3, ej);
     f->tensor = (double *)sqffd__arena_take(a, 6 * (SQFFD__FIT_REGION_LEVELS + SQFFD__FIT_CERT_DEPTH) *
                                                    sqffd__jacobian_count(ej), sizeof(double));
@@ -7542,12 +7470,11 @@ static void sqffd__fit_fold_layout(sqffd__arena *a, const int dims[3], size_t m,
 static void sqffd__fit_region(const sqffd_model *model, sqffd__fit_fold *f)
 {
     const int r = SQFFD__FIT_REGION;
-    unsigned char seed[SQFFD__FIT_REGION_CELLS];
     size_t rows = (size_t)sqffd__fit_region_grid[0], cols = (size_t)sqffd__fit_region_grid[1], v, at;
     int i, j, k, di, dj, dk, level, size;
     size_t offset;
     const double *x = f->surface;
-    memset(seed, 0, sizeof seed);
+    memset(f->region, 0, sizeof f->region);
     sqffd__fit_sq_grid(&model->sq, sqffd__fit_region_grid, f->surface);
     for (v = 0; v < rows * cols; ++v) /* the mesh's edges: to the next point in the row, the column, or the pole */
         for (k = 0; k < 3; ++k) {
@@ -7566,7 +7493,7 @@ static void sqffd__fit_region(const sqffd_model *model, sqffd__fit_fold *f)
                     double c = floor((from[e] + (to[e] - from[e]) * i / pieces) * r);
                     cell[e] = c < 0.0 ? 0 : c > r - 1 ? r - 1 : (int)c;
                 }
-                seed[(cell[0] * r + cell[1]) * r + cell[2]] = 1;
+                f->region[(cell[0] * r + cell[1]) * r + cell[2]] = 1;
             }
         }
     for (i = 0; i < r; ++i)
@@ -7578,17 +7505,8 @@ static void sqffd__fit_region(const sqffd_model *model, sqffd__fit_fold *f)
                     centre[e] = model->ffd.origin[e] + ((i + 0.5) * model->ffd.edges[e] + (j + 0.5) * model->ffd.edges[3 + e] +
                                                         (k + 0.5) * model->ffd.edges[6 + e]) / r;
                 if (sqffd_sq_inside_outside(&model->sq, centre, &value) == SQFFD_OK && value <= 1.0)
-                    seed[(i * r + j) * r + k] = 1;
+                    f->region[(i * r + j) * r + k] = 1;
             }
-    memset(f->region, 0, sizeof f->region); /* the seeds and their neighbours */
-    for (i = 0; i < r; ++i)
-        for (j = 0; j < r; ++j)
-            for (k = 0; k < r; ++k)
-                if (seed[(i * r + j) * r + k])
-                    for (di = i > 0 ? -1 : 0; di <= (i < r - 1); ++di)
-                        for (dj = j > 0 ? -1 : 0; dj <= (j < r - 1); ++dj)
-                            for (dk = k > 0 ? -1 : 0; dk <= (k < r - 1); ++dk)
-                                f->region[((i + di) * r + j + dj) * r + k + dk] = 1;
     /* the coarser levels, finest first: level of size cells an axis at coarse[offset..] */
     memset(f->coarse, 0, sizeof f->coarse);
     for (offset = 0, size = r / 2, level = SQFFD__FIT_REGION_LEVELS - 1; level >= 0; --level, size /= 2) {
@@ -7792,7 +7710,7 @@ static double sqffd__fit_fold_certify(const int dims[3], sqffd__fit_fold *f, con
     near -= (1.0 + eps) * (1.0 + eps) * (1.0 + eps);
     f->failed = 0;
     if (near >= target) return near; /* (a lattice near the regular one: no coefficients needed) */
-    sqffd__ffd_jacobian_products(dims, 1, &f->at);
+    sqffd__ffd_jacobian_products(dims, &f->at);
     sqffd__ffd_jacobian_coefficients(dims, &f->at);
     sqffd__jacobian_extent(dims, 3, ej);
     return sqffd__fit_fold_certify_cell(dims, f, target, 0, origin, f->at.coef);
@@ -7839,13 +7757,12 @@ static double sqffd__fit_fold_penalty(const sqffd__fit_fold *f, const double *va
     return 0.5 * f->rho * sum;
 }
 
-/* The step's matrix, the energy's plus the active samples' penalty (weight
-   M rho) and lambda x the damping, factored into f->factor (as L^T), and
-   its right-hand side into f->rhs; lambda grows tenfold until it factors.
-   0 when it never does. */
-static int sqffd__fit_fold_factor(const sqffd__fit_system *s, sqffd__fit_fold *f, double weight)
+/* The step's matrix without the penalty, the energy's plus lambda x the
+   damping, factored into f->factor (as L^T), and its right-hand side into
+   f->rhs; lambda grows tenfold until it factors. 0 when it never does. */
+static int sqffd__fit_fold_factor(const sqffd__fit_system *s, sqffd__fit_fold *f)
 {
-    size_t l = s->lattice, size = 3 * l, c, p, q, i;
+    size_t l = s->lattice, size = 3 * l, c, p, q;
     int tries;
     for (tries = 0; tries < 40; ++tries, f->lambda = f->lambda > 0.0 ? 10.0 * f->lambda : 1e-6) {
         memcpy(f->factor, f->hessian, size * size * sizeof(double));
@@ -7965,9 +7882,9 @@ static double sqffd__fit_fold_step(const sqffd__fit_system *s, sqffd__fit_fold *
                                    const double inverse[9], double weight)
 {
     const size_t stride = SQFFD__FIT_CANDIDATES;
-    size_t size = 3 * s->lattice, l = s->lattice, i, j, k = 0, done = 0, p;
-    int round, c;
-    if (!sqffd__fit_fold_factor(s, f, weight)) return -1.0;
+    size_t size = 3 * s->lattice, i, j, k = 0, done = 0, p;
+    int round;
+    if (!sqffd__fit_fold_factor(s, f)) return -1.0;
     memcpy(f->base, f->rhs, size * sizeof(double));
     sqffd__la_upper_forward(f->factor, size, f->base);
     memcpy(f->move, f->base, size * sizeof(double));

@@ -280,10 +280,11 @@ static void test_internal_pass_order(void)
     }
 }
 
-/* Each Jacobian coefficient's gradient (sqffd__ffd_jacobian_gradient)
-   against central differences of the coefficients, on a folded random
-   lattice of 4 x 5 x 3 in a skewed box. */
-static void test_internal_jacobian_gradient(void)
+/* J at a point and its gradient (sqffd__fit_fold_sample): at the box's
+   corners J is its Bernstein form's corner coefficient (exact there), and
+   the gradient matches central differences, on a folded random lattice of
+   4 x 5 x 3 in a skewed box. */
+static void test_internal_jacobian_sample(void)
 {
     const int dims[3] = {4, 5, 3};
     const double origin[3] = {1.0, 2.0, 3.0}, edges[9] = {10.0, 1.0, 0.0, 0.0, 8.0, 2.0, 1.0, 0.0, 12.0};
@@ -291,48 +292,123 @@ static void test_internal_jacobian_gradient(void)
     sqffd__arena a;
     sqffd__jacobian_work w;
     void *memory;
-    double grad[3 * 60], *control = &f.control[0][0], worst = 0.0, scale = 0.0;
-    int ej[3];
-    size_t index, count, p, size;
+    double grad[3 * 60], *control = &f.control[0][0], worst = 0.0, scale = 0.0, corner_off = 0.0;
+    int ej[3], corner, k;
+    size_t p, size;
     int c;
     CHECK_RESULT(sqffd_ffd_init(&f, dims, origin, edges), SQFFD_OK);
     srand(13);
     for (p = 0; p < 3 * 60; p++) control[p] += 3.0 * ((double)rand() / RAND_MAX - 0.5);
     sqffd__arena_measure(&a);
-    sqffd__ffd_jacobian_layout(&a, dims, 3, &w);
+    sqffd__ffd_jacobian_layout(&a, dims, &w);
     size = a.used + 64;
     memory = malloc(size);
     sqffd__arena_init(&a, memory, size);
-    sqffd__ffd_jacobian_layout(&a, dims, 3, &w);
+    sqffd__ffd_jacobian_layout(&a, dims, &w);
     CHECK(!a.overflow);
+    sqffd__ffd_jacobian_min(dims, control, f.inverse, &w, HUGE_VAL);
     sqffd__jacobian_extent(dims, 3, ej);
-    count = sqffd__jacobian_count(ej);
-    for (index = 0; index < count; index += 17) {
-        sqffd__ffd_jacobian_derivatives(dims, control, f.inverse, &w);
-        sqffd__ffd_jacobian_products(dims, 3, &w);
-        sqffd__ffd_jacobian_gradient(dims, f.inverse, &w, index, grad);
-        for (p = 0; p < 60; p += 7)
+    for (corner = 0; corner < 8; corner++) {
+        double stu[3];
+        size_t g[3];
+        for (k = 0; k < 3; k++) {
+            stu[k] = (corner >> k) & 1 ? 1.0 : 0.0;
+            g[k] = (corner >> k) & 1 ? (size_t)ej[k] - 1 : 0;
+        }
+        corner_off = fmax(corner_off, fabs(sqffd__fit_fold_sample(dims, control, f.inverse, stu, NULL) -
+                                           w.coef[(g[0] * (size_t)ej[1] + g[1]) * (size_t)ej[2] + g[2]]));
+    }
+    CHECK_MSG(corner_off <= 1e-12, "J at a corner off its coefficient by %g", corner_off);
+    for (k = 0; k < 20; k++) {
+        double stu[3];
+        for (c = 0; c < 3; c++) stu[c] = (double)rand() / RAND_MAX;
+        sqffd__fit_fold_sample(dims, control, f.inverse, stu, grad);
+        for (p = 0; p < 60; p += 3)
             for (c = 0; c < 3; c++) {
                 double keep = control[3 * p + (size_t)c], up, down;
                 control[3 * p + (size_t)c] = keep + 1e-5;
-                sqffd__ffd_jacobian_min(dims, control, f.inverse, &w, HUGE_VAL);
-                up = w.coef[index];
+                up = sqffd__fit_fold_sample(dims, control, f.inverse, stu, NULL);
                 control[3 * p + (size_t)c] = keep - 1e-5;
-                sqffd__ffd_jacobian_min(dims, control, f.inverse, &w, HUGE_VAL);
-                down = w.coef[index];
+                down = sqffd__fit_fold_sample(dims, control, f.inverse, stu, NULL);
                 control[3 * p + (size_t)c] = keep;
-                if (fabs((up - down) / 2e-5 - grad[(size_t)c * 60 + p]) > worst)
-                    worst = fabs((up - down) / 2e-5 - grad[(size_t)c * 60 + p]);
-                if (fabs(grad[(size_t)c * 60 + p]) > scale) scale = fabs(grad[(size_t)c * 60 + p]);
+                worst = fmax(worst, fabs((up - down) / 2e-5 - grad[(size_t)c * 60 + p]));
+                scale = fmax(scale, fabs(grad[(size_t)c * 60 + p]));
             }
     }
     CHECK_MSG(scale > 0.0 && worst <= 1e-7 * scale, "gradient off its differences by %g (largest %g)", worst, scale);
     free(memory);
 }
 
+/* The region's certificate (sqffd__fit_fold_certify) against brute force:
+   J at 20,000 random points of the region's cells is never below the bound
+   it certifies; a lattice that folds inside the region gets a bound under
+   the floor; one that folds only outside it (the box's corners) is
+   certified, though its whole-box bound is negative. */
+static void test_internal_certificate(void)
+{
+    static const int dims[3] = {5, 5, 5};
+    sqffd_fit_options o = sqffd_fit_options_default();
+    sqffd_superquadric sq;
+    sqffd_model model;
+    sqffd__fit_fold fold;
+    sqffd__arena a;
+    void *memory;
+    size_t size, p;
+    int trial, k;
+    memset(&sq, 0, sizeof sq);
+    sq.size[0] = 1.0; sq.size[1] = 0.7; sq.size[2] = 1.5;
+    sq.shape[0] = 0.8; sq.shape[1] = 1.2;
+    sq.rotation[0] = sq.rotation[4] = sq.rotation[8] = 1.0;
+    CHECK_RESULT(sqffd_model_init(&model, &sq, &o), SQFFD_OK);
+    sqffd__arena_measure(&a);
+    sqffd__fit_fold_layout(&a, dims, 1, 1, &fold);
+    size = a.used + 64;
+    memory = malloc(size);
+    sqffd__arena_init(&a, memory, size);
+    sqffd__fit_fold_layout(&a, dims, 1, 1, &fold);
+    CHECK(!a.overflow);
+    sqffd__fit_region(&model, &fold);
+    srand(17);
+    for (trial = 0; trial < 6; trial++) {
+        sqffd_model m = model;
+        double *control = &m.ffd.control[0][0], bound, least = HUGE_VAL, box;
+        int cells = 0;
+        for (k = 0; k < SQFFD__FIT_REGION_CELLS; k++) cells += fold.region[k];
+        CHECK(cells > 0 && cells < SQFFD__FIT_REGION_CELLS);
+        if (trial < 5) /* random lattices, folding more and more */
+            for (p = 0; p < 3 * 125; p++) control[p] += 0.6 * trial * ((double)rand() / RAND_MAX - 0.5);
+        else { /* the corner control point (0, 0, 0) pushed through the box: a fold there alone */
+            for (k = 0; k < 3; k++) control[k] += 0.3 * (model.ffd.edges[k] + model.ffd.edges[3 + k] + model.ffd.edges[6 + k]);
+        }
+        fold.floor = 0.02;
+        bound = sqffd__fit_fold_certify(dims, &fold, control, m.ffd.inverse, 0.02);
+        for (k = 0; k < 20000; k++) { /* a random point of a random region cell */
+            double stu[3], j;
+            int cell, c;
+            do cell = rand() % SQFFD__FIT_REGION_CELLS; while (!fold.region[cell]);
+            stu[0] = (cell / 64 + (double)rand() / RAND_MAX) / 8.0;
+            stu[1] = (cell / 8 % 8 + (double)rand() / RAND_MAX) / 8.0;
+            stu[2] = (cell % 8 + (double)rand() / RAND_MAX) / 8.0;
+            j = sqffd__fit_fold_sample(dims, control, m.ffd.inverse, stu, NULL);
+            least = j < least ? j : least;
+            (void)c;
+        }
+        box = sqffd__ffd_jacobian_min(dims, control, m.ffd.inverse, &fold.at, HUGE_VAL);
+        printf("    lattice %d: certified %.4f, sampled minimum %.4f, whole box %.4f\n", trial, bound, least, box);
+        CHECK_MSG(least >= bound - 1e-12, "J %g sampled below the certified bound %g", least, bound);
+        if (least < 0.02) CHECK_MSG(bound < 0.02, "J %g sampled under the floor, yet certified (%g)", least, bound);
+        if (trial == 5) {
+            CHECK_MSG(box < 0.0, "the corner's push did not fold the box (%g)", box);
+            CHECK_MSG(bound >= 0.02, "a fold outside the region not certified (%g)", bound);
+        }
+    }
+    free(memory);
+}
+
 void suite_internal(void)
 {
-    RUN_TEST(test_internal_jacobian_gradient);
+    RUN_TEST(test_internal_jacobian_sample);
+    RUN_TEST(test_internal_certificate);
     RUN_TEST(test_internal_triangle_tree);
     RUN_TEST(test_internal_lagged_step);
     RUN_TEST(test_internal_pass_order);
