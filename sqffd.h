@@ -8363,6 +8363,7 @@ static void sqffd__fit_fold_linearise(sqffd__fit_iteration *it)
         for (c = 0; c < 3; ++c) t[3 * v + c] = scale * t[3 * v + c] + (held ? hold * (it->next[3 * v + c] - it->x[3 * v + c]) : 0.0);
         w->weights[v] = scale * w->weights[v] + (held ? hold : 0.0);
         for (c = 0; c < 6; ++c) plane[6 * v + c] = scale * plane[6 * v + c] + (held && (c == 0 || c == 3 || c == 5) ? hold : 0.0);
+        if (getenv("BETA")) { double beta = atof(getenv("BETA")) * (w->weights[v] - (held ? hold : 0.0)); plane[6 * v] += beta; plane[6 * v + 3] += beta; plane[6 * v + 5] += beta; }
     }
     /* the damping: the lattice's Laplacian, scaled to the trace of B^T W B (W: the point-to-point weights;
        B's row at v is a (x) b (x) c, its squared norm the product of theirs) */
@@ -8379,6 +8380,7 @@ static void sqffd__fit_fold_linearise(sqffd__fit_iteration *it)
     for (v = 0; v < l; ++v) laplacian += f->damping[v * l + v];
     sqffd__fit_fold_coarsen(s, plane);
     for (v = 0; v < l * l; ++v) f->damping[v] *= trace / laplacian;
+    if (getenv("P2P")) { double mix = atof(getenv("P2P")); memset(w->matrix, 0, l * l * sizeof(double)); sqffd__fit_gram(s, w->weights, 1.0, w->pairs, w->block, w->matrix); for (v = 0; v < l * l; ++v) f->damping[v] = (1.0 - mix) * f->damping[v] + mix * w->matrix[v]; }
     memset(f->hessian, 0, size * size * sizeof(double));
     for (c = 0; c < 3; ++c)
         for (c2 = 0; c2 <= c; ++c2) {
@@ -8462,6 +8464,10 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
             stalled = !(f->lambda <= 1e12);
             continue;
         }
+        if (predicted < SQFFD__FIT_SETTLED * o->tolerance * (it->accepted + penalty) * (double)m && f->lambda <= 1.0) {
+            rep->converged = 1; /* the next step would lower the energy by under 10 x tolerance of it: not taken */
+            break;
+        }
         for (tau = 1.0;; tau *= 0.5) { /* shortened (no pass needed) while J's curvature sinks a sample under the floor */
             for (p = 0; p < s->lattice; ++p)
                 for (c = 0; c < 3; ++c)
@@ -8476,6 +8482,7 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
         res = sqffd__fit_measure(it, 0, &energy, &stats);
         if (res != SQFFD_OK) return res;
         trial_penalty = sqffd__fit_fold_penalty(f, f->trial, &trial_worst);
+        if (getenv("FOLD_DEBUG")) fprintf(stderr, "it %2d lambda %8.3g tau %.3g pred %9.3g actual %9.3g E %.6g acc %.6g worst %.3g samples %zu step %.3g\n", rep->iterations, f->lambda, tau, predicted / (double)m, it->accepted + penalty - energy - trial_penalty, energy, it->accepted, trial_worst, f->samples, sqrt(move / (double)m) / it->diagonal);
         bound = energy + trial_penalty < it->accepted + penalty
                     ? sqffd__fit_fold_certify(s->dims, f, control, inverse, o->min_jacobian) : -HUGE_VAL;
         if (bound >= f->floor) { /* lower and certified: accepted */
@@ -8494,8 +8501,7 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
             }
             if (trial_worst > 0.5 * f->margin) f->rho *= 10.0; /* the penalty let a sample sink: stiffer */
             penalty = sqffd__fit_fold_penalty(f, f->value, &worst);
-            rep->converged = tau == 1.0 && (rep->step <= o->tolerance ||
-                                            gain * predicted < SQFFD__FIT_SETTLED * o->tolerance * (energy + penalty) * (double)m);
+            rep->converged = tau == 1.0 && rep->step <= o->tolerance;
             sqffd__fit_fold_linearise(it);
         } else { /* rolled back: more damping, or the certificate's points as samples */
             sqffd__fit_fold_roll_back(it);
