@@ -726,6 +726,8 @@ SQFFD_DEF sqffd_result sqffd_sq_fit_view(sqffd_points points, const sqffd_sq_fit
 #define sqffd_fit_ffd_view SQFFD__LATTICE(sqffd_fit_ffd_view)
 #define sqffd_model_point SQFFD__LATTICE(sqffd_model_point)
 #define sqffd_model_validate SQFFD__LATTICE(sqffd_model_validate)
+#define sqffd_model_jacobian_workspace_size SQFFD__LATTICE(sqffd_model_jacobian_workspace_size)
+#define sqffd_model_jacobian_bound SQFFD__LATTICE(sqffd_model_jacobian_bound)
 #define sqffd_model_save_size SQFFD__LATTICE(sqffd_model_save_size)
 #define sqffd_model_save SQFFD__LATTICE(sqffd_model_save)
 #define sqffd_model_load SQFFD__LATTICE(sqffd_model_load)
@@ -983,6 +985,24 @@ SQFFD_DEF sqffd_result sqffd_model_point(const sqffd_model *model, double eta, d
    function taking a model checks this (the per-point ones, less: see
    sqffd_model_point) and returns INVALID_MODEL for a model that fails it. */
 SQFFD_DEF sqffd_result sqffd_model_validate(const sqffd_model *model);
+/* The model's Jacobian bound where the model lives, the bound the fit
+   keeps at or above options->min_jacobian: J (as sqffd_ffd_jacobian_bound's)
+   over THE REGION, the cells of the box's 8 x 8 x 8 partition that the
+   superquadric's surface passes through (its 32 x 64 mesh) or whose centre
+   lies inside it: the superquadric's solid, from which the model's surface
+   and interior map, and a band of up to a cell around it. *min receives the
+   smallest of J's Bernstein coefficients over those cells, each halved up
+   to 4 times where they are below `floor`: *min >= floor proves J >= floor
+   on the region, and *min > 0 that the model does not fold there. The
+   lattice may fold outside it (at the box's corners, where nothing is
+   fitted), which sqffd_ffd_jacobian_bound reports. The workspace depends
+   on the dims only (about 0.6 MB for 5 x 5 x 5; INVALID_ARGUMENT for dims
+   outside 2..SQFFD_MAX_LATTICE). INVALID_ARGUMENT (NULL model or min, floor
+   not finite), INVALID_MODEL (sqffd_model_validate), NON_FINITE,
+   WORKSPACE_TOO_SMALL. */
+SQFFD_DEF sqffd_result sqffd_model_jacobian_workspace_size(const int dims[3], size_t *size);
+SQFFD_DEF sqffd_result sqffd_model_jacobian_bound(const sqffd_model *model, double floor, double *min, void *workspace,
+                                                 size_t workspace_size);
 /* Save and load: a byte form of a model that any build reads back, whatever
    its endianness or SQFFD_MAX_LATTICE (when the lattice fits it).
    Little-endian throughout:
@@ -7716,6 +7736,39 @@ static double sqffd__fit_fold_certify(const int dims[3], sqffd__fit_fold *f, con
     return sqffd__fit_fold_certify_cell(dims, f, target, 0, origin, f->at.coef);
 }
 
+SQFFD_DEF sqffd_result sqffd_model_jacobian_workspace_size(const int dims[3], size_t *size)
+{
+    sqffd__arena a;
+    if (!size) return SQFFD_ERROR_INVALID_ARGUMENT;
+    *size = 0;
+    if (!dims || !sqffd__ffd_dims_valid(dims)) return SQFFD_ERROR_INVALID_ARGUMENT;
+    sqffd__arena_measure(&a);
+    sqffd__arena_take(&a, 1, sizeof(sqffd__fit_fold));
+    sqffd__fit_fold_layout(&a, dims, 0, 0, NULL);
+    return sqffd__arena_size(&a, size);
+}
+
+SQFFD_DEF sqffd_result sqffd_model_jacobian_bound(const sqffd_model *model, double floor, double *min, void *workspace,
+                                                 size_t workspace_size)
+{
+    sqffd__arena a;
+    sqffd__fit_fold *f;
+    double bound;
+    sqffd_result r;
+    if (!model || !min || !isfinite(floor)) return SQFFD_ERROR_INVALID_ARGUMENT;
+    if ((r = sqffd_model_validate(model)) != SQFFD_OK) return r;
+    sqffd__arena_init(&a, workspace, workspace_size);
+    f = (sqffd__fit_fold *)sqffd__arena_take(&a, 1, sizeof(sqffd__fit_fold));
+    sqffd__fit_fold_layout(&a, model->ffd.dims, 0, 0, f);
+    if (a.overflow) return sqffd__arena_error(&a);
+    sqffd__fit_region(model, f);
+    f->floor = floor;
+    bound = sqffd__fit_fold_certify(model->ffd.dims, f, &model->ffd.control[0][0], model->ffd.inverse, floor);
+    if (!isfinite(bound)) return SQFFD_ERROR_NON_FINITE;
+    *min = bound;
+    return SQFFD_OK;
+}
+
 /* y = A x for a symmetric n x n A given by its lower triangle (row-major). */
 static void sqffd__fit_symmetric_times(const double *a, size_t n, const double *x, double *y)
 {
@@ -8363,7 +8416,6 @@ static void sqffd__fit_fold_linearise(sqffd__fit_iteration *it)
         for (c = 0; c < 3; ++c) t[3 * v + c] = scale * t[3 * v + c] + (held ? hold * (it->next[3 * v + c] - it->x[3 * v + c]) : 0.0);
         w->weights[v] = scale * w->weights[v] + (held ? hold : 0.0);
         for (c = 0; c < 6; ++c) plane[6 * v + c] = scale * plane[6 * v + c] + (held && (c == 0 || c == 3 || c == 5) ? hold : 0.0);
-        if (getenv("BETA")) { double beta = atof(getenv("BETA")) * (w->weights[v] - (held ? hold : 0.0)); plane[6 * v] += beta; plane[6 * v + 3] += beta; plane[6 * v + 5] += beta; }
     }
     /* the damping: the lattice's Laplacian, scaled to the trace of B^T W B (W: the point-to-point weights;
        B's row at v is a (x) b (x) c, its squared norm the product of theirs) */
@@ -8380,7 +8432,6 @@ static void sqffd__fit_fold_linearise(sqffd__fit_iteration *it)
     for (v = 0; v < l; ++v) laplacian += f->damping[v * l + v];
     sqffd__fit_fold_coarsen(s, plane);
     for (v = 0; v < l * l; ++v) f->damping[v] *= trace / laplacian;
-    if (getenv("P2P")) { double mix = atof(getenv("P2P")); memset(w->matrix, 0, l * l * sizeof(double)); sqffd__fit_gram(s, w->weights, 1.0, w->pairs, w->block, w->matrix); for (v = 0; v < l * l; ++v) f->damping[v] = (1.0 - mix) * f->damping[v] + mix * w->matrix[v]; }
     memset(f->hessian, 0, size * size * sizeof(double));
     for (c = 0; c < 3; ++c)
         for (c2 = 0; c2 <= c; ++c2) {
@@ -8482,7 +8533,6 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
         res = sqffd__fit_measure(it, 0, &energy, &stats);
         if (res != SQFFD_OK) return res;
         trial_penalty = sqffd__fit_fold_penalty(f, f->trial, &trial_worst);
-        if (getenv("FOLD_DEBUG")) fprintf(stderr, "it %2d lambda %8.3g tau %.3g pred %9.3g actual %9.3g E %.6g acc %.6g worst %.3g samples %zu step %.3g\n", rep->iterations, f->lambda, tau, predicted / (double)m, it->accepted + penalty - energy - trial_penalty, energy, it->accepted, trial_worst, f->samples, sqrt(move / (double)m) / it->diagonal);
         bound = energy + trial_penalty < it->accepted + penalty
                     ? sqffd__fit_fold_certify(s->dims, f, control, inverse, o->min_jacobian) : -HUGE_VAL;
         if (bound >= f->floor) { /* lower and certified: accepted */
@@ -8523,7 +8573,13 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
         memcpy(control, w->accepted, size * sizeof(double));
         sqffd__fit_control_changed(it);
     }
-    if ((it->mode & SQFFD__FIT_EXACT_END) && !it->search.exact) res = sqffd__fit_measure(it, 1, &it->accepted, &accepted_stats);
+    if ((it->mode & SQFFD__FIT_EXACT_END) && !it->search.exact) {
+        res = sqffd__fit_measure(it, 1, &it->accepted, &accepted_stats);
+        if (res == SQFFD_OK && rep->history_count > 0 && rep->iterations <= SQFFD_FIT_HISTORY) {
+            rep->history[rep->history_count - 1] = accepted_stats.rms_relative; /* (the last entry is the model's) */
+            rep->energy_history[rep->history_count - 1] = it->accepted;
+        }
+    }
     if (res == SQFFD_OK) res = sqffd__fit_record(it, it->accepted, &accepted_stats);
     rep->stop = rep->converged ? SQFFD_FIT_CONVERGED : stalled ? SQFFD_FIT_STALLED : SQFFD_FIT_CAPPED;
     return res;
