@@ -176,6 +176,9 @@
                                        model surface point, triangle mesh
        sqffd_model_validate, sqffd_model_save(_size), sqffd_model_load
                                        a stored model's check; the byte form
+       sqffd_model_jacobian_bound, sqffd_model_jacobian_workspace_size
+                                       no fold where the model lives: the
+                                       certified Jacobian bound on its region
        sqffd_model_distances(_view, _workspace_size)
                                        data-to-model distances ("the error")
        sqffd_model_reverse_distances(_view, _workspace_size)
@@ -7403,7 +7406,7 @@ static const int sqffd__fit_region_grid[2] = {32, 64}; /* the superquadric's sur
 #define SQFFD__FIT_CERT_DEPTH 4
 #define SQFFD__FIT_CERT_FAILS 16 /* new samples one certificate gives at most */
 #define SQFFD__FIT_MARGIN 0.1     /* the samples are held this far above the floor: room for J's dips between them */
-#define SQFFD__FIT_LAMBDA_START 1e-2
+#define SQFFD__FIT_LAMBDA_START 1.0 /* the first step's damping: its matrix's trace that of the data's point-to-point one */
 #define SQFFD__FIT_SETTLED 10.0   /* converged: a step that lowers the penalised energy by under this x tolerance of it */
 #define SQFFD__FIT_NEAR 10.0      /* samples within this many margins of the floor enter the step's model (a step that
                                      moves J further than that leaves its linear model, and is shortened anyway) */
