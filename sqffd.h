@@ -7659,84 +7659,89 @@ static void sqffd__bernstein_split(const double *t, const int ext[3], int axis, 
     }
 }
 
-/* The certificate below a cell (level: halvings of the box; index: its
-   place; t: its coefficients): the smallest coefficient over the region's
-   part of it, refined by halving where below target (below the floor, at
-   most SQFFD__FIT_CERT_DEPTH levels below the region's cells). A corner
-   below the floor (J itself there), or a cell at the deepest level still
-   below it, adds a point to f->fails (the corner, or its lowest
-   coefficient's Greville point); past SQFFD__FIT_CERT_FAILS of them the
-   answer is known and the search ends. Its children's coefficients go to
-   f->tensor's slots for this level (two halves of each axis in turn). */
-static double sqffd__fit_fold_certify_cell(const int dims[3], sqffd__fit_fold *f, double target, int level,
-                                           const int index[3], const double *t)
+/* One cell of the certificate (level: halvings of the box; index: its
+   place; t: its coefficients): 1 when it is settled, its smallest
+   coefficient into *least: at or above target, or (a region cell or
+   below) at or above the floor; or under the floor with a point of it
+   added to f->fails: a corner below the floor (J itself there), a cell at
+   the deepest level (its lowest coefficient's Greville point), or any once
+   SQFFD__FIT_CERT_FAILS are found (the answer is known). 0: to be halved. */
+static int sqffd__fit_fold_cell(const int ej[3], sqffd__fit_fold *f, double target, int level, const int index[3],
+                                const double *t, double *least)
 {
-    int ej[3], a, s0, s1, s2, cells = 1 << level;
-    size_t count, i, lowest = 0;
-    double least = HUGE_VAL, bound = HUGE_VAL, *halves;
-    sqffd__jacobian_extent(dims, 3, ej);
-    count = sqffd__jacobian_count(ej);
+    size_t count = sqffd__jacobian_count(ej), i, lowest = 0;
+    int a, corner, cells = 1 << level, g[3];
+    *least = HUGE_VAL;
     for (i = 0; i < count; ++i)
-        if (t[i] < least) { least = t[i]; lowest = i; }
-    if (least >= target || (level >= SQFFD__FIT_REGION_LEVELS && least >= f->floor)) return least;
-    if (least < f->floor && level >= SQFFD__FIT_REGION_LEVELS) {
-        int corner;
-        if (f->failed >= SQFFD__FIT_CERT_FAILS) return least;
-        for (corner = 0; corner < 8; ++corner) {
-            int g[3];
-            for (a = 0; a < 3; ++a) g[a] = (corner >> (2 - a)) & 1 ? ej[a] - 1 : 0;
-            if (t[((size_t)g[0] * (size_t)ej[1] + (size_t)g[1]) * (size_t)ej[2] + (size_t)g[2]] < f->floor) {
-                for (a = 0; a < 3; ++a) f->fails[f->failed][a] = (double)(index[a] + (g[a] ? 1 : 0)) / cells;
-                ++f->failed;
-                return least;
-            }
-        }
-        if (level == SQFFD__FIT_REGION_LEVELS + SQFFD__FIT_CERT_DEPTH) {
-            int g[3];
-            g[2] = (int)(lowest % (size_t)ej[2]);
-            g[1] = (int)(lowest / (size_t)ej[2] % (size_t)ej[1]);
-            g[0] = (int)(lowest / ((size_t)ej[1] * (size_t)ej[2]));
-            for (a = 0; a < 3; ++a) f->fails[f->failed][a] = (index[a] + (double)g[a] / (ej[a] - 1)) / cells;
+        if (t[i] < *least) { *least = t[i]; lowest = i; }
+    if (*least >= target || (level >= SQFFD__FIT_REGION_LEVELS && *least >= f->floor)) return 1;
+    if (level < SQFFD__FIT_REGION_LEVELS || *least >= f->floor) return 0;
+    if (f->failed >= SQFFD__FIT_CERT_FAILS) return 1;
+    for (corner = 0; corner < 8; ++corner) {
+        for (a = 0; a < 3; ++a) g[a] = (corner >> (2 - a)) & 1 ? ej[a] - 1 : 0;
+        if (t[((size_t)g[0] * (size_t)ej[1] + (size_t)g[1]) * (size_t)ej[2] + (size_t)g[2]] < f->floor) {
+            for (a = 0; a < 3; ++a) f->fails[f->failed][a] = (double)(index[a] + (g[a] ? 1 : 0)) / cells;
             ++f->failed;
-            return least;
+            return 1;
         }
     }
-    halves = f->tensor + (size_t)level * 6 * count; /* [axis][side] */
-    sqffd__bernstein_split(t, ej, 0, halves, halves + count);
-    for (s0 = 0; s0 < 2; ++s0) {
-        sqffd__bernstein_split(halves + (size_t)s0 * count, ej, 1, halves + 2 * count, halves + 3 * count);
-        for (s1 = 0; s1 < 2; ++s1) {
-            sqffd__bernstein_split(halves + (size_t)(2 + s1) * count, ej, 2, halves + 4 * count, halves + 5 * count);
-            for (s2 = 0; s2 < 2; ++s2) {
-                int sub[3];
-                double b;
-                sub[0] = 2 * index[0] + s0;
-                sub[1] = 2 * index[1] + s1;
-                sub[2] = 2 * index[2] + s2;
-                if (level + 1 <= SQFFD__FIT_REGION_LEVELS && !sqffd__fit_region_meets(f, 1 << (level + 1), sub)) continue;
-                b = sqffd__fit_fold_certify_cell(dims, f, target, level + 1, sub, halves + (size_t)(4 + s2) * count);
-                if (b < bound) bound = b;
-            }
-        }
-    }
-    return bound;
+    if (level < SQFFD__FIT_REGION_LEVELS + SQFFD__FIT_CERT_DEPTH) return 0;
+    g[2] = (int)(lowest % (size_t)ej[2]);
+    g[1] = (int)(lowest / (size_t)ej[2] % (size_t)ej[1]);
+    g[0] = (int)(lowest / ((size_t)ej[1] * (size_t)ej[2]));
+    for (a = 0; a < 3; ++a) f->fails[f->failed][a] = (index[a] + (double)g[a] / (ej[a] - 1)) / cells;
+    ++f->failed;
+    return 1;
 }
 
-/* The certified lower bound of J over the region for these control points
-   (at least the floor: certified; below it, f->fails holds up to
-   SQFFD__FIT_CERT_FAILS points where it may dip). */
+/* The certified lower bound of J over the region for these control points:
+   the smallest coefficient over the settled cells of a depth-first walk
+   down from the box, halving where a cell is not settled (at least the
+   floor: certified; below it, f->fails holds up to SQFFD__FIT_CERT_FAILS
+   points where it may dip). A level's children come from its slots in
+   f->tensor: the two halves of axis 0, then of axis 1 of one of those, then
+   of axis 2 (no recursion: the firmware's stack is bounded). */
 static double sqffd__fit_fold_certify(const int dims[3], sqffd__fit_fold *f, const double *control, const double inverse[9],
-                                 double target)
+                                      double target)
 {
-    int ej[3], origin[3] = {0, 0, 0};
-    double near = 2.0, eps = sqffd__ffd_jacobian_derivatives(dims, control, inverse, &f->at);
+    enum { levels = SQFFD__FIT_REGION_LEVELS + SQFFD__FIT_CERT_DEPTH };
+    int ej[3], index[levels + 1][3], child[levels + 1], depth = 0, a;
+    const double *t[levels + 1];
+    double near = 2.0, eps = sqffd__ffd_jacobian_derivatives(dims, control, inverse, &f->at), bound = HUGE_VAL, least;
+    size_t count;
     near -= (1.0 + eps) * (1.0 + eps) * (1.0 + eps);
     f->failed = 0;
     if (near >= target) return near; /* (a lattice near the regular one: no coefficients needed) */
     sqffd__ffd_jacobian_products(dims, &f->at);
     sqffd__ffd_jacobian_coefficients(dims, &f->at);
     sqffd__jacobian_extent(dims, 3, ej);
-    return sqffd__fit_fold_certify_cell(dims, f, target, 0, origin, f->at.coef);
+    count = sqffd__jacobian_count(ej);
+    memset(index[0], 0, sizeof index[0]);
+    t[0] = f->at.coef;
+    if (sqffd__fit_fold_cell(ej, f, target, 0, index[0], t[0], &least)) return least;
+    child[0] = 0;
+    while (depth >= 0) {
+        double *halves = f->tensor + (size_t)depth * 6 * count; /* [axis][side] */
+        int c = child[depth]++, sub[3];
+        if (c == 8) {
+            --depth;
+            continue;
+        }
+        if (c == 0) sqffd__bernstein_split(t[depth], ej, 0, halves, halves + count);
+        if (c % 4 == 0) sqffd__bernstein_split(halves + (size_t)(c / 4) * count, ej, 1, halves + 2 * count, halves + 3 * count);
+        if (c % 2 == 0) sqffd__bernstein_split(halves + (size_t)(2 + c / 2 % 2) * count, ej, 2, halves + 4 * count, halves + 5 * count);
+        for (a = 0; a < 3; ++a) sub[a] = 2 * index[depth][a] + ((c >> (2 - a)) & 1);
+        if (depth + 1 <= SQFFD__FIT_REGION_LEVELS && !sqffd__fit_region_meets(f, 1 << (depth + 1), sub)) continue;
+        if (sqffd__fit_fold_cell(ej, f, target, depth + 1, sub, halves + (size_t)(4 + c % 2) * count, &least)) {
+            if (least < bound) bound = least;
+            continue;
+        }
+        ++depth;
+        memcpy(index[depth], sub, sizeof sub);
+        t[depth] = halves + (size_t)(4 + c % 2) * count;
+        child[depth] = 0;
+    }
+    return bound;
 }
 
 SQFFD_DEF sqffd_result sqffd_model_jacobian_workspace_size(const int dims[3], size_t *size)

@@ -610,7 +610,7 @@ expect 2 "at least two are needed" track "$DATA" -o "$TMP/newdir"
 # an interrupted run leaves no temporary (nor the output folder it made) behind, and dies of the signal
 mkdir "$TMP/int"
 # (a background job of a script ignores SIGINT, which sqffd then leaves ignored: SIGTERM here)
-"$SQFFD" fit "$DATA" -o "$TMP/int/o.ply" --json "$TMP/int/o.json" --iterations 10000 --quiet >/dev/null 2>&1 &
+"$SQFFD" fit "$DATA" -o "$TMP/int/o.ply" --json "$TMP/int/o.json" --lattice 8 --iterations 10000 --quiet >/dev/null 2>&1 &
 pid=$!
 sleep 0.5
 kill -TERM $pid 2>/dev/null
