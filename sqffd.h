@@ -7418,9 +7418,8 @@ struct sqffd__fit_fold {
     double floor;              /* the run's */
     double rho, lambda;        /* the penalty's weight (energy units), the damping */
     double margin;             /* the samples are held this far above the floor */
-    unsigned char region[SQFFD__FIT_REGION_CELLS]; /* the region's cells, then the coarser levels' (a cell
-                                                      meets the region where one of its children does) */
-    unsigned char coarse[SQFFD__FIT_REGION_CELLS / 7 + 1];
+    unsigned char *region;     /* SQFFD__FIT_REGION_CELLS: the region's cells */
+    unsigned char *coarse;     /* the coarser levels' (a cell meets the region where one of its children does) */
     double (*sample)[3];       /* stu of the samples */
     double *value;             /* J - floor at each, for the accepted model */
     double *trial;             /* and for the trial */
@@ -7429,7 +7428,7 @@ struct sqffd__fit_fold {
     size_t samples, capacity;
     double *tensor;            /* the certificate's coefficients, one tensor a level */
     double *surface;           /* the superquadric's points on the SQFFD__FIT_REGION_GRID (the region's seeds) */
-    double fails[SQFFD__FIT_CERT_FAILS][3];
+    double (*fails)[3];        /* SQFFD__FIT_CERT_FAILS */
     size_t failed;
     double *gradients;         /* samples x 3L: dJ / dP at each, for the accepted model (planar) */
     double *hessian;           /* 3L x 3L lower triangle, planar unknowns: the energy's Gauss-Newton matrix at the
@@ -7440,13 +7439,12 @@ struct sqffd__fit_fold {
     double *move;              /* 3L: the step */
     double *scratch;           /* 3L */
     double *base;              /* 3L: L^-1 rhs, L the factor of the step's matrix without the penalty */
-    uint32_t candidate[SQFFD__FIT_CANDIDATES]; /* the samples the step's penalty may hold */
+    uint32_t *candidate;       /* SQFFD__FIT_CANDIDATES: the samples the step's penalty may hold */
     double *solved;            /* SQFFD__FIT_CANDIDATES x 3L: L^-1 g for each */
     double *gram;              /* SQFFD__FIT_CANDIDATES^2: their products, plus 1 / (M rho) on the diagonal */
     double *small;             /* SQFFD__FIT_CANDIDATES^2: the multipliers' solve */
-    double need[SQFFD__FIT_CANDIDATES], multiplier[SQFFD__FIT_CANDIDATES], z[SQFFD__FIT_CANDIDATES],
-        slope[SQFFD__FIT_CANDIDATES];
-    unsigned char free_set[SQFFD__FIT_CANDIDATES];
+    double *need, *multiplier, *z, *slope; /* SQFFD__FIT_CANDIDATES each: the multipliers' solve */
+    unsigned char *free_set;   /* SQFFD__FIT_CANDIDATES */
     double *damping;           /* L x L lower: the damping's matrix */
     double *planes;            /* M x 6: the pass's sums of w n n^T (xx xy xz yy yz zz) */
 };
@@ -7458,6 +7456,9 @@ static void sqffd__fit_fold_layout(sqffd__arena *a, const int dims[3], size_t m,
     sqffd__fit_fold measuring;
     if (!f) f = &measuring;
     sqffd__ffd_jacobian_layout(a, dims, &f->at);
+    f->region = (unsigned char *)sqffd__arena_take(a, SQFFD__FIT_REGION_CELLS, 1);
+    f->coarse = (unsigned char *)sqffd__arena_take(a, SQFFD__FIT_REGION_CELLS / 7 + 1, 1);
+    f->fails = (double (*)[3])sqffd__arena_take(a, SQFFD__FIT_CERT_FAILS, 3 * sizeof(double));
     sqffd__jacobian_extent(dims, 3, ej);
     f->tensor = (double *)sqffd__arena_take(a, 6 * (SQFFD__FIT_REGION_LEVELS + SQFFD__FIT_CERT_DEPTH) *
                                                    sqffd__jacobian_count(ej), sizeof(double));
@@ -7481,6 +7482,12 @@ static void sqffd__fit_fold_layout(sqffd__arena *a, const int dims[3], size_t m,
     f->solved = (double *)sqffd__arena_take(a, SQFFD__FIT_CANDIDATES, size * sizeof(double));
     f->gram = (double *)sqffd__arena_take(a, SQFFD__FIT_CANDIDATES * SQFFD__FIT_CANDIDATES, sizeof(double));
     f->small = (double *)sqffd__arena_take(a, SQFFD__FIT_CANDIDATES * SQFFD__FIT_CANDIDATES, sizeof(double));
+    f->candidate = (uint32_t *)sqffd__arena_take(a, SQFFD__FIT_CANDIDATES, sizeof(uint32_t));
+    f->need = (double *)sqffd__arena_take(a, SQFFD__FIT_CANDIDATES, sizeof(double));
+    f->multiplier = (double *)sqffd__arena_take(a, SQFFD__FIT_CANDIDATES, sizeof(double));
+    f->z = (double *)sqffd__arena_take(a, SQFFD__FIT_CANDIDATES, sizeof(double));
+    f->slope = (double *)sqffd__arena_take(a, SQFFD__FIT_CANDIDATES, sizeof(double));
+    f->free_set = (unsigned char *)sqffd__arena_take(a, SQFFD__FIT_CANDIDATES, 1);
     f->damping = (double *)sqffd__arena_take(a, l * l, sizeof(double));
     f->planes = (double *)sqffd__arena_take(a, m, 6 * sizeof(double));
 }
@@ -7497,7 +7504,7 @@ static void sqffd__fit_region(const sqffd_model *model, sqffd__fit_fold *f)
     int i, j, k, di, dj, dk, level, size;
     size_t offset;
     const double *x = f->surface;
-    memset(f->region, 0, sizeof f->region);
+    memset(f->region, 0, SQFFD__FIT_REGION_CELLS);
     sqffd__fit_sq_grid(&model->sq, sqffd__fit_region_grid, f->surface);
     for (v = 0; v < rows * cols; ++v) /* the mesh's edges: to the next point in the row, the column, or the pole */
         for (k = 0; k < 3; ++k) {
@@ -7531,7 +7538,7 @@ static void sqffd__fit_region(const sqffd_model *model, sqffd__fit_fold *f)
                     f->region[(i * r + j) * r + k] = 1;
             }
     /* the coarser levels, finest first: level of size cells an axis at coarse[offset..] */
-    memset(f->coarse, 0, sizeof f->coarse);
+    memset(f->coarse, 0, SQFFD__FIT_REGION_CELLS / 7 + 1);
     for (offset = 0, size = r / 2, level = SQFFD__FIT_REGION_LEVELS - 1; level >= 0; --level, size /= 2) {
         int child = size * 2;
         const unsigned char *from = level == SQFFD__FIT_REGION_LEVELS - 1 ? f->region : f->coarse + offset - (size_t)(child * child * child);
