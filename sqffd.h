@@ -865,11 +865,12 @@ typedef struct sqffd_fit_options {
     int coarse_iterations;       /* sqffd_fit only: how many of them (never all) run first on a half-resolution grid
                                     and at most SQFFD_FIT_COARSE_POINTS points: most of the moving at about half the
                                     cost (default 25; 0: none; skipped below 4 model points a control point) */
-    double tolerance;            /* stop when the plain step moves the model points by at most this (RMS / diagonal; default 1e-4; 0 = always max_iterations);
-                                    under min_jacobian, not a step the floor damped (stiffened or shortened): a short one may
-                                    follow a long one */
-    double min_jacobian;         /* fold-free steps: none leaves the lattice's Jacobian bound (sqffd_ffd_jacobian_bound)
-                                    below this (default 0.02; -HUGE_VAL: no bound) */
+    double tolerance;            /* stop when the step moves the model points by at most this (RMS / diagonal; default 1e-4;
+                                    0 = always max_iterations); under min_jacobian also when the next step's model predicts
+                                    the energy to fall by under 10 x this of itself (that step is not taken) */
+    double min_jacobian;         /* the floor: every model the fit returns keeps its Jacobian on its region
+                                    (sqffd_model_jacobian_bound) at or above this; it cannot fold where it lives (default
+                                    0.02; -HUGE_VAL: no floor, the plain two-step iteration) */
     double model_to_data;        /* weight in [0, SQFFD_FIT_MODEL_TO_DATA_MAX] of the model -> data term (THE ENERGY below): holds the parts of the model no
                                     data reach near the data (default 0.02; 0: none; 1: as much as the data -> model term) */
     size_t sq_max_points;        /* stage 1 runs on an even subsample of at most this many points (default 20,000; 0 = all) */
@@ -908,7 +909,8 @@ typedef struct sqffd_fit_report {
                                           never below the exact error, up to ~15% above it) */
     double energy;                 /* the energy of the final model (THE ENERGY, over the FFD subsample) */
     double energy_history[SQFFD_FIT_HISTORY]; /* after iteration 1, 2, ...: never rising */
-    double min_jacobian;           /* the final lattice's sqffd_ffd_jacobian_bound (> 0: it folds nothing) */
+    double min_jacobian;           /* the final model's certified Jacobian bound on its region (sqffd_model_jacobian_bound at
+                                      options->min_jacobian, or at 0 without a floor; > 0: it folds nowhere on it) */
     sqffd_fit_stop stop;           /* why the iteration ended (a run that stopped at its cap has not converged) */
 } sqffd_fit_report;
 
@@ -930,16 +932,21 @@ SQFFD_DEF sqffd_result sqffd_fit_workspace_size(size_t n, const sqffd_fit_option
             + tether / M sum_v |x_v(P) - x_v(P0)|^2 + model_to_data / H sum_h |x_h - nearest data point|^2
    (h over every other model point in each grid direction and the poles),
    d_i the error of point i, rho(d) = d^2 or in robust mode (options->sq.robust)
-   Welsch's nu^2 (1 - exp(-d^2 / nu^2)), over the lattices whose Jacobian
-   bound (sqffd_ffd_jacobian_bound) stays at or above options->min_jacobian:
-   the model cannot fold. Each iteration: (1) each data point's
-   closest point on the model mesh (exact in the first and last pass, a
-   local answer in between); its displacement, shared among that
-   triangle's corners by barycentric weight, gives a weighted least-squares
-   bound of E; (2) the control points minimising that bound (it cannot raise
-   E), under the Jacobian floor (the fold-free steps in the implementation);
-   the steps are over-relaxed (adaptively), and one that raised E
-   is replaced by the plain step: report->energy_history never rises.
+   Welsch's nu^2 (1 - exp(-d^2 / nu^2)), over the models whose Jacobian on
+   their region (sqffd_model_jacobian_bound: the superquadric's solid, which
+   the model's surface and interior map from) stays at or above
+   options->min_jacobian: the model cannot fold where it lives. Each
+   iteration measures each data point's closest point on the model mesh
+   (exact in the first and last pass, a local answer in between). Under the
+   floor (the default) it then takes a damped Gauss-Newton step on E (the
+   data term by its point-to-plane residuals) with the floor held at
+   samples of the region, and keeps it when it lowers E and the Jacobian
+   on the region is certified at or above the floor (the fold-free step in
+   the implementation). Without a floor: (1) each data point's displacement,
+   shared among its closest triangle's corners by barycentric weight, gives
+   a weighted least-squares bound of E; (2) the control points minimising
+   that bound (it cannot raise E), over-relaxed (adaptively), a step that
+   raised E replaced by the plain step. report->energy_history never rises.
    From the superquadric, the first options->coarse_iterations of the
    iterations run on a coarse grid (half the rows and columns) and an even
    subsample of at most SQFFD_FIT_COARSE_POINTS points, the same energy on
@@ -5389,9 +5396,8 @@ static void sqffd__ffd_jacobian_products(const int dims[3], const sqffd__jacobia
 }
 
 /* J's coefficient (I, J, K) scaled by its binomials: the convolution of
-   Ds (extents es) with Dt x Du (ec) there. One sum in one order, so a
-   coefficient computed alone is the same number to the bit (inlined: the
-   whole pass calls it for every coefficient). */
+   Ds (extents es) with Dt x Du (ec) there (inlined: the whole pass calls it
+   for every coefficient). */
 SQFFD__INLINE double sqffd__jacobian_scaled(const sqffd__jacobian_work *w, const int es[3], const int ec[3], int I,
                                             int J, int K)
 {
@@ -5484,7 +5490,7 @@ SQFFD_DEF sqffd_result sqffd_ffd_jacobian_bound(const sqffd_ffd *ffd, double *mi
        sqffd__fit_prepare         B's rows at the model points, the springs' and tether's fixed matrix
        sqffd__fit_coarse_first    (when there is a coarse grid) a run on it, then on the grid
      sqffd__fit_run               the subsample, the model -> data tree, the errors over all points
-     sqffd__fit_iterate           stage 2's loop, in phases:
+     sqffd__fit_iterate           stage 2's loop without a floor, in phases:
        sqffd__fit_begin, sqffd__fit_scale                    the start; robust mode's scale
        sqffd__fit_measure         the pass (sqffd__fit_pass -> sqffd__fit_closest per data point:
                                   sqffd__fit_nearest_vertex, the fan and the walk, sqffd__fit_certify
@@ -5492,13 +5498,17 @@ SQFFD_DEF sqffd_result sqffd_ffd_jacobian_bound(const sqffd_ffd *ffd, double *mi
        sqffd__fit_accept_or_roll_back   the energy check; a rolled-back step is measured again
        sqffd__fit_record          the report, the progress callback
        sqffd__fit_advance         sqffd__fit_targets (step 1), sqffd__fit_step (step 2: sqffd__fit_solve
-                                  or conjugate-gradient steps), sqffd__fit_fold_free (the step kept above
-                                  min_jacobian), the over-relaxed next control points
+                                  or conjugate-gradient steps), the over-relaxed next control points
+     sqffd__fit_iterate_fold_free under the floor:
+       sqffd__fit_region          the region's cells and samples (from the superquadric and the box)
+       sqffd__fit_fold_certify    J's Bernstein coefficients on the region's cells, halved where low
+       sqffd__fit_fold_linearise  the energy's Gauss-Newton matrix (point-to-plane) at the accepted model
+       sqffd__fit_fold_step       the damped step with the samples' penalty (its dual over candidates)
    The sections below, in order: the grid and its mesh, the closest-point
    search, statistics, the passes' order and the pass, model geometry, save
    and load, distances (the same pass), options and the box, the
    least-squares problem of step 2, the fold-free step, the iteration, the
-   entry points. */
+   fold-free iteration, the entry points. */
 
 #define SQFFD__FIT_PI 3.14159265358979323846
 #define SQFFD__FIT_MAX_GRID 65536     /* per grid axis */
@@ -7368,35 +7378,39 @@ static sqffd_result sqffd__fit_step(const sqffd__fit_system *s, sqffd__fit_work 
    Under a floor (min_jacobian) the model may not fold where it lives: J, the
    lattice's Jacobian in the box's coordinates (1 for P0), stays at or above
    the run's floor over THE REGION, the cells of the box's
-   SQFFD__FIT_REGION^3 partition that the model's mesh passes through or
-   whose centre lies inside the superquadric, and their neighbours (a cell
-   around them): the superquadric's solid, which the model's surface and
-   interior map from, and a band around it. Outside it (the box's corners)
-   nothing is fitted and nothing is held.
-   THE STEP: Gauss-Newton on the energy, with J held above the floor at
+   SQFFD__FIT_REGION^3 partition that the superquadric's surface passes
+   through (the edges of its mesh on sqffd__fit_region_grid, in pieces under
+   a quarter of a cell) or whose centre lies inside it: the superquadric's
+   solid, which the model's surface and interior map from, and a band of up
+   to a cell around it. Outside it (the box's corners) nothing is fitted and
+   nothing is held.
+   THE STEP: Gauss-Newton on the energy with J held above the floor at
    samples of the region (the corners of its cells, and the points the
-   certificate adds) by a penalty:
+   certificate adds) by a penalty,
      E(P) + rho/2 sum_s max(0, margin - (J(X_s; P) - floor))^2.
    The data -> model term by its point-to-plane residuals (to first order a
    data point's distance changes only along the direction to its closest
    point, n: per model point a 3 x 3 weight sum w n n^T, so the step's
    matrix couples x, y and z), the model -> data term, the springs and the
-   tether exactly: one dense 3L x 3L system. The penalty holds the samples
-   the step itself would sink under the margin, by their linearised J (an
-   active set, grown and shrunk until it settles). Levenberg-Marquardt
-   damping lambda times the lattice's graph Laplacian (scaled to the data's
-   point-to-point matrix) keeps the step smooth, so that J, cubic in P,
-   stays near its linear model: lambda falls after a step that lowered the
+   tether exactly: one dense 3L x 3L system. The penalty's samples enter the
+   step through its dual: the step is A^-1 (b + sum mu_i g_i), the
+   multipliers those of a small problem over the samples the step would
+   sink (one factor of A a step). Levenberg-Marquardt damping lambda times
+   the lattice's graph Laplacian (scaled to the data's point-to-point
+   matrix) keeps the step smooth, so that J, cubic in P, stays near its
+   linear model; a step that still sinks a sample under the floor is halved
+   before it is measured. lambda falls after a step that lowered the
    penalised energy as predicted and rises after one that did not (then the
    control points go back). rho starts where a sample sunk by the whole
    margin costs twice the energy, and grows tenfold while an accepted model
    leaves a sample half the margin short.
-   CERTIFIED: an accepted model's J is checked on every region cell by its
-   Bernstein coefficients (J lies between them), halved up to
+   CERTIFIED: a step is kept only when its J is certified on every region
+   cell by its Bernstein coefficients (J lies between them), halved up to
    SQFFD__FIT_CERT_DEPTH times where they dip below the floor; a cell still
-   below it gives a new sample at its lowest coefficient. The fit returns the
-   last accepted model that passed, and the report's min_jacobian is its
-   certified bound over the region. */
+   below it gives a new sample (a corner below the floor, or its lowest
+   coefficient's point) and the step is taken again from the accepted model.
+   So every accepted model is certified: the report's min_jacobian is its
+   bound over the region (sqffd_model_jacobian_bound). */
 #define SQFFD__FIT_REGION 8
 #define SQFFD__FIT_REGION_CELLS (SQFFD__FIT_REGION * SQFFD__FIT_REGION * SQFFD__FIT_REGION)
 #define SQFFD__FIT_REGION_NODES ((SQFFD__FIT_REGION + 1) * (SQFFD__FIT_REGION + 1) * (SQFFD__FIT_REGION + 1))
@@ -7405,7 +7419,8 @@ static const int sqffd__fit_region_grid[2] = {32, 64}; /* the superquadric's sur
 #define SQFFD__FIT_SAMPLES_ADDED 256 /* samples the certificate may add to a run */
 #define SQFFD__FIT_CERT_DEPTH 4
 #define SQFFD__FIT_CERT_FAILS 16 /* new samples one certificate gives at most */
-#define SQFFD__FIT_MARGIN 0.1     /* the samples are held this far above the floor: room for J's dips between them */
+#define SQFFD__FIT_MARGIN 0.1     /* the samples are held this far above the floor: room for J's dips between them
+                                     (measured: 0.01-0.2; under it, more steps fail the certificate; bench/NOTES.md) */
 #define SQFFD__FIT_LAMBDA_START 1.0 /* the first step's damping: its matrix's trace that of the data's point-to-point one */
 #define SQFFD__FIT_SETTLED 10.0   /* converged: a step that lowers the penalised energy by under this x tolerance of it */
 #define SQFFD__FIT_NEAR 10.0      /* samples within this many margins of the floor enter the step's model (a step that
@@ -7417,7 +7432,6 @@ struct sqffd__fit_fold {
     sqffd__jacobian_work at;   /* J's coefficients over the box */
     double floor;              /* the run's */
     double rho, lambda;        /* the penalty's weight (energy units), the damping */
-    double margin;             /* the samples are held this far above the floor */
     unsigned char *region;     /* SQFFD__FIT_REGION_CELLS: the region's cells */
     unsigned char *coarse;     /* the coarser levels' (a cell meets the region where one of its children does) */
     double (*sample)[3];       /* stu of the samples */
@@ -7814,7 +7828,7 @@ static double sqffd__fit_fold_penalty(const sqffd__fit_fold *f, const double *va
     double sum = 0.0, most = 0.0;
     size_t i;
     for (i = 0; i < f->samples; ++i) {
-        double v = f->margin - value[i];
+        double v = SQFFD__FIT_MARGIN - value[i];
         if (!(v <= 0.0)) {
             if (!(v < HUGE_VAL)) v = HUGE_VAL;
             sum += v * v;
@@ -7859,7 +7873,7 @@ static double sqffd__fit_fold_predicted(const sqffd__fit_system *s, sqffd__fit_f
     decrease -= 0.5 * sqffd__la_dot(f->move, f->scratch, size);
     for (k = 0; k < count; ++k) { /* (the other samples are not short before the step nor after it) */
         size_t i = f->candidate[k];
-        double before = f->margin - f->value[i], after = before - sqffd__la_dot(f->gradients + i * size, f->move, size);
+        double before = SQFFD__FIT_MARGIN - f->value[i], after = before - sqffd__la_dot(f->gradients + i * size, f->move, size);
         decrease += 0.5 * weight * ((before > 0.0 ? before * before : 0.0) - (after > 0.0 ? after * after : 0.0));
     }
     return decrease;
@@ -7959,15 +7973,15 @@ static double sqffd__fit_fold_step(const sqffd__fit_system *s, sqffd__fit_fold *
     sqffd__la_upper_backward(f->factor, size, f->move);
     for (i = 0; i < f->samples; ++i) {
         f->active[i] = 0;
-        if (f->value[i] < SQFFD__FIT_NEAR * f->margin && !f->fresh[i]) {
+        if (f->value[i] < SQFFD__FIT_NEAR * SQFFD__FIT_MARGIN && !f->fresh[i]) {
             sqffd__fit_fold_sample(s->dims, control, inverse, f->sample[i], f->gradients + i * size);
             f->fresh[i] = 1;
         }
     }
     for (round = 0; round < SQFFD__FIT_ROUNDS; ++round) {
         for (i = 0; i < f->samples; ++i) /* how far the step sinks each near sample under the margin, linearised */
-            f->trial[i] = f->value[i] < SQFFD__FIT_NEAR * f->margin
-                              ? f->margin - f->value[i] - sqffd__la_dot(f->gradients + i * size, f->move, size) : 0.0;
+            f->trial[i] = f->value[i] < SQFFD__FIT_NEAR * SQFFD__FIT_MARGIN
+                              ? SQFFD__FIT_MARGIN - f->value[i] - sqffd__la_dot(f->gradients + i * size, f->move, size) : 0.0;
         while (k < SQFFD__FIT_CANDIDATES && k - done < 16) { /* the most sunk samples (16 a round) become candidates */
             size_t worst = f->samples;
             double most = 0.0;
@@ -7985,7 +7999,7 @@ static double sqffd__fit_fold_step(const sqffd__fit_system *s, sqffd__fit_fold *
             for (j = 0; j <= i; ++j)
                 f->gram[i * stride + j] = f->gram[j * stride + i] = sqffd__la_dot(y, f->solved + j * size, size);
             f->gram[i * stride + i] += 1.0 / weight;
-            f->need[i] = f->margin - f->value[f->candidate[i]] - sqffd__la_dot(y, f->base, size);
+            f->need[i] = SQFFD__FIT_MARGIN - f->value[f->candidate[i]] - sqffd__la_dot(y, f->base, size);
         }
         done = k;
         sqffd__fit_fold_multipliers(f, k);
@@ -8510,8 +8524,7 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
     if (res == SQFFD_OK) res = sqffd__fit_record(it, energy, &stats);
     if (res != SQFFD_OK) return res;
     sqffd__fit_fold_values(s->dims, f, control, inverse, f->value);
-    f->margin = SQFFD__FIT_MARGIN;
-    f->rho = 2.0 * (energy > 0.0 ? energy : 1.0) / (f->margin * f->margin);
+    f->rho = 2.0 * (energy > 0.0 ? energy : 1.0) / (SQFFD__FIT_MARGIN * SQFFD__FIT_MARGIN);
     penalty = sqffd__fit_fold_penalty(f, f->value, &worst);
     f->lambda = SQFFD__FIT_LAMBDA_START;
     sqffd__fit_fold_linearise(it);
@@ -8564,7 +8577,7 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
                 f->floor = bound - below < o->min_jacobian ? bound - below : o->min_jacobian;
                 sqffd__fit_fold_values(s->dims, f, control, inverse, f->value);
             }
-            if (trial_worst > 0.5 * f->margin) f->rho *= 10.0; /* the penalty let a sample sink: stiffer */
+            if (trial_worst > 0.5 * SQFFD__FIT_MARGIN) f->rho *= 10.0; /* the penalty let a sample sink: stiffer */
             penalty = sqffd__fit_fold_penalty(f, f->value, &worst);
             rep->converged = tau == 1.0 && rep->step <= o->tolerance;
             sqffd__fit_fold_linearise(it);
