@@ -8597,10 +8597,7 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
     /* the accepted model, measured again where the last pass must be exact */
     it->origin = SQFFD__FIT_FROM_ACCEPTED;
     it->planes = NULL;
-    if (memcmp(control, w->accepted, size * sizeof(double)) != 0) {
-        memcpy(control, w->accepted, size * sizeof(double));
-        sqffd__fit_control_changed(it);
-    }
+    SQFFD_ASSERT(control[0] == w->accepted[0]); /* (every path out of the loop leaves the accepted model current) */
     if ((it->mode & SQFFD__FIT_EXACT_END) && !it->search.exact) {
         res = sqffd__fit_measure(it, 1, &it->accepted, &accepted_stats);
         if (res == SQFFD_OK && rep->history_count > 0 && rep->iterations <= SQFFD_FIT_HISTORY) {
