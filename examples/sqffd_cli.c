@@ -725,8 +725,9 @@ static void model_option_details(FILE *f, const sqffd_fit_options *d, const char
             "  --alpha A              spring weight of the energy, %s (default %g)\n"
             "  --model-to-data W      weight of the model -> data term, %s (default %g;\n"
             "                         0: the data -> model distances alone)\n"
-            "  --min-jacobian J       no step leaves the lattice's Jacobian bound below J, %s\n"
-            "                         (default %g: the model cannot fold; 'none': no bound)\n"
+            "  --min-jacobian J       the model's Jacobian on its region (the superquadric's solid and\n"
+            "                         a band around it) stays at or above J, %s\n"
+            "                         (default %g: the model cannot fold where it lives; 'none': no floor)\n"
             "  --iterations K         FFD iterations at most, %s (default %d;\n"
             "                         %s)\n"
             "  --coarse-iterations K  of those, at most K first on a coarse grid (half the rows and\n"
@@ -1252,7 +1253,7 @@ static void fit_report(const fit_args *a, const input_summary *in, size_t n, con
     printf("    after FFD      %.4f %%   (max %.4f %%)   lattice %dx%dx%d, alpha %g\n",
            100.0 * r->error.rms_relative, 100.0 * r->error.max_relative, ffd->dims[0], ffd->dims[1], ffd->dims[2],
            a->options.alpha);
-    printf("    jacobian       %.4f   (its lower bound: %s)\n", r->min_jacobian,
+    printf("    jacobian       %.4f   (its certified lower bound on the model's region: %s)\n", r->min_jacobian,
            r->min_jacobian > 0.0 ? "> 0, no fold" : "<= 0, the model may fold");
     if (r->coarse_iterations > 0) printf("  iterations       %d coarse + %d", r->coarse_iterations, r->iterations);
     else printf("  iterations       %d", r->iterations);

@@ -140,7 +140,7 @@ foreign "$TMP/binary.xyz" "not a text point file (binary byte 0x01 at line 3)"
 expect 0 "(the superquadric alone)" fit "$DATA" -o "$TMP/sq.ply" --iterations 0 --mesh 8
 expect 0 "after FFD" fit "$DATA" -o "$TMP/m2d.ply" --model-to-data 0 --iterations 2 --mesh 8
 # the Jacobian floor: its bound in the report, 'none' lifts it, anything but a number <= 1 is a usage error
-expect 0 "(its lower bound: > 0, no fold)" fit "$DATA" -o "$TMP/j.ply" --iterations 3 --mesh 8
+expect 0 "(its certified lower bound on the model's region: > 0, no fold)" fit "$DATA" -o "$TMP/j.ply" --iterations 3 --mesh 8
 expect 0 "after FFD" fit "$DATA" -o "$TMP/j.ply" --min-jacobian none --iterations 3 --mesh 8
 for v in 1.5 nan abc ""; do
     expect 2 "--min-jacobian must be" fit "$DATA" -o "$TMP/x.ply" --min-jacobian "$v"

@@ -600,7 +600,7 @@ class FitReport:
     history: np.ndarray       # relative RMS error after iteration 1, 2, ...
     energy: float
     energy_history: np.ndarray
-    min_jacobian: float       # the lattice's Jacobian bound (> 0: the model folds nowhere)
+    min_jacobian: float       # the model's certified Jacobian bound on its region (> 0: it folds nowhere there)
     stop: FitStop             # why the iteration ended (CAPPED: not converged)
 
     @classmethod
