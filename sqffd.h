@@ -7430,12 +7430,14 @@ static const int sqffd__fit_region_grid[2] = {32, 64}; /* the superquadric's sur
 
 struct sqffd__fit_fold {
     sqffd__jacobian_work at;   /* J's coefficients over the box */
-    double floor;              /* the run's */
+    double floor;              /* the run's: a certified model keeps J at or above it */
+    double goal;               /* min_jacobian: the samples are held above it (the floor rises to it from a start
+                                  below it) */
     double rho, lambda;        /* the penalty's weight (energy units), the damping */
     unsigned char *region;     /* SQFFD__FIT_REGION_CELLS: the region's cells */
     unsigned char *coarse;     /* the coarser levels' (a cell meets the region where one of its children does) */
     double (*sample)[3];       /* stu of the samples */
-    double *value;             /* J - floor at each, for the accepted model */
+    double *value;             /* J - goal at each, for the accepted model */
     double *trial;             /* and for the trial */
     unsigned char *active;     /* the step's candidates */
     unsigned char *fresh;      /* whether gradients[i] is that of the accepted model */
@@ -7643,7 +7645,7 @@ static double sqffd__fit_fold_sample(const int dims[3], const double *control, c
     return sqffd__dot3(d[0], cross[0]);
 }
 
-/* J - floor at every sample for these control points into out; the
+/* J - goal at every sample for these control points into out; the
    smallest. */
 static double sqffd__fit_fold_values(const int dims[3], const sqffd__fit_fold *f, const double *control,
                                      const double inverse[9], double *out)
@@ -7651,7 +7653,7 @@ static double sqffd__fit_fold_values(const int dims[3], const sqffd__fit_fold *f
     double least = HUGE_VAL;
     size_t i;
     for (i = 0; i < f->samples; ++i) {
-        out[i] = sqffd__fit_fold_sample(dims, control, inverse, f->sample[i], NULL) - f->floor;
+        out[i] = sqffd__fit_fold_sample(dims, control, inverse, f->sample[i], NULL) - f->goal;
         if (!(out[i] >= least)) least = out[i];
     }
     return least;
@@ -7683,9 +7685,9 @@ static void sqffd__bernstein_split(const double *t, const int ext[3], int axis, 
 /* One cell of the certificate (level: halvings of the box; index: its
    place; t: its coefficients): 1 when it is settled, its smallest
    coefficient into *least: at or above target, or (a region cell or
-   below) at or above the floor; or under the floor with a point of it
-   added to f->fails: a corner below the floor (J itself there), a cell at
-   the deepest level (its lowest coefficient's Greville point), or any once
+   below) at or above the goal; or under the goal with a point of it added
+   to f->fails: a corner below it (J itself there), a cell at the deepest
+   level (its lowest coefficient's Greville point), or any once
    SQFFD__FIT_CERT_FAILS are found (the answer is known). 0: to be halved. */
 static int sqffd__fit_fold_cell(const int ej[3], sqffd__fit_fold *f, double target, int level, const int index[3],
                                 const double *t, double *least)
@@ -7695,12 +7697,12 @@ static int sqffd__fit_fold_cell(const int ej[3], sqffd__fit_fold *f, double targ
     *least = HUGE_VAL;
     for (i = 0; i < count; ++i)
         if (t[i] < *least) { *least = t[i]; lowest = i; }
-    if (*least >= target || (level >= SQFFD__FIT_REGION_LEVELS && *least >= f->floor)) return 1;
-    if (level < SQFFD__FIT_REGION_LEVELS || *least >= f->floor) return 0;
+    if (*least >= target || (level >= SQFFD__FIT_REGION_LEVELS && *least >= f->goal)) return 1;
+    if (level < SQFFD__FIT_REGION_LEVELS || *least >= f->goal) return 0;
     if (f->failed >= SQFFD__FIT_CERT_FAILS) return 1;
     for (corner = 0; corner < 8; ++corner) {
         for (a = 0; a < 3; ++a) g[a] = (corner >> (2 - a)) & 1 ? ej[a] - 1 : 0;
-        if (t[((size_t)g[0] * (size_t)ej[1] + (size_t)g[1]) * (size_t)ej[2] + (size_t)g[2]] < f->floor) {
+        if (t[((size_t)g[0] * (size_t)ej[1] + (size_t)g[1]) * (size_t)ej[2] + (size_t)g[2]] < f->goal) {
             for (a = 0; a < 3; ++a) f->fails[f->failed][a] = (double)(index[a] + (g[a] ? 1 : 0)) / cells;
             ++f->failed;
             return 1;
@@ -7791,7 +7793,7 @@ SQFFD_DEF sqffd_result sqffd_model_jacobian_bound(const sqffd_model *model, doub
     sqffd__fit_fold_layout(&a, model->ffd.dims, 0, 0, f);
     if (a.overflow) return sqffd__arena_error(&a);
     sqffd__fit_region(model, f);
-    f->floor = floor;
+    f->floor = f->goal = floor;
     bound = sqffd__fit_fold_certify(model->ffd.dims, f, &model->ffd.control[0][0], model->ffd.inverse, floor);
     if (!isfinite(bound)) return SQFFD_ERROR_NON_FINITE;
     *min = bound;
@@ -8384,6 +8386,7 @@ static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagon
         if (res == SQFFD_OK) res = sqffd__fit_record(&it, energy, &stats);
         if (last) {
             sqffd__fit_region(model, w->fold); /* the region's bound, refined where it folds */
+            w->fold->goal = -HUGE_VAL;
             rep->min_jacobian = sqffd__fit_fold_certify(s->dims, w->fold, &model->ffd.control[0][0], model->ffd.inverse, 0.0);
             rep->stop = rep->converged ? SQFFD_FIT_CONVERGED
                         : it.origin == SQFFD__FIT_FROM_ACCEPTED ? SQFFD_FIT_STALLED : SQFFD_FIT_CAPPED;
@@ -8494,7 +8497,7 @@ static void sqffd__fit_fold_add_samples(sqffd__fit_iteration *it, const double *
     size_t i;
     for (i = 0; i < f->failed && f->samples < f->capacity; ++i, ++f->samples) {
         memcpy(f->sample[f->samples], f->fails[i], sizeof f->fails[i]);
-        f->value[f->samples] = sqffd__fit_fold_sample(it->s->dims, control, it->model->ffd.inverse, f->fails[i], NULL) - f->floor;
+        f->value[f->samples] = sqffd__fit_fold_sample(it->s->dims, control, it->model->ffd.inverse, f->fails[i], NULL) - f->goal;
         f->fresh[f->samples] = 0;
     }
 }
@@ -8515,7 +8518,7 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
     int stalled = 0;
     sqffd_result res;
     sqffd__fit_region(model, f);
-    f->floor = o->min_jacobian;
+    f->floor = f->goal = o->min_jacobian;
     bound = sqffd__fit_fold_certify(s->dims, f, control, inverse, o->min_jacobian);
     below = 1e-3 * (fabs(bound) > 1.0 ? fabs(bound) : 1.0); /* (a rising floor stays this far under the bound) */
     if (bound < f->floor) f->floor = bound - below;
@@ -8551,7 +8554,7 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
             for (p = 0; p < s->lattice; ++p)
                 for (c = 0; c < 3; ++c)
                     control[3 * p + (size_t)c] = w->accepted[3 * p + (size_t)c] + tau * f->move[(size_t)c * s->lattice + p];
-            if (!(sqffd__fit_fold_values(s->dims, f, control, inverse, f->trial) < 0.0) || tau < 1e-3) break;
+            if (!(sqffd__fit_fold_values(s->dims, f, control, inverse, f->trial) < f->floor - f->goal) || tau < 1e-3) break;
         }
         predicted *= tau * (2.0 - tau);
         sqffd__fit_control_changed(it); /* (it->next: the accepted model points) */
@@ -8573,9 +8576,9 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
             memcpy(w->accepted, control, size * sizeof(double));
             memcpy(w->matched_accepted, w->matched, it->points->count * sizeof *w->matched);
             rep->step = sqrt(move / (double)m) / it->diagonal;
-            if (f->floor < o->min_jacobian && bound - below > f->floor) { /* the rising floor */
-                f->floor = bound - below < o->min_jacobian ? bound - below : o->min_jacobian;
-                sqffd__fit_fold_values(s->dims, f, control, inverse, f->value);
+            if (f->floor < o->min_jacobian) { /* the rising floor, and the cells still under the goal as samples */
+                if (bound - below > f->floor) f->floor = bound - below < o->min_jacobian ? bound - below : o->min_jacobian;
+                sqffd__fit_fold_add_samples(it, control);
             }
             if (trial_worst > 0.5 * SQFFD__FIT_MARGIN) f->rho *= 10.0; /* the penalty let a sample sink: stiffer */
             penalty = sqffd__fit_fold_penalty(f, f->value, &worst);
