@@ -7390,8 +7390,8 @@ static sqffd_result sqffd__fit_step(const sqffd__fit_system *s, sqffd__fit_work 
      E(P) + rho/2 sum_s max(0, margin - (J(X_s; P) - floor))^2.
    The data -> model term by its point-to-plane residuals (to first order a
    data point's distance changes only along the direction to its closest
-   point, n: per model point a 3 x 3 weight sum w n n^T, so the step's
-   matrix couples x, y and z), the model -> data term, the springs and the
+   point, n: per model point a 3 x 3 weight sum w (n n^T + SQFFD__FIT_SLIDE
+   I), so the step's matrix couples x, y and z), the model -> data term, the springs and the
    tether exactly: one dense 3L x 3L system. The penalty's samples enter the
    step through its dual: the step is A^-1 (b + sum mu_i g_i), the
    multipliers those of a small problem over the samples the step would
@@ -7421,6 +7421,9 @@ static const int sqffd__fit_region_grid[2] = {32, 64}; /* the superquadric's sur
 #define SQFFD__FIT_CERT_FAILS 16 /* new samples one certificate gives at most */
 #define SQFFD__FIT_MARGIN 0.1     /* the samples are held this far above the floor: room for J's dips between them
                                      (measured: 0.01-0.2; under it, more steps fail the certificate; bench/NOTES.md) */
+#define SQFFD__FIT_SLIDE 0.3      /* of the data's point-to-point curvature in the step's matrix: the distance does not see
+                                     a slide along the surface, and a step that leaves it free lets the model points drift
+                                     (frame to frame: spurious motion; measured 0.1-0.3, bench/NOTES.md) */
 #define SQFFD__FIT_LAMBDA_START 1.0 /* the first step's damping: its matrix's trace that of the data's point-to-point one */
 #define SQFFD__FIT_SETTLED 10.0   /* converged: a step that lowers the penalised energy by under this x tolerance of it */
 #define SQFFD__FIT_NEAR 10.0      /* samples within this many margins of the floor enter the step's model (a step that
@@ -8448,6 +8451,9 @@ static void sqffd__fit_fold_linearise(sqffd__fit_iteration *it)
         for (c = 0; c < 3; ++c) t[3 * v + c] = scale * t[3 * v + c] + (held ? hold * (it->next[3 * v + c] - it->x[3 * v + c]) : 0.0);
         w->weights[v] = scale * w->weights[v] + (held ? hold : 0.0);
         for (c = 0; c < 6; ++c) plane[6 * v + c] = scale * plane[6 * v + c] + (held && (c == 0 || c == 3 || c == 5) ? hold : 0.0);
+        plane[6 * v] += SQFFD__FIT_SLIDE * (w->weights[v] - (held ? hold : 0.0)); /* (its diagonal: xx yy zz) */
+        plane[6 * v + 3] += SQFFD__FIT_SLIDE * (w->weights[v] - (held ? hold : 0.0));
+        plane[6 * v + 5] += SQFFD__FIT_SLIDE * (w->weights[v] - (held ? hold : 0.0));
     }
     /* the damping: the lattice's Laplacian, scaled to the trace of B^T W B (W: the point-to-point weights;
        B's row at v is a (x) b (x) c, its squared norm the product of theirs) */
