@@ -2,7 +2,7 @@
    ../shared/data/cardiac (pig cine MRI, ED and ES short-axis stacks, first
    contouring, slice spacing 20 units; see its README), each surface tracked
    as `sqffd track` tracks a stack (closed by its lids, default options),
-   then sqffd_wall with the endocardium's frame and the epicardium's stacks:
+   then sqffd_wall with the endocardium's frame and both surfaces' stacks:
    - mass: the ED and ES myocardial volume against Simpson's (myocardium.csv:
      the myocardial area sums x the spacing), as ratios;
    - thickening: the contours' own, measured here: per slice holding both
@@ -212,6 +212,7 @@ static int run(exam *e)
     ted = (double *)malloc(m * sizeof(double));
     tes = (double *)malloc(m * sizeof(double));
     wo.stacks = stacks + 2;
+    wo.endo_stacks = stacks;
     memset(&wout, 0, sizeof wout);
     wout.thickness_ed = ted;
     wout.thickness_es = tes;

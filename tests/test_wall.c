@@ -139,6 +139,84 @@ static void test_wall_spheres(void)
     free(segment);
 }
 
+/* x's part of the disc of radius a up to height z: the integral of
+   sqrt(a^2 - z^2) dz. */
+static double disc_integral(double a, double z)
+{
+    return 0.5 * (z * sqrt(a * a - z * z) + a * a * asin(z / a));
+}
+
+/* The concentric spheres of test_wall_spheres read as short-axis stacks
+   (planes z = -10, -5, ..., 10, spacing 5, at both frames): a wall vertex
+   at height z is measured only within |z| <= 12.5 (the outer planes +- half
+   the spacing), across the wall in its plane: sqrt(R_epi^2 - z^2) -
+   sqrt(R_endo^2 - z^2), not R_epi - R_endo. Each frame's mean thickness is
+   over the vertices that frame measured: at ES (radii x 0.75 and 25/28)
+   more of them fall within the planes than at ED. On a sphere the area lies
+   evenly along z, so the means are the integrals of that chord over the
+   measured band (at ES it ends at the valve plane, z = 15 cos 45 degrees)
+   over the band's height: within 0.1 (the band's ends fall between the
+   mesh's rows). Along the normals they would read 8 and 10; over the
+   vertices measured in both frames, 10.44 at ES. */
+static void test_wall_stack_planes(void)
+{
+    const double endo_scale[2] = {1.0, 0.75}, epi_scale[2] = {1.0, 25.0 / 28.0}, radii[2][2] = {{20.0, 28.0}, {15.0, 25.0}};
+    sqffd_model endo[2], epi[2];
+    sqffd_motion_report motion;
+    sqffd_stack stacks[2];
+    sqffd_wall_options o = sqffd_wall_options_default();
+    sqffd_wall_outputs out;
+    sqffd_wall_report rep;
+    double *wt[2], *x, worst = 0.0, mean[2], band[2][2] = {{-12.5, 12.5}, {-12.5, 15.0 * 0.70710678118654752}};
+    unsigned char *segment;
+    size_t m = 32 * 64 + 2, v, measured[2] = {0, 0};
+    int t, k;
+    sphere_frames(20.0, endo_scale, 2, 32, endo);
+    sphere_frames(28.0, epi_scale, 2, 32, epi);
+    segment = (unsigned char *)test_malloc(m);
+    x = (double *)test_malloc(3 * m * sizeof *x);
+    for (t = 0; t < 2; t++) wt[t] = (double *)test_malloc(m * sizeof(double));
+    endo_motion(endo, 2, &motion, segment);
+    memset(stacks, 0, sizeof stacks);
+    stacks[0].axis[2] = 1.0;
+    stacks[0].planes = 5;
+    stacks[0].spacing = 5.0;
+    for (k = 0; k < 5; k++) stacks[0].level[k] = 5.0 * k - 10.0;
+    stacks[1] = stacks[0];
+    o.endo_stacks = stacks;
+    memset(&out, 0, sizeof out);
+    out.thickness_ed = wt[0];
+    out.thickness_es = wt[1];
+    CHECK_RESULT(run_wall(endo, epi, 2, &motion, segment, &o, &out, &rep), SQFFD_OK);
+    for (t = 0; t < 2; t++) {
+        const double r = radii[t][0], p = radii[t][1];
+        CHECK_RESULT(sqffd_model_mesh(endo + t, endo->grid[0], endo->grid[1], x, NULL), SQFFD_OK);
+        for (v = 0; v < m; v++) {
+            double z = x[3 * v + 2], chord = sqrt(p * p - z * z) - sqrt(r * r - z * z);
+            if (!segment[v] || fabs(z) > 12.5) {
+                CHECK_MSG(isnan(wt[t][v]), "frame %d, vertex %zu at z %.3f: %.6f", t, v, z, wt[t][v]);
+                continue;
+            }
+            measured[t]++;
+            worst = fmax(worst, fabs(wt[t][v] - chord));
+            CHECK_MSG(fabs(wt[t][v] - chord) <= 0.05, "frame %d, vertex %zu at z %.3f: %.6f, chord %.6f", t, v, z,
+                      wt[t][v], chord);
+        }
+        mean[t] = (disc_integral(p, band[t][1]) - disc_integral(r, band[t][1]) - disc_integral(p, band[t][0]) +
+                   disc_integral(r, band[t][0])) / (band[t][1] - band[t][0]);
+    }
+    printf("    spheres in planes: thickness within %.4f of the chord across the wall, %zu / %zu vertices measured "
+           "at ED / ES; mean %.4f / %.4f (true %.4f / %.4f)\n", worst, measured[0], measured[1], rep.thickness_ed,
+           rep.thickness_es, mean[0], mean[1]);
+    CHECK(measured[1] > measured[0]);
+    CHECK_NEAR(rep.thickness_ed, mean[0], 0.1);
+    CHECK_NEAR(rep.thickness_es, mean[1], 0.1);
+    CHECK_NEAR(rep.thickening, mean[1] / mean[0] - 1.0, 0.01);
+    for (t = 0; t < 2; t++) free(wt[t]);
+    free(x);
+    free(segment);
+}
+
 /* Refused, nothing written: NULL arguments, no frames, the report's ED or ES
    frame out of range, a segment above 17, either sequence's frames on
    different superquadrics, a bad rule or stack, too small a workspace; an
@@ -189,6 +267,9 @@ static void test_wall_bad_input(void)
     o = sqffd_wall_options_default();
     memset(stacks, 0, sizeof stacks);
     o.stacks = stacks; /* no planes */
+    CHECK_RESULT(sqffd_wall(endo, epi, 2, &motion, segment, &o, &out, &rep, work, size), SQFFD_ERROR_INVALID_ARGUMENT);
+    o.stacks = NULL;
+    o.endo_stacks = stacks;
     CHECK_RESULT(sqffd_wall(endo, epi, 2, &motion, segment, &o, &out, &rep, work, size), SQFFD_ERROR_INVALID_ARGUMENT);
     CHECK_RESULT(sqffd_wall(endo, epi, 2, &motion, segment, NULL, &out, &rep, work, size - 1),
                  SQFFD_ERROR_WORKSPACE_TOO_SMALL);
@@ -347,6 +428,7 @@ static void test_wall_phantom(void)
 void suite_wall(void)
 {
     RUN_TEST(test_wall_spheres);
+    RUN_TEST(test_wall_stack_planes);
     RUN_TEST(test_wall_bad_input);
     RUN_TEST(test_wall_phantom);
 }
