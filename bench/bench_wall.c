@@ -422,7 +422,7 @@ int main(void)
         printf("  label maps' mass (ED) / Simpson's: median %.3f, range %.3f - %.3f\n", bench_median(label_ratios, n), lo,
                hi);
     }
-    printf("  global thickening: mean |model - contours| %.1f points\n", 100.0 * diff);
+    printf("  global thickening: mean |model - contours| %.2f points\n", 100.0 * diff);
     printf("  per sector (6 x %d exams): r = %.2f\n", n, pearson(a, b, pairs));
     for (i = 0; i < n; i++) a[i] = -exams[i].wall_thickening, b[i] = -exams[i].contour_thickening;
     printf("  infarcted vs control AUC: dysfunctional segments %.2f, contours' slice sectors < 20%% %.2f, "
