@@ -29,6 +29,7 @@
 #include <stdio.h>
 #include <string.h>
 #include <sys/stat.h>
+#include "label_maps.h"
 
 #define CARDIAC_DIR "../shared/data/cardiac"
 #define MAX_EXAMS 32
@@ -95,61 +96,6 @@ typedef struct result {
     int iterations[2], converged[2];
     int hypokinetic;
 } result;
-
-#define LABEL_PIXEL 4.0   /* contour units */
-#define LABEL_RING 2      /* pixels of myocardium (label 2) around the cavity (3) */
-#define LABEL_POINTS 6000 /* the label-3 surface evenly sampled down to this, as the CLI's volumes */
-
-/* Both frames rasterised into one label-map geometry (a pixel margin and an
-   empty slice beyond the data), each frame's label-3 surface (largest
-   component) evenly sampled to LABEL_POINTS, into points[k] (malloc'd). */
-static int label_map_frames(double *const stacks[2], const size_t counts[2], double spacing, double *points[2],
-                            size_t out_counts[2])
-{
-    double lo[3], hi[3], origin[3];
-    size_t dims[3], k, i;
-    for (k = 0; k < 2; k++)
-        for (i = 0; i < counts[k]; i++) {
-            int a;
-            for (a = 0; a < 3; a++) {
-                double x = stacks[k][3 * i + (size_t)a];
-                lo[a] = (k || i) && lo[a] < x ? lo[a] : x;
-                hi[a] = (k || i) && hi[a] > x ? hi[a] : x;
-            }
-        }
-    for (k = 0; k < 3; k++) {
-        double step = k < 2 ? LABEL_PIXEL : spacing;
-        origin[k] = lo[k] - (k < 2 ? 4.0 * LABEL_PIXEL : spacing);
-        dims[k] = (size_t)((hi[k] - origin[k]) / step + (k < 2 ? 5.0 : 2.5));
-    }
-    for (k = 0; k < 2; k++) {
-        unsigned char *labels = (unsigned char *)malloc(dims[0] * dims[1] * dims[2]);
-        sqffd_volume v;
-        sqffd_iso_options o = sqffd_iso_options_default();
-        size_t size = 0, n = 0;
-        double *all = NULL;
-        void *ws = NULL;
-        int ok;
-        points[k] = NULL;
-        if (!labels) return -1;
-        synth_rasterise_stack(stacks[k], counts[k], origin, LABEL_PIXEL, spacing, dims, 3, 2, LABEL_RING, labels);
-        v = synth_label_volume(labels, dims, origin, LABEL_PIXEL, spacing);
-        o.labelled = 1;
-        o.label = 3.0;
-        o.largest_component = 1;
-        ok = sqffd_iso_workspace_size(&v, &o, &size) == SQFFD_OK && (ws = malloc(size)) &&
-             sqffd_iso_points(&v, &o, NULL, NULL, 0, &n, ws, size) == SQFFD_OK && n &&
-             (all = (double *)malloc(3 * n * sizeof *all)) && sqffd_iso_points(&v, &o, all, NULL, n, &n, ws, size) == SQFFD_OK;
-        out_counts[k] = n < LABEL_POINTS ? n : LABEL_POINTS;
-        if (ok && (points[k] = (double *)malloc(3 * out_counts[k] * sizeof(double))))
-            ok = sqffd_points_subsample(all, n, out_counts[k], points[k]) == SQFFD_OK;
-        free(all);
-        free(ws);
-        free(labels);
-        if (!ok || !points[k]) return -1;
-    }
-    return 0;
-}
 
 /* The folded share of a model's grid mesh. */
 static double folded(const sqffd_model *m)
@@ -231,7 +177,7 @@ static int run(const exam *e, double spacing, int flags, int cap, result *out)
     if (read_frame(e->name, "ed", spacing, &points[0], &counts[0]) || read_frame(e->name, "es", spacing, &points[1], &counts[1]))
         goto done;
     if (flags & RUN_LABELS) {
-        if (label_map_frames(points, counts, spacing, surface, surface_counts) == 0)
+        if (label_map_frames(points, counts, NULL, NULL, spacing, surface, surface_counts, NULL, NULL) == 0)
             status = track_pair(surface, surface_counts, NULL, flags & RUN_MEASURE, cap, out);
         goto done;
     }

@@ -2,9 +2,14 @@
    ../shared/data/cardiac (pig cine MRI, ED and ES short-axis stacks, first
    contouring, slice spacing 20 units; see its README), each surface tracked
    as `sqffd track` tracks a stack (closed by its lids, default options),
-   then sqffd_wall with the endocardium's frame and the epicardium's stacks:
+   then sqffd_wall with the endocardium's frame and both surfaces' stacks
+   (the epicardium's for the myocardium's slab, the endocardium's for the
+   thickness in the slices' planes):
    - mass: the ED and ES myocardial volume against Simpson's (myocardium.csv:
-     the myocardial area sums x the spacing), as ratios;
+     the myocardial area sums x the spacing), as ratios; and the same from
+     the contours as thick-slice label maps (label_maps.h: cavity 3,
+     myocardium 2 inside the epicardial contours), tracked as `sqffd track
+     --label 3 --myocardium-label 2` tracks them (closed volumes);
    - thickening: the contours' own, measured here: per slice holding both
      contours, rays from the endocardial contour's area centroid every 2
      degrees, the thickness the ray's last crossing of the epicardial
@@ -25,10 +30,12 @@
 #define SQFFD_IMPLEMENTATION
 #include "../sqffd.h"
 #include "../examples/sqffd_io.h"
+#include "../examples/sqffd_synth.h"
 #include "bench.h"
 #include <stdio.h>
 #include <string.h>
 #include <sys/stat.h>
+#include "label_maps.h"
 
 #define CARDIAC_DIR "../shared/data/cardiac"
 #define MAX_EXAMS 32
@@ -39,7 +46,7 @@ typedef struct exam {
     char name[16];
     int infarcted;
     double simpson_myo[2]; /* area sums x 20 */
-    double mass_ratio[2], wall_thickening, contour_thickening, dysfunctional_share, contour_share;
+    double mass_ratio[2], label_mass_ratio[2], wall_thickening, contour_thickening, dysfunctional_share, contour_share;
     double sector[SECTORS], contour_sector[SECTORS];
     double endo_ms, wall_ms;
 } exam;
@@ -136,14 +143,15 @@ static void contour_thickness(const double *endo, size_t ne, const double *epi, 
     }
 }
 
-/* A surface's two frames tracked as the CLI does (stacks, lids); stacks out. */
+/* A surface's two frames tracked as the CLI does (stacks, lids; stacks
+   NULL: as they are, as label maps' surfaces); stacks out. */
 static int track_surface(double *points[2], size_t counts[2], sqffd_stack stacks[2], sqffd_model models[2])
 {
     sqffd_track_options o = sqffd_track_options_default();
     size_t size, done, n, k;
     void *work;
     int found, failed;
-    for (k = 0; k < 2; k++) {
+    for (k = 0; k < 2 && stacks; k++) {
         double *grown;
         if (sqffd_stack_detect(points[k], counts[k], &stacks[k], &found) != SQFFD_OK || !found) return -1;
         if (sqffd_stack_lids(points[k], counts[k], &stacks[k], NULL, 0, &n) != SQFFD_OK) return -1;
@@ -156,6 +164,46 @@ static int track_surface(double *points[2], size_t counts[2], sqffd_stack stacks
     failed = sqffd_track((const double *const *)points, counts, 2, &o, models, NULL, &done, work, size) != SQFFD_OK;
     free(work);
     return failed ? -1 : 0;
+}
+
+/* The same contours as label maps (cavity 3, myocardium 2 inside the
+   epicardial contours), their label-3 surface and the surface of labels 2
+   and 3 together tracked, as `sqffd track --label 3 --myocardium-label 2`
+   does: the myocardium's closed volumes at ED and ES against Simpson's. */
+static int label_mass(exam *e, double *const raw[4], const size_t raw_counts[4])
+{
+    double *cavity[2] = {NULL, NULL}, *outer[2] = {NULL, NULL};
+    size_t counts[2][2], size = 0;
+    sqffd_model endo[2], epi[2];
+    sqffd_motion_report motion;
+    sqffd_motion_outputs mout;
+    sqffd_wall_report wall;
+    unsigned char *segment = NULL;
+    void *work = NULL;
+    int k, status = -1;
+    if (label_map_frames(raw, raw_counts, raw + 2, raw_counts + 2, 20.0, cavity, counts[0], outer, counts[1]) ||
+        track_surface(cavity, counts[0], NULL, endo) || track_surface(outer, counts[1], NULL, epi))
+        goto done;
+    sqffd_model_mesh_size(endo->grid[0], endo->grid[1], &size, NULL);
+    memset(&mout, 0, sizeof mout);
+    if (!(mout.segment = segment = (unsigned char *)malloc(size)) ||
+        sqffd_motion_workspace_size(endo, 2, &size) != SQFFD_OK || !(work = malloc(size)) ||
+        sqffd_motion(endo, 2, NULL, &mout, &motion, work, size) != SQFFD_OK)
+        goto done;
+    free(work);
+    if (sqffd_wall_workspace_size(endo, epi, 2, &size) != SQFFD_OK || !(work = malloc(size)) ||
+        sqffd_wall(endo, epi, 2, &motion, segment, NULL, NULL, &wall, work, size) != SQFFD_OK)
+        goto done;
+    for (k = 0; k < 2; k++) e->label_mass_ratio[k] = (k ? wall.myocardium_es : wall.myocardium_ed) / e->simpson_myo[k];
+    status = 0;
+done:
+    for (k = 0; k < 2; k++) {
+        free(cavity[k]);
+        free(outer[k]);
+    }
+    free(segment);
+    free(work);
+    return status;
 }
 
 static int run(exam *e)
@@ -194,6 +242,7 @@ static int run(exam *e)
         }
         e->contour_thickening = es / ed - 1.0;
     }
+    if (label_mass(e, raw, raw_counts)) goto done;
     start = bench_now();
     if (track_surface(points, counts, stacks, endo)) goto done;
     mo.stacks = stacks;
@@ -212,6 +261,7 @@ static int run(exam *e)
     ted = (double *)malloc(m * sizeof(double));
     tes = (double *)malloc(m * sizeof(double));
     wo.stacks = stacks + 2;
+    wo.endo_stacks = stacks;
     memset(&wout, 0, sizeof wout);
     wout.thickness_ed = ted;
     wout.thickness_es = tes;
@@ -312,7 +362,7 @@ int main(void)
 {
     exam exams[MAX_EXAMS];
     char line[256], name[16], observer[16];
-    double ed, es, ratios[MAX_EXAMS], a[MAX_EXAMS * SECTORS], b[MAX_EXAMS * SECTORS], score[2][MAX_EXAMS];
+    double ed, es, ratios[MAX_EXAMS], label_ratios[MAX_EXAMS], a[MAX_EXAMS * SECTORS], b[MAX_EXAMS * SECTORS], score[2][MAX_EXAMS];
     double diff = 0.0, endo_ms[MAX_EXAMS], wall_ms[MAX_EXAMS];
     struct stat st;
     FILE *f;
@@ -335,20 +385,22 @@ int main(void)
         }
     fclose(f);
     printf("bench_wall: endo + epi tracked, sqffd_wall, on %d exams (obs0_rep0, spacing 20)\n", n);
-    printf("  exam  group   mass ED  mass ES  model  thickening %%   dysfunctional  contours <20%%   endo ms  endo+epi ms\n"
-           "                /Simpson /Simpson  ES/ED  model contours  segments       slice sectors\n");
+    printf("  exam  group   mass ED  mass ES  model  label maps mass  thickening %%   dysfunctional  contours <20%%   endo ms  endo+epi ms\n"
+           "                /Simpson /Simpson  ES/ED  ED/Simp ES/Simp  model contours  segments       slice sectors\n");
     for (i = 0; i < n; i++) {
         exam *e = exams + i;
         if (run(e)) {
             printf("  %s: failed\n", e->name);
             return 1;
         }
-        printf("  %-5s %-7s %7.3f  %7.3f  %5.3f  %6.1f %7.1f   %10.0f %%  %12.0f %%  %8.0f  %11.0f\n", e->name,
+        printf("  %-5s %-7s %7.3f  %7.3f  %5.3f  %7.3f %7.3f  %6.1f %7.1f   %10.0f %%  %12.0f %%  %8.0f  %11.0f\n", e->name,
                e->infarcted ? "infarct" : "control", e->mass_ratio[0], e->mass_ratio[1],
-               e->mass_ratio[1] * e->simpson_myo[1] / (e->mass_ratio[0] * e->simpson_myo[0]), 100.0 * e->wall_thickening,
+               e->mass_ratio[1] * e->simpson_myo[1] / (e->mass_ratio[0] * e->simpson_myo[0]), e->label_mass_ratio[0],
+               e->label_mass_ratio[1], 100.0 * e->wall_thickening,
                100.0 * e->contour_thickening, 100.0 * e->dysfunctional_share, 100.0 * e->contour_share, e->endo_ms,
                e->wall_ms);
         ratios[i] = e->mass_ratio[0];
+        label_ratios[i] = e->label_mass_ratio[0];
         diff += fabs(e->wall_thickening - e->contour_thickening) / n;
         for (k = 0; k < SECTORS; k++, pairs++) {
             a[pairs] = e->sector[k];
@@ -363,8 +415,14 @@ int main(void)
         double lo = ratios[0], hi = ratios[0];
         for (i = 1; i < n; i++) { lo = fmin(lo, ratios[i]); hi = fmax(hi, ratios[i]); }
         printf("  mass (ED) / Simpson's: median %.3f, range %.3f - %.3f\n", bench_median(ratios, n), lo, hi);
+        for (lo = hi = label_ratios[0], i = 1; i < n; i++) {
+            lo = fmin(lo, label_ratios[i]);
+            hi = fmax(hi, label_ratios[i]);
+        }
+        printf("  label maps' mass (ED) / Simpson's: median %.3f, range %.3f - %.3f\n", bench_median(label_ratios, n), lo,
+               hi);
     }
-    printf("  global thickening: mean |model - contours| %.1f points\n", 100.0 * diff);
+    printf("  global thickening: mean |model - contours| %.2f points\n", 100.0 * diff);
     printf("  per sector (6 x %d exams): r = %.2f\n", n, pearson(a, b, pairs));
     for (i = 0; i < n; i++) a[i] = -exams[i].wall_thickening, b[i] = -exams[i].contour_thickening;
     printf("  infarcted vs control AUC: dysfunctional segments %.2f, contours' slice sectors < 20%% %.2f, "

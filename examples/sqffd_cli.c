@@ -1720,7 +1720,8 @@ static void track_details(FILE *f)
             "                         endocardium's segment frame (its long axis, septum, levels):\n"
             "                         LV mass (%g g/ml x the volume between the surfaces, between\n"
             "                         the epicardium's outer slices for stacks), wall thickness along\n"
-            "                         each endocardial vertex's normal, thickening per segment; a\n"
+            "                         each endocardial vertex's normal (for stacks: in the slices'\n"
+            "                         planes, between the outer slices), thickening per segment; a\n"
             "                         segment thickening less than %g %% is dysfunctional\n"
             "  --myocardium-label N   label maps (with --label, the cavity's): the epicardium is the\n"
             "                         border of labels N and --label together (ACDC: --label 3\n"
@@ -1851,9 +1852,10 @@ static void track_report_wall(const track_args *a, const track_result *res)
         printf("                   one myocardium weighed twice: the LV mass is the ED figure; the closed surfaces\n"
                "                   hold the whole wall in both frames, so ED and ES differ by the models' error\n");
     printf("  wall thickness   ED %.4g mm, ES %.4g mm: global thickening %.1f %% (along each endocardial vertex's\n"
-           "                   normal to the epicardium; %lu wall vertices measured, %lu not)\n",
-           to_mm(a, w->thickness_ed), to_mm(a, w->thickness_es), 100.0 * w->thickening, (unsigned long)w->measured,
-           (unsigned long)w->unmeasured);
+           "                   normal to the epicardium%s; %lu wall vertices measured, %lu not)\n",
+           to_mm(a, w->thickness_ed), to_mm(a, w->thickness_es), 100.0 * w->thickening,
+           a->wall_options.endo_stacks ? ",\n                   its part in the slices' planes, between the outer slices" : "",
+           (unsigned long)w->measured, (unsigned long)w->unmeasured);
     printf("  segment                  thickness ED mm  ES mm  thickening %%  dysfunctional (thickening < %g %%)\n",
            100.0 * a->wall_options.dysfunctional_thickening);
     for (k = 0; k < SQFFD_SEGMENTS; k++) {
@@ -2150,6 +2152,7 @@ static int track_stacks(track_args *a, double **points, size_t *counts)
     }
     if (found) {
         if (a->volume != VOLUME_CLOSED) a->motion.stacks = a->stacks;
+        a->wall_options.endo_stacks = a->stacks; /* the thickness as the slices show it */
         return a->wall ? track_epi_stacks(a) : 0;
     }
     free(a->stacks);

@@ -366,6 +366,20 @@ PY
 else
     grep -q '"mass_ed_g": ' "$TMP/wtr.json" && grep -q '"dysfunctional": ' "$TMP/wtr.json" && ok || bad "track --epi --json: no mass or flags"
 fi
+# stacks: the thickness in the slices' planes, between the outer slices. A tube of 7 slices (z 0..60, 64 points a
+# circle): cavity radius 20 -> 15, epicardium 28 -> 25, so 8 -> 10 mm, thickening 25 %, on every slice (up to the
+# lids half a spacing beyond the outer slices it would read 19 %)
+for f in "ed 20" "es 15" "ed_epi 28" "es_epi 25"; do
+    set -- $f
+    awk -v r="$2" 'BEGIN { for (z = 0; z <= 60; z += 10) for (i = 0; i < 64; i++)
+        printf "%.6f %.6f %d\n", r * cos(6.283185307179586 * i / 64), r * sin(6.283185307179586 * i / 64), z }' \
+        >"$TMP/tube_$1.xyz"
+done
+expect 0 "its part in the slices' planes, between the outer slices" track "$TMP/tube_ed.xyz" "$TMP/tube_es.xyz" \
+    --epi "$TMP/tube_ed_epi.xyz,$TMP/tube_es_epi.xyz" -o "$TMP/wtube"
+awk '/^  wall thickness/ { found = 1; t = $4; e = $7; g = $11 } END { exit !(found && (t - 8) ^ 2 < 0.05 ^ 2 &&
+    (e - 10) ^ 2 < 0.05 ^ 2 && (g - 25) ^ 2 < 0.5 ^ 2) }' "$TMP/out" && ok ||
+    bad "track --epi on a tube's stacks: $(grep '^  wall thickness' "$TMP/out"), not 8 -> 10 mm, 25 %"
 # without --epi: no wall columns, and the epicardial meshes of the earlier run in the reused folder removed
 expect 0 "" track "$TMP"/wph/points_00.ply "$TMP"/wph/points_04.ply -o "$TMP/wtr" --septum -1,0,0 --quiet
 [ ! -e "$TMP/wtr/epi_frame_00.ply" ] && ! head -n 1 "$TMP/wtr/segments.csv" | grep -q thickness && ok ||

@@ -60,6 +60,39 @@ static void endo_motion(const sqffd_model *endo, size_t frames, sqffd_motion_rep
     free(work);
 }
 
+/* Vertex areas (a third of each triangle's) of a model's grid mesh, its
+   vertices, and their unit normals (the sum of the triangles' cross
+   products, as sqffd_wall takes them). */
+static void mesh_areas(const sqffd_model *model, double *x, double *area, double *normal)
+{
+    size_t m = 0, nt = 0, k, v;
+    uint32_t *tri;
+    int c;
+    sqffd_model_mesh_size(model->grid[0], model->grid[1], &m, &nt);
+    tri = (uint32_t *)test_malloc(3 * nt * sizeof *tri);
+    CHECK_RESULT(sqffd_model_mesh(model, model->grid[0], model->grid[1], x, tri), SQFFD_OK);
+    memset(area, 0, m * sizeof *area);
+    memset(normal, 0, 3 * m * sizeof *normal);
+    for (k = 0; k < nt; k++) {
+        const double *a = x + 3 * tri[3 * k], *b = x + 3 * tri[3 * k + 1], *d = x + 3 * tri[3 * k + 2];
+        double e1[3], e2[3], n[3];
+        for (c = 0; c < 3; c++) { e1[c] = b[c] - a[c]; e2[c] = d[c] - a[c]; }
+        n[0] = e1[1] * e2[2] - e1[2] * e2[1];
+        n[1] = e1[2] * e2[0] - e1[0] * e2[2];
+        n[2] = e1[0] * e2[1] - e1[1] * e2[0];
+        for (c = 0; c < 3; c++) {
+            area[tri[3 * k + c]] += sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]) / 6.0;
+            for (v = 0; v < 3; v++) normal[3 * tri[3 * k + c] + v] += n[v];
+        }
+    }
+    for (v = 0; v < m; v++) {
+        double length = sqrt(normal[3 * v] * normal[3 * v] + normal[3 * v + 1] * normal[3 * v + 1] +
+                             normal[3 * v + 2] * normal[3 * v + 2]);
+        for (c = 0; c < 3; c++) normal[3 * v + c] /= length;
+    }
+    free(tri);
+}
+
 /* Concentric spheres: endocardium 20 -> 15, epicardium 28 -> 25 (ED -> ES):
    every wall vertex's thickness is R_epi - R_endo (8, then 10) to the
    mesh's tolerance (the epicardial facets lie inside its sphere by at most
@@ -139,6 +172,157 @@ static void test_wall_spheres(void)
     free(segment);
 }
 
+/* x's part of the disc of radius a up to height z: the integral of
+   sqrt(a^2 - z^2) dz. */
+static double disc_integral(double a, double z)
+{
+    return 0.5 * (z * sqrt(a * a - z * z) + a * a * asin(z / a));
+}
+
+/* The concentric spheres of test_wall_spheres read as short-axis stacks
+   (planes z = -10, -5, ..., 10, spacing 5, at both frames): a wall vertex
+   at height z is measured only within |z| <= 10 (between the outer
+   planes), across the wall in its plane: sqrt(R_epi^2 - z^2) -
+   sqrt(R_endo^2 - z^2), not R_epi - R_endo. Each frame's mean thickness is
+   over the vertices that frame measured: at ES (radii x 0.75 and 25/28)
+   more of them fall within the planes than at ED. On a sphere the area lies
+   evenly along z, so the means are the integrals of that chord over
+   [-10, 10] over 20: within 0.1 (the band's ends fall between the mesh's
+   rows). Along the normals they would read 8 and 10; over the vertices
+   measured in both frames, 10.27 at ES; up to half a spacing beyond the
+   outer planes, 8.43 and 10.76. */
+static void test_wall_stack_planes(void)
+{
+    const double endo_scale[2] = {1.0, 0.75}, epi_scale[2] = {1.0, 25.0 / 28.0}, radii[2][2] = {{20.0, 28.0}, {15.0, 25.0}};
+    sqffd_model endo[2], epi[2];
+    sqffd_motion_report motion;
+    sqffd_stack stacks[2];
+    sqffd_wall_options o = sqffd_wall_options_default();
+    sqffd_wall_outputs out;
+    sqffd_wall_report rep;
+    double *wt[2], *x, worst = 0.0, mean[2], band[2] = {-10.0, 10.0};
+    unsigned char *segment;
+    size_t m = 32 * 64 + 2, v, measured[2] = {0, 0};
+    int t, k;
+    sphere_frames(20.0, endo_scale, 2, 32, endo);
+    sphere_frames(28.0, epi_scale, 2, 32, epi);
+    segment = (unsigned char *)test_malloc(m);
+    x = (double *)test_malloc(3 * m * sizeof *x);
+    for (t = 0; t < 2; t++) wt[t] = (double *)test_malloc(m * sizeof(double));
+    endo_motion(endo, 2, &motion, segment);
+    memset(stacks, 0, sizeof stacks);
+    stacks[0].axis[2] = 1.0;
+    stacks[0].planes = 5;
+    stacks[0].spacing = 5.0;
+    for (k = 0; k < 5; k++) stacks[0].level[k] = 5.0 * k - 10.0;
+    stacks[1] = stacks[0];
+    o.endo_stacks = stacks;
+    memset(&out, 0, sizeof out);
+    out.thickness_ed = wt[0];
+    out.thickness_es = wt[1];
+    CHECK_RESULT(run_wall(endo, epi, 2, &motion, segment, &o, &out, &rep), SQFFD_OK);
+    for (t = 0; t < 2; t++) {
+        const double r = radii[t][0], p = radii[t][1];
+        CHECK_RESULT(sqffd_model_mesh(endo + t, endo->grid[0], endo->grid[1], x, NULL), SQFFD_OK);
+        for (v = 0; v < m; v++) {
+            double z = x[3 * v + 2], chord = sqrt(p * p - z * z) - sqrt(r * r - z * z);
+            if (!segment[v] || fabs(z) > 10.0) {
+                CHECK_MSG(isnan(wt[t][v]), "frame %d, vertex %zu at z %.3f: %.6f", t, v, z, wt[t][v]);
+                continue;
+            }
+            measured[t]++;
+            worst = fmax(worst, fabs(wt[t][v] - chord));
+            CHECK_MSG(fabs(wt[t][v] - chord) <= 0.05, "frame %d, vertex %zu at z %.3f: %.6f, chord %.6f", t, v, z,
+                      wt[t][v], chord);
+        }
+        mean[t] = (disc_integral(p, band[1]) - disc_integral(r, band[1]) - disc_integral(p, band[0]) +
+                   disc_integral(r, band[0])) / (band[1] - band[0]);
+    }
+    printf("    spheres in planes: thickness within %.4f of the chord across the wall, %zu / %zu vertices measured "
+           "at ED / ES; mean %.4f / %.4f (true %.4f / %.4f)\n", worst, measured[0], measured[1], rep.thickness_ed,
+           rep.thickness_es, mean[0], mean[1]);
+    CHECK(measured[1] > measured[0]);
+    CHECK_NEAR(rep.thickness_ed, mean[0], 0.1);
+    CHECK_NEAR(rep.thickness_es, mean[1], 0.1);
+    CHECK_NEAR(rep.thickening, mean[1] / mean[0] - 1.0, 0.01);
+    for (t = 0; t < 2; t++) free(wt[t]);
+    free(x);
+    free(segment);
+}
+
+/* Each frame's means weigh its vertices by their areas in that frame. The
+   endocardium a sphere of radius 20 at ED, squashed at ES (x 0.75 across,
+   x 0.5 along z: its sides shrink more than its poles), in an epicardial
+   sphere 28 -> 25: each vertex's ES thickness is the ray along its normal
+   to the sphere, -p.n + sqrt((p.n)^2 - |p|^2 + 25^2) (within the facets'
+   0.05); the report's ED and ES thickness are the means of the outputs
+   weighted by the ED and the ES mesh's vertex areas, globally and per
+   segment (to rounding). Weighted by the ED areas the ES mean would read
+   more than 1 % lower: the sides, thin at ES, weigh more at ED. */
+static void test_wall_own_areas(void)
+{
+    const double epi_scale[2] = {1.0, 25.0 / 28.0}, one[2] = {1.0, 1.0};
+    sqffd_model endo[2], epi[2];
+    sqffd_motion_report motion;
+    sqffd_wall_outputs out;
+    sqffd_wall_report rep;
+    double *x[2], *area[2], *normal[2], *wt[2], sums[SQFFD_SEGMENTS + 1][4], ed_weighted[2] = {0.0, 0.0};
+    unsigned char *segment;
+    size_t m = 32 * 64 + 2, v;
+    int k, c, t;
+    sphere_frames(20.0, one, 2, 32, endo);
+    for (k = 0; k < SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE; k++)
+        for (c = 0; c < 3; c++) endo[1].ffd.control[k][c] *= c == 2 ? 0.5 : 0.75;
+    sphere_frames(28.0, epi_scale, 2, 32, epi);
+    segment = (unsigned char *)test_malloc(m);
+    for (t = 0; t < 2; t++) {
+        x[t] = (double *)test_malloc(3 * m * sizeof(double));
+        area[t] = (double *)test_malloc(m * sizeof(double));
+        normal[t] = (double *)test_malloc(3 * m * sizeof(double));
+        wt[t] = (double *)test_malloc(m * sizeof(double));
+    }
+    endo_motion(endo, 2, &motion, segment);
+    CHECK(motion.ed_frame == 0 && motion.es_frame == 1);
+    memset(&out, 0, sizeof out);
+    out.thickness_ed = wt[0];
+    out.thickness_es = wt[1];
+    CHECK_RESULT(run_wall(endo, epi, 2, &motion, segment, NULL, &out, &rep), SQFFD_OK);
+    memset(sums, 0, sizeof sums);
+    for (t = 0; t < 2; t++) {
+        mesh_areas(endo + t, x[t], area[t], normal[t]);
+        for (v = 0; v < m; v++) {
+            if (!segment[v] || isnan(wt[t][v])) continue;
+            sums[segment[v]][t] += area[t][v] * wt[t][v];
+            sums[segment[v]][2 + t] += area[t][v];
+            sums[0][t] += area[t][v] * wt[t][v];
+            sums[0][2 + t] += area[t][v];
+            ed_weighted[t] += area[0][v] * wt[t][v];
+            if (t == 1) {
+                const double *q = x[1] + 3 * v, *n = normal[1] + 3 * v;
+                double pn = q[0] * n[0] + q[1] * n[1] + q[2] * n[2], pp = q[0] * q[0] + q[1] * q[1] + q[2] * q[2];
+                CHECK_NEAR(wt[1][v], -pn + sqrt(pn * pn - pp + 625.0), 0.05);
+            }
+        }
+    }
+    CHECK(rep.unmeasured == 0);
+    CHECK_NEAR(rep.thickness_ed, sums[0][0] / sums[0][2], 1e-9 * rep.thickness_ed);
+    CHECK_NEAR(rep.thickness_es, sums[0][1] / sums[0][3], 1e-9 * rep.thickness_es);
+    for (k = 0; k < SQFFD_SEGMENTS; k++) {
+        CHECK_NEAR(rep.segments[k].thickness_ed, sums[k + 1][0] / sums[k + 1][2], 1e-9 * rep.thickness_ed);
+        CHECK_NEAR(rep.segments[k].thickness_es, sums[k + 1][1] / sums[k + 1][3], 1e-9 * rep.thickness_es);
+    }
+    printf("    squashed at ES: mean ES thickness %.4f over the ES areas, %.4f over the ED areas\n", rep.thickness_es,
+           ed_weighted[1] / sums[0][2]);
+    CHECK(ed_weighted[1] / sums[0][2] < 0.99 * rep.thickness_es);
+    for (t = 0; t < 2; t++) {
+        free(x[t]);
+        free(area[t]);
+        free(normal[t]);
+        free(wt[t]);
+    }
+    free(segment);
+}
+
 /* Refused, nothing written: NULL arguments, no frames, the report's ED or ES
    frame out of range, a segment above 17, either sequence's frames on
    different superquadrics, a bad rule or stack, too small a workspace; an
@@ -190,6 +374,9 @@ static void test_wall_bad_input(void)
     memset(stacks, 0, sizeof stacks);
     o.stacks = stacks; /* no planes */
     CHECK_RESULT(sqffd_wall(endo, epi, 2, &motion, segment, &o, &out, &rep, work, size), SQFFD_ERROR_INVALID_ARGUMENT);
+    o.stacks = NULL;
+    o.endo_stacks = stacks;
+    CHECK_RESULT(sqffd_wall(endo, epi, 2, &motion, segment, &o, &out, &rep, work, size), SQFFD_ERROR_INVALID_ARGUMENT);
     CHECK_RESULT(sqffd_wall(endo, epi, 2, &motion, segment, NULL, &out, &rep, work, size - 1),
                  SQFFD_ERROR_WORKSPACE_TOO_SMALL);
     CHECK_RESULT(sqffd_wall(epi, endo, 2, &motion, segment, NULL, &out, &rep, work, size), SQFFD_ERROR_DEGENERATE);
@@ -207,28 +394,6 @@ static void test_wall_bad_input(void)
     CHECK_RESULT(sqffd_wall_workspace_size(endo, epi, 2, NULL), SQFFD_ERROR_INVALID_ARGUMENT);
     free(work);
     free(segment);
-}
-
-/* Vertex areas (a third of each triangle's) of a model's grid mesh, and its vertices. */
-static void mesh_areas(const sqffd_model *model, double *x, double *area)
-{
-    size_t m = 0, nt = 0, k;
-    uint32_t *tri;
-    int c;
-    sqffd_model_mesh_size(model->grid[0], model->grid[1], &m, &nt);
-    tri = (uint32_t *)test_malloc(3 * nt * sizeof *tri);
-    CHECK_RESULT(sqffd_model_mesh(model, model->grid[0], model->grid[1], x, tri), SQFFD_OK);
-    memset(area, 0, m * sizeof *area);
-    for (k = 0; k < nt; k++) {
-        const double *a = x + 3 * tri[3 * k], *b = x + 3 * tri[3 * k + 1], *d = x + 3 * tri[3 * k + 2];
-        double e1[3], e2[3], n[3];
-        for (c = 0; c < 3; c++) { e1[c] = b[c] - a[c]; e2[c] = d[c] - a[c]; }
-        n[0] = e1[1] * e2[2] - e1[2] * e2[1];
-        n[1] = e1[2] * e2[0] - e1[0] * e2[2];
-        n[2] = e1[0] * e2[1] - e1[1] * e2[0];
-        for (c = 0; c < 3; c++) area[tri[3 * k + c]] += sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]) / 6.0;
-    }
-    free(tri);
 }
 
 /* Two frames (ED, ES) of n points of one surface of the phantom, tracked. */
@@ -253,14 +418,27 @@ static void track_surface(const phantom_lv *p, size_t n, double noise, uint64_t 
 /* The phantom's thick wall (8 mm at ED, 35 % thickening, 7 % on the
    hypokinetic zone's plateau), endocardium and epicardium each tracked from
    6,000 points a frame with 1 % noise: the myocardial volume at ED and ES
-   within 2 % of the truth (phantom_lv_myocardium); the thickening of each
-   mid and apical segment the zone does not reach within 5 points of the
-   truth's (the issue's target, 3 points, is not met: 4.1 on segment 11),
-   the others within 16 (see below); the truth is the true thickness at each
-   measured vertex's ED and ES positions (its nearest material point then:
-   a tracked vertex may slide along the wall, see sqffd_motion) averaged as
-   the library averages; the vertices thickening less than 20 % against
-   those that truly do there: area-weighted Dice >= 0.8. */
+   within 2 % of the truth (phantom_lv_myocardium). The truth of a frame's
+   thickness is the true thickness at each measured vertex's position then
+   (its nearest material point: a tracked vertex may slide along the wall,
+   see sqffd_motion), averaged as the library averages (that frame's
+   measured vertices, weighted by that frame's vertex areas), so a segment
+   the zone's border straddles has the truth of the same vertices. Per
+   segment thickening:
+   - within 3 points of the truth (the issue's target) on every segment
+     whose two tracked surfaces lie, together, within 0.5 mm of the true
+     ones on average at both ED and ES (there, the endocardial vertex's and
+     the ray's epicardial end's distances to the true surfaces); 5 segments
+     here, 2.7 points at worst;
+   - elsewhere within 3 points plus what the surfaces' distance allows: a
+     ray's length is off by at most the two distances, so the ES mean by
+     D_ES and the ED mean by D_ED, and thickening by (D_ES + (1 + th) D_ED)
+     / WT_ED. Near the zone and the bumps the tracked surfaces are 1-1.7 mm
+     off at ES (against 0.3-0.5 elsewhere; the smooth FFD does not follow
+     the zone's 4 mm ramp): those segments read up to 15 points low, an
+     error of the fit (Layer 5), not of the measure (noise-free: the same).
+   The vertices thickening less than 20 % against those that truly do
+   there: area-weighted Dice >= 0.8. */
 static void test_wall_phantom(void)
 {
     phantom_lv p = phantom_lv_default(), outer = p;
@@ -268,20 +446,24 @@ static void test_wall_phantom(void)
     sqffd_motion_report motion;
     sqffd_wall_outputs out;
     sqffd_wall_report rep;
-    double *x, *area, *thickening, *es_thickness, sums[SQFFD_SEGMENTS][2], truth[2], material[2], both = 0.0, flagged = 0.0;
-    double thin = 0.0, dice;
-    double worst = 0.0;
+    double *x[2], *area[2], *normal[2], *thickness[2], *truth_thickness[2], *thickening, sums[SQFFD_SEGMENTS][4];
+    double off[SQFFD_SEGMENTS][2], truth[2];
+    double material[2], both = 0.0, flagged = 0.0, thin = 0.0, dice, worst = 0.0, worst_off = 0.0;
     unsigned char *segment;
     size_t m = 0, v;
-    int k;
+    int k, t, fitted = 0;
     outer.epicardium = 1;
     track_surface(&p, 6000, 0.01, 77, endo);
     track_surface(&outer, 6000, 0.01, 91, epi);
     sqffd_model_mesh_size(endo->grid[0], endo->grid[1], &m, NULL);
-    x = (double *)test_malloc(3 * m * sizeof *x);
-    area = (double *)test_malloc(m * sizeof *area);
+    for (t = 0; t < 2; t++) {
+        x[t] = (double *)test_malloc(3 * m * sizeof(double));
+        area[t] = (double *)test_malloc(m * sizeof(double));
+        normal[t] = (double *)test_malloc(3 * m * sizeof(double));
+        thickness[t] = (double *)test_malloc(m * sizeof(double));
+        truth_thickness[t] = (double *)test_malloc(m * sizeof(double));
+    }
     thickening = (double *)test_malloc(m * sizeof *thickening);
-    es_thickness = (double *)test_malloc(m * sizeof *es_thickness);
     segment = (unsigned char *)test_malloc(m);
     {
         sqffd_motion_options mo = sqffd_motion_options_default();
@@ -298,55 +480,81 @@ static void test_wall_phantom(void)
     }
     CHECK(motion.ed_frame == 0 && motion.es_frame == 1);
     memset(&out, 0, sizeof out);
+    out.thickness_ed = thickness[0];
+    out.thickness_es = thickness[1];
     out.thickening = thickening;
     CHECK_RESULT(run_wall(endo, epi, 2, &motion, segment, NULL, &out, &rep), SQFFD_OK);
     truth[0] = phantom_lv_myocardium(&p, 0.0);
     truth[1] = phantom_lv_myocardium(&p, 0.5);
-    CHECK_RESULT(sqffd_model_mesh(endo + 1, endo->grid[0], endo->grid[1], x, NULL), SQFFD_OK);
-    for (v = 0; v < m; v++) /* the true thickness at each vertex's ES position */
-        if (segment[v] && !isnan(thickening[v]) && phantom_lv_nearest(&p, 0.5, x + 3 * v, material, NULL) != PHANTOM_LID)
-            es_thickness[v] = phantom_lv_thickness(&p, 0.5, material[0], material[1]);
-    mesh_areas(endo, x, area);
     memset(sums, 0, sizeof sums);
+    memset(off, 0, sizeof off);
+    for (t = 0; t < 2; t++) { /* the true thickness at each vertex's position in frame t */
+        mesh_areas(endo + t, x[t], area[t], normal[t]);
+        for (v = 0; v < m; v++) {
+            double hit[3], d[2];
+            int c;
+            truth_thickness[t][v] = NAN;
+            if (!segment[v] || isnan(thickness[t][v]) ||
+                phantom_lv_nearest(&p, 0.5 * t, x[t] + 3 * v, material, &d[0]) == PHANTOM_LID)
+                continue;
+            truth_thickness[t][v] = phantom_lv_thickness(&p, 0.5 * t, material[0], material[1]);
+            sums[segment[v] - 1][t] += area[t][v] * truth_thickness[t][v];
+            sums[segment[v] - 1][2 + t] += area[t][v];
+            /* how far the two tracked surfaces are from the true ones there: the vertex, and the ray's end */
+            for (c = 0; c < 3; c++) hit[c] = x[t][3 * v + c] + thickness[t][v] * normal[t][3 * v + c];
+            phantom_lv_nearest(&outer, 0.5 * t, hit, material, &d[1]);
+            off[segment[v] - 1][t] += area[t][v] * (d[0] + d[1]);
+        }
+    }
     for (v = 0; v < m; v++) {
-        double t, h;
-        int label = phantom_lv_nearest(&p, 0.0, x + 3 * v, material, NULL);
-        if (!segment[v] || label == PHANTOM_LID || isnan(thickening[v])) continue;
-        h = phantom_lv_thickness(&p, 0.0, material[0], material[1]);
-        t = es_thickness[v] / h - 1.0;
-        sums[segment[v] - 1][0] += area[v] * h;
-        sums[segment[v] - 1][1] += area[v] * es_thickness[v];
-        if (thickening[v] < 0.2) flagged += area[v];
-        if (t < 0.2) thin += area[v];
-        if (thickening[v] < 0.2 && t < 0.2) both += area[v];
+        double truly = truth_thickness[1][v] / truth_thickness[0][v] - 1.0;
+        if (isnan(truly) || isnan(thickening[v])) continue;
+        if (thickening[v] < 0.2) flagged += area[0][v];
+        if (truly < 0.2) thin += area[0][v];
+        if (thickening[v] < 0.2 && truly < 0.2) both += area[0][v];
     }
     dice = 2.0 * both / (flagged + thin);
     for (k = 0; k < SQFFD_SEGMENTS; k++) {
-        double expect = sums[k][1] / sums[k][0] - 1.0;
-        if (!(sums[k][0] > 0.0)) continue;
-        if (k >= 6 && expect > 0.34) worst = fmax(worst, fabs(rep.segments[k].thickening - expect));
-        /* (basal segments, and those the zone's border crosses, are short by up to 15 points: the closed
-           models round the base's corner, and the measured field is smoother than the zone's 4 mm ramp) */
-        CHECK_MSG(fabs(rep.segments[k].thickening - expect) <= (k >= 6 && expect > 0.34 ? 0.05 : 0.16),
-                  "segment %d: thickening %.4f, true %.4f", k + 1, rep.segments[k].thickening, expect);
+        double ed = sums[k][0] / sums[k][2], expect = (sums[k][1] / sums[k][3]) / ed - 1.0, error, allowed;
+        if (!(sums[k][2] > 0.0 && sums[k][3] > 0.0)) continue;
+        for (t = 0; t < 2; t++) off[k][t] /= sums[k][2 + t];
+        error = fabs(rep.segments[k].thickening - expect);
+        allowed = 0.03 + (off[k][1] + (1.0 + expect) * off[k][0]) / ed;
+        CHECK_MSG(error <= allowed, "segment %d: thickening %.4f, true %.4f (surfaces %.3f / %.3f off at ED / ES)", k + 1,
+                  rep.segments[k].thickening, expect, off[k][0], off[k][1]);
+        if (off[k][0] <= 0.5 && off[k][1] <= 0.5) {
+            fitted++;
+            worst = fmax(worst, error);
+            CHECK_MSG(error <= 0.03, "segment %d (fitted): thickening %.4f, true %.4f", k + 1, rep.segments[k].thickening,
+                      expect);
+        } else
+            worst_off = fmax(worst_off, error);
     }
-    printf("    phantom wall: myocardium %.4g / %.4g of the truth at ED / ES, thickening %.1f %% (mid and apical "
-           "segments off the zone within %.1f points), Dice %.3f, %zu of %zu wall vertices unmeasured\n", rep.myocardium_ed / truth[0],
-           rep.myocardium_es / truth[1], 100.0 * rep.thickening, 100.0 * worst, dice, rep.unmeasured,
+    printf("    phantom wall: myocardium %.4g / %.4g of the truth at ED / ES, thickening %.1f %%; segments within %.1f "
+           "points of the truth on the %d whose surfaces fit it within 0.5 mm, %.1f on the others; Dice %.3f, %zu of "
+           "%zu wall vertices unmeasured\n", rep.myocardium_ed / truth[0], rep.myocardium_es / truth[1],
+           100.0 * rep.thickening, 100.0 * worst, fitted, 100.0 * worst_off, dice, rep.unmeasured,
            rep.measured + rep.unmeasured);
+    CHECK(fitted >= 5);
     CHECK_NEAR(rep.myocardium_ed / truth[0], 1.0, 0.02);
     CHECK_NEAR(rep.myocardium_es / truth[1], 1.0, 0.02);
     CHECK_MSG(dice >= 0.8, "Dice %.3f", dice);
-    free(x);
-    free(area);
+    for (t = 0; t < 2; t++) {
+        free(x[t]);
+        free(area[t]);
+        free(normal[t]);
+        free(thickness[t]);
+        free(truth_thickness[t]);
+    }
     free(thickening);
-    free(es_thickness);
     free(segment);
 }
 
 void suite_wall(void)
 {
     RUN_TEST(test_wall_spheres);
+    RUN_TEST(test_wall_stack_planes);
+    RUN_TEST(test_wall_own_areas);
     RUN_TEST(test_wall_bad_input);
     RUN_TEST(test_wall_phantom);
 }

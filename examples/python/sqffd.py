@@ -226,7 +226,7 @@ class _MotionReport(ctypes.Structure):
 
 
 class _WallOptions(ctypes.Structure):
-    _fields_ = [("dysfunctional_thickening", _double), ("stacks", _pointer)]
+    _fields_ = [("dysfunctional_thickening", _double), ("stacks", _pointer), ("endo_stacks", _pointer)]
 
 
 class _WallOutputs(ctypes.Structure):
@@ -342,7 +342,8 @@ def _points(points, what="points"):
 # ---- options: keyword arguments by the C field names ---------------------------------------------
 
 _ENUM_FIELDS = {"cost": SqCost, "optimizer": SqOptimizer, "regularization": Regularization, "solver": Solver}
-_HIDDEN_FIELDS = ("progress_user", "stacks")  # a Python callable carries its own state; motion/wall(stacks=) set stacks
+# a Python callable carries its own state; motion/wall(stacks=, endo_stacks=) set the stacks
+_HIDDEN_FIELDS = ("progress_user", "stacks", "endo_stacks")
 
 
 class _Progress:
@@ -1008,13 +1009,16 @@ def _motion_report(motion_result):
     return report
 
 
-def wall(endo_models, epi_models, motion_result, stacks=None, **options):
+def wall(endo_models, epi_models, motion_result, stacks=None, endo_stacks=None, **options):
     """The heart wall (sqffd_wall) in the endocardium's segment frame: endo_models, track()'s models
     of the cavity's border; epi_models, track()'s models of the wall's outer border, the same frames
     in the same order; motion_result, motion() of endo_models (its ED and ES frames, long axis and
     segments define the AHA segments of both surfaces). stacks: the epicardium's Stack a frame (the
     myocardium between its outer slices +- half a spacing, as motion() measures the cavity), or None
-    (closed volumes). options: sqffd_wall_options fields (dysfunctional_thickening, default 0.2).
+    (closed volumes). endo_stacks: the endocardium's Stack a frame (the thickness in their planes,
+    between their outer slices, as the slices show the wall), or None (along the normals over the
+    whole wall). options: sqffd_wall_options fields (dysfunctional_thickening,
+    default 0.2).
     Returns a Wall: the myocardial volume per frame (x 1.05 g/ml for a mass), the wall thickness
     along each endocardial vertex's normal at ED and ES, thickening per vertex, per segment and
     over the wall."""
@@ -1034,6 +1038,9 @@ def wall(endo_models, epi_models, motion_result, stacks=None, **options):
     if stacks is not None:
         stack_structs = _stack_array(stacks, count, "frame")  # (alive until the call returns)
         struct_options.stacks = ctypes.cast(stack_structs, _pointer)
+    if endo_stacks is not None:
+        endo_stack_structs = _stack_array(endo_stacks, count, "frame")  # (alive until the call returns)
+        struct_options.endo_stacks = ctypes.cast(endo_stack_structs, _pointer)
     work, work_size = _workspace(_lib.sqffd_wall_workspace_size, "wall", structs[0], structs[1], count)
     segment = np.ascontiguousarray(motion_result.segment, dtype=np.uint8)
     m = segment.size

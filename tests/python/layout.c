@@ -169,6 +169,7 @@ int main(void)
     STRUCT(sqffd_wall_options);
     FIELD(sqffd_wall_options, dysfunctional_thickening);
     FIELD(sqffd_wall_options, stacks);
+    FIELD(sqffd_wall_options, endo_stacks);
 
     STRUCT(sqffd_wall_outputs);
     FIELD(sqffd_wall_outputs, myocardium);
