@@ -6893,7 +6893,7 @@ typedef struct sqffd__fit_system {
 
 /* The fold-free step's state (its section follows the least squares). */
 typedef struct sqffd__fit_fold sqffd__fit_fold;
-static void sqffd__fit_fold_layout(sqffd__arena *a, const int dims[3], size_t m, int newton, sqffd__fit_fold *f);
+static void sqffd__fit_fold_layout(sqffd__arena *a, const int dims[3], size_t m, int with_floor, sqffd__fit_fold *f);
 
 /* The iteration's scratch: model-sized, plus the optional subsample and data tree. */
 typedef struct sqffd__fit_work {
@@ -7488,7 +7488,7 @@ struct sqffd__fit_fold {
     double *planes;            /* M x 6: the pass's sums of w n n^T (xx xy xz yy yz zz) */
 };
 
-static void sqffd__fit_fold_layout(sqffd__arena *a, const int dims[3], size_t m, int newton, sqffd__fit_fold *f)
+static void sqffd__fit_fold_layout(sqffd__arena *a, const int dims[3], size_t m, int with_floor, sqffd__fit_fold *f)
 {
     size_t l = (size_t)dims[0] * (size_t)dims[1] * (size_t)dims[2], size = 3 * l;
     int ej[3];
@@ -7503,7 +7503,7 @@ static void sqffd__fit_fold_layout(sqffd__arena *a, const int dims[3], size_t m,
                                                    sqffd__jacobian_count(ej), sizeof(double));
     f->surface = (double *)sqffd__arena_take(a, sqffd__fit_grid_count(sqffd__fit_region_grid), 3 * sizeof(double));
     f->capacity = 0;
-    if (!newton) return; /* (the report's bound alone) */
+    if (!with_floor) return; /* (the report's bound alone) */
     f->capacity = SQFFD__FIT_REGION_NODES + SQFFD__FIT_SAMPLES_ADDED;
     f->sample = (double (*)[3])sqffd__arena_take(a, f->capacity, 3 * sizeof(double));
     f->value = (double *)sqffd__arena_take(a, f->capacity, sizeof(double));
