@@ -50,6 +50,7 @@ PARTS = rm -f $(BUILD)/O2/unit.log; $(SUBMAKE) unit-build && $(SUBMAKE) $(1); s=
   tail -n 1 $(BUILD)/O2/unit.log 2>/dev/null; exit $$s
 test:
 	+@$(call PARTS,$(TEST_PARTS))
+check: export SQFFD_TESTS_THOROUGH = 1
 check:
 	+@$(call PARTS,$(CHECK_PARTS))
 unit-build: $(BUILD)/O2/sqffd_tests

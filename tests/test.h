@@ -36,6 +36,10 @@ void test_run(const char *name, void (*fn)(void));
          if (r_ != e_) test_fail(__FILE__, __LINE__, "%s returned %s, expected %s", #call, \
                                  sqffd_result_string(r_), sqffd_result_string(e_)); } while (0)
 #define RUN_TEST(fn) test_run(#fn, fn)
+/* A case that takes seconds: run only where SQFFD_TESTS_THOROUGH is set (make check sets it; make test
+   leaves it out, to stay near a minute). */
+void test_run_thorough(const char *name, void (*fn)(void));
+#define RUN_THOROUGH_TEST(fn) test_run_thorough(#fn, fn)
 
 /* Test suites, one per layer file; each calls RUN_TEST on its cases. */
 void suite_linalg(void);
