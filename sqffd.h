@@ -7450,6 +7450,7 @@ static const int sqffd__fit_region_grid[2] = {32, 64}; /* the superquadric's sur
                                      moves J further than that leaves its linear model, and is shortened anyway) */
 #define SQFFD__FIT_ROUNDS 8       /* rounds of a step's candidate samples at most */
 #define SQFFD__FIT_CANDIDATES 96  /* samples one step's penalty holds at most */
+#define SQFFD__FIT_ROUND_BATCH 16 /* of them a round adds at most */
 
 struct sqffd__fit_fold {
     sqffd__jacobian_work at;   /* J's coefficients over the box */
@@ -7480,6 +7481,7 @@ struct sqffd__fit_fold {
     double *base;              /* 3L: L^-1 rhs, L the factor of the step's matrix without the penalty */
     uint32_t *candidate;       /* SQFFD__FIT_CANDIDATES: the samples the step's penalty may hold */
     double *solved;            /* SQFFD__FIT_CANDIDATES x 3L: L^-1 g for each */
+    double *batch;             /* 3L x SQFFD__FIT_ROUND_BATCH: one round's new candidates' g, then L^-1 g, side by side */
     double *gram;              /* SQFFD__FIT_CANDIDATES^2: their products, plus 1 / (M rho) on the diagonal */
     double *small;             /* SQFFD__FIT_CANDIDATES^2: the multipliers' solve */
     double *need, *multiplier, *z, *slope; /* SQFFD__FIT_CANDIDATES each: the multipliers' solve */
@@ -7519,6 +7521,7 @@ static void sqffd__fit_fold_layout(sqffd__arena *a, const int dims[3], size_t m,
     f->scratch = (double *)sqffd__arena_take(a, size, sizeof(double));
     f->base = (double *)sqffd__arena_take(a, size, sizeof(double));
     f->solved = (double *)sqffd__arena_take(a, SQFFD__FIT_CANDIDATES, size * sizeof(double));
+    f->batch = (double *)sqffd__arena_take(a, SQFFD__FIT_ROUND_BATCH, size * sizeof(double));
     f->gram = (double *)sqffd__arena_take(a, SQFFD__FIT_CANDIDATES * SQFFD__FIT_CANDIDATES, sizeof(double));
     f->small = (double *)sqffd__arena_take(a, SQFFD__FIT_CANDIDATES * SQFFD__FIT_CANDIDATES, sizeof(double));
     f->candidate = (uint32_t *)sqffd__arena_take(a, SQFFD__FIT_CANDIDATES, sizeof(uint32_t));
@@ -7953,14 +7956,17 @@ static void sqffd__fit_fold_multipliers(sqffd__fit_fold *f, size_t k)
     }
 }
 
-/* L y = b (forward) and L^T x = y (backward), L^T's rows in u. */
-static void sqffd__la_upper_forward(const double *u, size_t n, double *b)
+/* L y = b for k right-hand sides at once (forward; b: n x k, its row p the
+   p-th entries of all k, so each row of L^T is read once for all of them)
+   and L^T x = y for one (backward), L^T's rows in u. */
+static void sqffd__la_upper_forward(const double *u, size_t n, double *b, size_t k)
 {
-    size_t i, j;
+    size_t i, j, c;
     for (j = 0; j < n; ++j) {
         const double *row = u + j * n;
-        b[j] /= row[j];
-        for (i = j + 1; i < n; ++i) b[i] -= row[i] * b[j];
+        double *bj = b + j * k;
+        for (c = 0; c < k; ++c) bj[c] /= row[j];
+        for (i = j + 1; i < n; ++i) sqffd__la_axpy(b + i * k, -row[i], bj, k);
     }
 }
 
@@ -7993,7 +7999,7 @@ static double sqffd__fit_fold_step(const sqffd__fit_system *s, sqffd__fit_fold *
     int round;
     if (!sqffd__fit_fold_factor(s, f)) return -1.0;
     memcpy(f->base, f->rhs, size * sizeof(double));
-    sqffd__la_upper_forward(f->factor, size, f->base);
+    sqffd__la_upper_forward(f->factor, size, f->base, 1);
     memcpy(f->move, f->base, size * sizeof(double));
     sqffd__la_upper_backward(f->factor, size, f->move);
     for (i = 0; i < f->samples; ++i) {
@@ -8007,7 +8013,7 @@ static double sqffd__fit_fold_step(const sqffd__fit_system *s, sqffd__fit_fold *
         for (i = 0; i < f->samples; ++i) /* how far the step sinks each near sample under the margin, linearised */
             f->trial[i] = f->value[i] < SQFFD__FIT_NEAR * SQFFD__FIT_MARGIN
                               ? SQFFD__FIT_MARGIN - f->value[i] - sqffd__la_dot(f->gradients + i * size, f->move, size) : 0.0;
-        while (k < SQFFD__FIT_CANDIDATES && k - done < 16) { /* the most sunk samples (16 a round) become candidates */
+        while (k < SQFFD__FIT_CANDIDATES && k - done < SQFFD__FIT_ROUND_BATCH) { /* the most sunk samples become candidates */
             size_t worst = f->samples;
             double most = 0.0;
             for (i = 0; i < f->samples; ++i)
@@ -8017,10 +8023,12 @@ static double sqffd__fit_fold_step(const sqffd__fit_system *s, sqffd__fit_fold *
             f->candidate[k++] = (uint32_t)worst;
         }
         if (k == done) break;
-        for (i = done; i < k; ++i) { /* g_i (once a linearisation), y_i = L^-1 g_i, its products, its need */
+        for (i = done; i < k; ++i) /* the new candidates' g_i (once a linearisation), side by side */
+            for (p = 0; p < size; ++p) f->batch[p * (k - done) + i - done] = f->gradients[(size_t)f->candidate[i] * size + p];
+        sqffd__la_upper_forward(f->factor, size, f->batch, k - done);
+        for (i = done; i < k; ++i) { /* y_i = L^-1 g_i, its products, its need */
             double *y = f->solved + i * size;
-            memcpy(y, f->gradients + (size_t)f->candidate[i] * size, size * sizeof(double));
-            sqffd__la_upper_forward(f->factor, size, y);
+            for (p = 0; p < size; ++p) y[p] = f->batch[p * (k - done) + i - done];
             for (j = 0; j <= i; ++j)
                 f->gram[i * stride + j] = f->gram[j * stride + i] = sqffd__la_dot(y, f->solved + j * size, size);
             f->gram[i * stride + i] += 1.0 / weight;
