@@ -7850,7 +7850,7 @@ static void sqffd__fit_fold_scatter(size_t l, const double *block, size_t c, siz
 }
 
 /* The penalty rho/2 sum max(0, margin - (J - floor))^2 over the samples
-   (energy units) from their values; *worst: the largest shortfall. */
+   (energy units) from their values; *worst (if not NULL): the largest shortfall. */
 static double sqffd__fit_fold_penalty(const sqffd__fit_fold *f, const double *value, double *worst)
 {
     double sum = 0.0, most = 0.0;
@@ -7863,7 +7863,7 @@ static double sqffd__fit_fold_penalty(const sqffd__fit_fold *f, const double *va
             if (v > most) most = v;
         }
     }
-    *worst = most;
+    if (worst) *worst = most;
     return 0.5 * f->rho * sum;
 }
 
@@ -8476,12 +8476,11 @@ static void sqffd__fit_fold_linearise(sqffd__fit_iteration *it)
     double *t = w->target, *plane = f->planes;
     for (v = 0; v < m; ++v) { /* minus the gradient per model point; the point-to-point and -to-plane weights */
         int held = it->data_tree && sqffd__fit_holds(s, v);
+        double slide = SQFFD__FIT_SLIDE * scale * w->weights[v]; /* (of the data's point-to-point weight) */
         for (c = 0; c < 3; ++c) t[3 * v + c] = scale * t[3 * v + c] + (held ? hold * (it->next[3 * v + c] - it->x[3 * v + c]) : 0.0);
         w->weights[v] = scale * w->weights[v] + (held ? hold : 0.0);
-        for (c = 0; c < 6; ++c) plane[6 * v + c] = scale * plane[6 * v + c] + (held && (c == 0 || c == 3 || c == 5) ? hold : 0.0);
-        plane[6 * v] += SQFFD__FIT_SLIDE * (w->weights[v] - (held ? hold : 0.0)); /* (its diagonal: xx yy zz) */
-        plane[6 * v + 3] += SQFFD__FIT_SLIDE * (w->weights[v] - (held ? hold : 0.0));
-        plane[6 * v + 5] += SQFFD__FIT_SLIDE * (w->weights[v] - (held ? hold : 0.0));
+        for (c = 0; c < 6; ++c) /* (xx yy zz: 0 3 5) */
+            plane[6 * v + c] = scale * plane[6 * v + c] + (c == 0 || c == 3 || c == 5 ? slide + (held ? hold : 0.0) : 0.0);
     }
     /* the damping: the lattice's Laplacian, scaled to the trace of B^T W B (W: the point-to-point weights;
        B's row at v is a (x) b (x) c, its squared norm the product of theirs) */
@@ -8547,7 +8546,7 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
     double *control = &model->ffd.control[0][0], *swap;
     const double *inverse = model->ffd.inverse;
     size_t size = 3 * s->lattice, m = s->count, v;
-    double energy, penalty, bound, below, worst;
+    double energy, penalty, bound, below;
     sqffd_distance_stats stats, accepted_stats;
     int stalled = 0;
     sqffd_result res;
@@ -8562,7 +8561,7 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
     if (res != SQFFD_OK) return res;
     sqffd__fit_fold_values(s->dims, f, control, inverse, f->value);
     f->rho = 2.0 * (energy > 0.0 ? energy : 1.0) / (SQFFD__FIT_MARGIN * SQFFD__FIT_MARGIN);
-    penalty = sqffd__fit_fold_penalty(f, f->value, &worst);
+    penalty = sqffd__fit_fold_penalty(f, f->value, NULL);
     f->lambda = SQFFD__FIT_LAMBDA_START;
     sqffd__fit_fold_linearise(it);
     it->accepted = energy;
@@ -8615,14 +8614,14 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
                 sqffd__fit_fold_add_samples(it, control);
             }
             if (trial_worst > 0.5 * SQFFD__FIT_MARGIN) f->rho *= 10.0; /* the penalty let a sample sink: stiffer */
-            penalty = sqffd__fit_fold_penalty(f, f->value, &worst);
+            penalty = sqffd__fit_fold_penalty(f, f->value, NULL);
             rep->converged = tau == 1.0 && rep->step <= o->tolerance;
             sqffd__fit_fold_linearise(it);
         } else { /* rolled back: more damping, or the certificate's points as samples */
             sqffd__fit_fold_roll_back(it);
             if (bound > -HUGE_VAL && f->failed && f->samples < f->capacity) {
                 sqffd__fit_fold_add_samples(it, w->accepted);
-                penalty = sqffd__fit_fold_penalty(f, f->value, &worst);
+                penalty = sqffd__fit_fold_penalty(f, f->value, NULL);
             } else {
                 f->lambda *= 8.0;
                 stalled = !(f->lambda <= 1e12);
