@@ -1370,6 +1370,7 @@ typedef struct sqffd_motion_report {
     double apex[3];              /* the ED model's point farthest along the axis */
     double length;               /* of the ED model along the axis */
     double anterior[3], septum[3]; /* unit, across the axis */
+    double apex_fraction;        /* options->apex_fraction: the levels' apex cap (sqffd_wall's ES segments too) */
     double median_excursion;     /* over the wall points */
     sqffd_segment_motion segments[SQFFD_SEGMENTS]; /* [k]: AHA segment k + 1 */
 } sqffd_motion_report;
@@ -1415,20 +1416,35 @@ SQFFD_DEF sqffd_result sqffd_motion(const sqffd_model *models, size_t frame_coun
      along the 3-D normal over the whole wall, the global thickening read
      3.3 points from the contours' own on average, 3.03 this way;
      bench/bench_wall.c);
-   - thickening[v] = WT_ES / WT_ED - 1; valve-plane vertices (segment 0) and
-     wall vertices whose normal crosses no epicardium (an epicardium inside
-     the endocardium there), or that are outside the planes at ED or ES,
-     have none: NaN in the outputs, counted in report->unmeasured;
-   - per segment, the mean ED thickness: over the segment's vertices
-     measured at ED, weighted by their ED areas; the mean ES thickness
-     likewise with the ES thickness and areas; thickening = ES mean / ED
-     mean - 1; globally, the same over all wall vertices. Each frame's
-     mean is the wall that frame shows, whatever the tracking's
-     correspondence: a tracked vertex may slide along the wall (see
-     sqffd_motion), and the wall's area shrinks unevenly in systole, so the
-     ES thickness weighed by the ED areas mixes the two frames (on the
+     A ray that meets the endocardium again before the epicardium crosses
+     the cavity, not the wall (a tracked surface's crease by the base,
+     where the normal's in-plane part turns inward): none there;
+   - the ES segments: placed on the ES mesh as sqffd_motion places the ED
+     mesh's, in the same frame (the motion report's axis, septum and
+     apex_fraction) but with the ES mesh's own levels (its extent along the
+     axis), centre (area centroid) and normals (the valve plane), so a
+     segment's ES wall is the wall there at ES whichever tracked vertices
+     slid onto it (the tracking's correspondence is the fit's, not the
+     tissue's: see sqffd_motion). At ES only the ES wall (ES segment not 0)
+     is measured;
+   - thickening[v] = WT_ES / WT_ED - 1 at the tracked vertex (its ED and ES
+     positions); ED valve-plane vertices (segment 0) and wall vertices
+     whose normal crosses no epicardium (an epicardium inside the
+     endocardium there), or that are outside the planes or off the wall at
+     ED or ES, have none: NaN in the outputs, counted in
+     report->unmeasured;
+   - per segment, the mean ED thickness: over the vertices of its ED
+     segment measured at ED, weighted by their ED areas; the mean ES
+     thickness over the vertices of its ES segment measured at ES, by their
+     ES areas; thickening = ES mean / ED mean - 1; globally, the same over
+     all wall vertices. Each frame's mean is the wall that frame shows,
+     whatever the tracking's correspondence: a tracked vertex may slide
+     along the wall, and the wall's area shrinks unevenly in systole, so
+     the ES thickness weighed by the ED areas mixes the two frames (on the
      bench, along the normals: 5.4 points from the contours', 3.4 by each
-     frame's own areas). A segment is
+     frame's own areas), and so do segments that keep their ED vertices at
+     ES (per-sector r 0.81 against the contours' sectors, 0.88 placed at
+     ES; bench/bench_wall.c). A segment is
      dysfunctional when its thickening < options->dysfunctional_thickening
      (default 0.2, the cut-off the contours' sector share uses in issue 35;
      normal regional values on cine MRI: Ubachs, Heiberg, Steding & Arheden,
@@ -1453,12 +1469,12 @@ typedef struct sqffd_wall_options {
 typedef struct sqffd_wall_outputs {
     double *myocardium;          /* frame_count: V_epi - V_endo */
     double *thickness_ed;        /* M (the endocardial grid's vertices): NaN where not measured */
-    double *thickness_es;        /* M */
+    double *thickness_es;        /* M: NaN off the ES wall too */
     double *thickening;          /* M */
 } sqffd_wall_outputs;
 
 typedef struct sqffd_segment_wall {
-    double thickness_ed, thickness_es; /* ED-area-weighted means over the measured vertices (0: none) */
+    double thickness_ed, thickness_es; /* each frame's area-weighted mean over its segment's measured vertices (0: none) */
     double thickening;                 /* thickness_es / thickness_ed - 1 */
     int dysfunctional;
 } sqffd_segment_wall;
@@ -9922,6 +9938,21 @@ static unsigned char sqffd__motion_segment(double f, double phi, double apex_fra
     return (unsigned char)(first + k);
 }
 
+/* The segment (0: valve plane) of a vertex x with unit outward normal n (or
+   0) in the report's frame, on a mesh whose point farthest along the axis
+   is at `top`, `length` long along it, area centroid `centre`; *level: f. */
+static unsigned char sqffd__motion_place(const sqffd_motion_report *rep, double top, double length, const double centre[3],
+                                         const double x[3], const double n[3], double *level)
+{
+    double d[3], phi, f = (top - sqffd__dot3(x, rep->axis)) / length;
+    *level = f < 0.0 ? 0.0 : f > 1.0 ? 1.0 : f;
+    if (*level > 0.5 && -sqffd__dot3(n, rep->axis) > SQFFD__MOTION_VALVE) return 0;
+    sqffd__sub3(x, centre, d);
+    phi = atan2(sqffd__dot3(d, rep->septum), sqffd__dot3(d, rep->anterior));
+    if (phi < 0.0) phi += 2.0 * SQFFD__FIT_PI;
+    return sqffd__motion_segment(*level, phi, rep->apex_fraction);
+}
+
 SQFFD_DEF sqffd_result sqffd_motion(const sqffd_model *models, size_t frame_count, const sqffd_motion_options *options,
                                     const sqffd_motion_outputs *outputs, sqffd_motion_report *report,
                                     void *workspace, size_t workspace_size)
@@ -10021,21 +10052,15 @@ SQFFD_DEF sqffd_result sqffd_motion(const sqffd_model *models, size_t frame_coun
     }
     sqffd__cross3(rep->septum, rep->axis, rep->anterior);
     /* per vertex: level, segment (0: valve plane), displacement */
+    rep->apex_fraction = o->apex_fraction;
     for (v = 0; v < m; ++v) {
-        double d[3], n[3], phi, f = (top - sqffd__dot3(w.ed + 3 * v, rep->axis)) / rep->length;
-        int facing;
-        w.level[v] = f < 0.0 ? 0.0 : f > 1.0 ? 1.0 : f;
+        double d[3], n[3];
         sqffd__sub3(w.es + 3 * v, w.ed + 3 * v, d);
         w.moved[v] = sqrt(sqffd__dot3(d, d));
         if (!sqffd__unit3(w.normal + 3 * v, 0.0, n)) n[0] = n[1] = n[2] = 0.0;
         w.inward[v] = -sqffd__dot3(d, n);
-        facing = -sqffd__dot3(n, rep->axis) > SQFFD__MOTION_VALVE;
-        if (w.level[v] > 0.5 && facing) { w.segment[v] = 0; continue; }
-        sqffd__sub3(w.ed + 3 * v, centre, d);
-        phi = atan2(sqffd__dot3(d, rep->septum), sqffd__dot3(d, rep->anterior));
-        if (phi < 0.0) phi += 2.0 * SQFFD__FIT_PI;
-        w.segment[v] = sqffd__motion_segment(w.level[v], phi, o->apex_fraction);
-        w.scratch[wall++] = w.inward[v];
+        w.segment[v] = sqffd__motion_place(rep, top, rep->length, centre, w.ed + 3 * v, n, &w.level[v]);
+        if (w.segment[v]) w.scratch[wall++] = w.inward[v];
     }
     if (wall == 0) return SQFFD_ERROR_DEGENERATE;
     rep->median_excursion = sqffd__sq_select(w.scratch, wall, wall / 2);
@@ -10092,13 +10117,17 @@ typedef struct sqffd__wall_work {
     double *normal;          /* M x 3: ED, then ES normals */
     double *thickness[2];    /* M: at ED and ES */
     double *thickening;      /* M */
+    unsigned char *segment_es; /* M: the ES segments, assigned on the ES mesh */
     double *epi;             /* E x 3: the epicardium's vertices */
     uint32_t *triangles;     /* its mesh */
+    uint32_t *endo_triangles; /* the endocardium's */
+    size_t triangle_count[2]; /* the epicardium's, the endocardium's */
     double *myocardium;      /* frame_count */
     sqffd_wall_report *report;
 } sqffd__wall_work;
 
-static void sqffd__wall_layout(sqffd__arena *a, size_t m, size_t e, size_t triangles, size_t frames, sqffd__wall_work *w)
+static void sqffd__wall_layout(sqffd__arena *a, size_t m, size_t e, const size_t triangles[2], size_t frames,
+                               sqffd__wall_work *w)
 {
     w->ed = (double *)sqffd__arena_take(a, m, 3 * sizeof(double));
     w->es = (double *)sqffd__arena_take(a, m, 3 * sizeof(double));
@@ -10108,8 +10137,12 @@ static void sqffd__wall_layout(sqffd__arena *a, size_t m, size_t e, size_t trian
     w->thickness[0] = (double *)sqffd__arena_take(a, m, sizeof(double));
     w->thickness[1] = (double *)sqffd__arena_take(a, m, sizeof(double));
     w->thickening = (double *)sqffd__arena_take(a, m, sizeof(double));
+    w->segment_es = (unsigned char *)sqffd__arena_take(a, m, 1);
     w->epi = (double *)sqffd__arena_take(a, e, 3 * sizeof(double));
-    w->triangles = (uint32_t *)sqffd__arena_take(a, triangles, 3 * sizeof(uint32_t));
+    w->triangles = (uint32_t *)sqffd__arena_take(a, triangles[0], 3 * sizeof(uint32_t));
+    w->endo_triangles = (uint32_t *)sqffd__arena_take(a, triangles[1], 3 * sizeof(uint32_t));
+    w->triangle_count[0] = triangles[0];
+    w->triangle_count[1] = triangles[1];
     w->myocardium = (double *)sqffd__arena_take(a, frames, sizeof(double));
     w->report = (sqffd_wall_report *)sqffd__arena_take(a, 1, sizeof(sqffd_wall_report));
 }
@@ -10119,35 +10152,40 @@ SQFFD_DEF sqffd_result sqffd_wall_workspace_size(const sqffd_model *endo, const 
 {
     sqffd__arena a;
     sqffd__wall_work w;
-    size_t e = 0, triangles = 0;
+    size_t e = 0, m = 0, triangles[2] = {0, 0};
     sqffd_result r;
     if (!size) return SQFFD_ERROR_INVALID_ARGUMENT;
     *size = 0;
     if (!endo || !epi || frame_count == 0) return SQFFD_ERROR_INVALID_ARGUMENT;
     if ((r = sqffd_model_validate(endo)) != SQFFD_OK || (r = sqffd_model_validate(epi)) != SQFFD_OK) return r;
-    sqffd_model_mesh_size(epi->grid[0], epi->grid[1], &e, &triangles);
+    sqffd_model_mesh_size(epi->grid[0], epi->grid[1], &e, &triangles[0]);
+    sqffd_model_mesh_size(endo->grid[0], endo->grid[1], &m, &triangles[1]);
     sqffd__arena_measure(&a);
-    sqffd__wall_layout(&a, sqffd__fit_grid_count(endo->grid), e, triangles, frame_count, &w);
+    sqffd__wall_layout(&a, m, e, triangles, frame_count, &w);
     return sqffd__arena_size(&a, size);
 }
 
 /* The distance along unit direction d from o to the nearest crossing of the
    mesh ahead of o (Moller & Trumbore's ray-triangle test), HUGE_VAL if none;
-   *hit: the crossed triangle. */
+   *hit: the crossed triangle. The triangles around vertex `skip` (o itself,
+   on this mesh; (size_t)-1: none), and those whose first vertex is farther
+   than `within` from o (HUGE_VAL: none), are not looked at. */
 static double sqffd__wall_ray(const double *x, const uint32_t *tri, size_t triangles, const double o[3], const double d[3],
-                              size_t *hit)
+                              size_t skip, double within, size_t *hit)
 {
     double best = HUGE_VAL;
     size_t i;
     for (i = 0; i < triangles; ++i) {
         const double *a = x + 3 * (size_t)tri[3 * i], *b = x + 3 * (size_t)tri[3 * i + 1], *c = x + 3 * (size_t)tri[3 * i + 2];
         double e1[3], e2[3], p[3], s[3], q[3], det, u, v, t;
+        if (tri[3 * i] == skip || tri[3 * i + 1] == skip || tri[3 * i + 2] == skip) continue;
+        sqffd__sub3(o, a, s);
+        if (within < HUGE_VAL && sqffd__dot3(s, s) > within * within) continue;
         sqffd__sub3(b, a, e1);
         sqffd__sub3(c, a, e2);
         sqffd__cross3(d, e2, p);
         det = sqffd__dot3(e1, p);
         if (det == 0.0) continue; /* the ray along the triangle's plane */
-        sqffd__sub3(o, a, s);
         u = sqffd__dot3(s, p) / det;
         if (!(u >= 0.0 && u <= 1.0)) continue;
         sqffd__cross3(s, e1, q);
@@ -10162,19 +10200,51 @@ static double sqffd__wall_ray(const double *x, const uint32_t *tri, size_t trian
     return best;
 }
 
+/* The segments of the endocardial mesh x (M vertices, areas and normals
+   from sqffd__motion_areas) in the motion report's frame, with this mesh's
+   own levels and centre, as sqffd_motion places the ED mesh's: 0 if the
+   mesh is flat along the axis. */
+static int sqffd__wall_segments(const sqffd_motion_report *motion, size_t m, const double *x, const double *area,
+                                const double *normal, unsigned char *segment)
+{
+    double centre[3] = {0.0, 0.0, 0.0}, total = 0.0, top = -HUGE_VAL, bottom = HUGE_VAL, level;
+    size_t v;
+    int k;
+    for (v = 0; v < m; ++v) {
+        double at = sqffd__dot3(x + 3 * v, motion->axis);
+        for (k = 0; k < 3; ++k) centre[k] += area[v] * x[3 * v + (size_t)k];
+        total += area[v];
+        top = at > top ? at : top;
+        bottom = at < bottom ? at : bottom;
+    }
+    if (!(total > 0.0) || !(top - bottom > 1e-9 * sqrt(total))) return 0;
+    for (k = 0; k < 3; ++k) centre[k] /= total;
+    for (v = 0; v < m; ++v) {
+        double n[3];
+        if (!sqffd__unit3(normal + 3 * v, 0.0, n)) n[0] = n[1] = n[2] = 0.0;
+        segment[v] = sqffd__motion_place(motion, top, top - bottom, centre, x + 3 * v, n, &level);
+    }
+    return 1;
+}
+
 /* Frame t's wall thickness along the endocardium's normals (endo vertices x,
-   epicardium model epi) into thickness: NaN off the wall, without a
-   crossing, or where the crossing is on the epicardium's valve plane (a
-   triangle facing the base, as sqffd_motion's valve rule: the normal leaves
-   through the base, where the wall is cut, not across it); the vertices'
-   areas into area, their normals into w->normal. */
+   their normals in w->normal, epicardium model epi) into thickness: NaN off
+   the wall (segment 0), without a crossing, or where the crossing is on
+   the epicardium's valve plane (a triangle facing the base, as
+   sqffd_motion's valve rule: the normal leaves through the base, where the
+   wall is cut, not across it). */
 static void sqffd__wall_thickness(const sqffd_model *endo, const sqffd_model *epi, const double *x,
                                   const unsigned char *segment, const double axis[3], const sqffd_stack *stack,
-                                  const sqffd__wall_work *w, size_t triangles, double *area, double *thickness)
+                                  const sqffd__wall_work *w, double *thickness)
 {
-    size_t m = sqffd__fit_grid_count(endo->grid), v, hit = 0;
+    size_t m = sqffd__fit_grid_count(endo->grid), v, hit = 0, other;
+    double reach = 0.0; /* the endocardium's longest edge: a triangle within d of a point has its first vertex within d + it */
     sqffd__fit_surface(epi, epi->grid, w->epi);
-    sqffd__motion_areas(endo->grid, x, area, w->normal);
+    for (v = 0; v < 3 * w->triangle_count[1]; ++v) {
+        double e[3];
+        sqffd__sub3(x + 3 * (size_t)w->endo_triangles[v], x + 3 * (size_t)w->endo_triangles[v - v % 3 + (v + 1) % 3], e);
+        reach = fmax(reach, sqrt(sqffd__dot3(e, e)));
+    }
     for (v = 0; v < m; ++v) {
         double n[3], e1[3], e2[3], face[3], d;
         const uint32_t *t;
@@ -10186,8 +10256,10 @@ static void sqffd__wall_thickness(const sqffd_model *endo, const sqffd_model *ep
             for (hit = 0; hit < 3; ++hit) n[hit] -= along * stack->axis[hit];
             if (!sqffd__unit3(n, 1.0, n)) continue;
         }
-        d = sqffd__wall_ray(w->epi, w->triangles, triangles, x + 3 * v, n, &hit);
+        d = sqffd__wall_ray(w->epi, w->triangles, w->triangle_count[0], x + 3 * v, n, (size_t)-1, HUGE_VAL, &hit);
         if (!(d < HUGE_VAL)) continue;
+        /* a ray that meets the endocardium again first crosses the cavity, not the wall */
+        if (sqffd__wall_ray(x, w->endo_triangles, w->triangle_count[1], x + 3 * v, n, v, d + reach, &other) < d) continue;
         t = w->triangles + 3 * hit;
         sqffd__sub3(w->epi + 3 * (size_t)t[1], w->epi + 3 * (size_t)t[0], e1);
         sqffd__sub3(w->epi + 3 * (size_t)t[2], w->epi + 3 * (size_t)t[0], e2);
@@ -10209,7 +10281,7 @@ SQFFD_DEF sqffd_result sqffd_wall(const sqffd_model *endo, const sqffd_model *ep
     sqffd__wall_work w;
     sqffd__arena a;
     double sum[SQFFD_SEGMENTS + 1][4], total[4] = {0.0, 0.0, 0.0, 0.0}; /* [c]: area x thickness, [2 + c]: area at ED, ES */
-    size_t m, e = 0, triangles = 0, t, v;
+    size_t m, e = 0, triangles[2] = {0, 0}, t, v;
     int k, c;
     if (!endo || !epi || !motion || !segment || frame_count == 0 || motion->ed_frame >= frame_count ||
         motion->es_frame >= frame_count || !(o->dysfunctional_thickening > -1.0) || !isfinite(o->dysfunctional_thickening))
@@ -10226,13 +10298,15 @@ SQFFD_DEF sqffd_result sqffd_wall(const sqffd_model *endo, const sqffd_model *ep
     m = sqffd__fit_grid_count(endo->grid);
     for (v = 0; v < m; ++v)
         if (segment[v] > SQFFD_SEGMENTS) return SQFFD_ERROR_INVALID_ARGUMENT;
-    sqffd_model_mesh_size(epi->grid[0], epi->grid[1], &e, &triangles);
+    sqffd_model_mesh_size(epi->grid[0], epi->grid[1], &e, &triangles[0]);
+    sqffd_model_mesh_size(endo->grid[0], endo->grid[1], NULL, &triangles[1]);
     sqffd__arena_init(&a, workspace, workspace_size);
     sqffd__wall_layout(&a, m, e, triangles, frame_count, &w);
     if (a.overflow) return sqffd__arena_error(&a);
     rep = w.report;
     memset(rep, 0, sizeof *rep);
     sqffd_model_mesh(epi, epi->grid[0], epi->grid[1], NULL, w.triangles);
+    sqffd_model_mesh(endo, endo->grid[0], endo->grid[1], NULL, w.endo_triangles);
     volumes.stacks = o->stacks;
     for (t = 0; t < frame_count; ++t) { /* the myocardium: the volume between the two surfaces */
         sqffd__fit_surface(endo + t, endo->grid, w.ed);
@@ -10245,22 +10319,26 @@ SQFFD_DEF sqffd_result sqffd_wall(const sqffd_model *endo, const sqffd_model *ep
     }
     rep->myocardium_ed = w.myocardium[motion->ed_frame];
     rep->myocardium_es = w.myocardium[motion->es_frame];
-    /* the thickness at ED and at ES */
+    /* the thickness at ED (the motion's segments) and at ES (its own, placed on the ES mesh) */
     sqffd__fit_surface(endo + motion->ed_frame, endo->grid, w.ed);
+    sqffd__motion_areas(endo->grid, w.ed, w.area[0], w.normal);
     sqffd__wall_thickness(endo, epi + motion->ed_frame, w.ed, segment, motion->axis, o->endo_stacks ? o->endo_stacks + motion->ed_frame : NULL,
-                          &w, triangles, w.area[0], w.thickness[0]);
+                          &w, w.thickness[0]);
     sqffd__fit_surface(endo + motion->es_frame, endo->grid, w.es);
-    sqffd__wall_thickness(endo, epi + motion->es_frame, w.es, segment, motion->axis, o->endo_stacks ? o->endo_stacks + motion->es_frame : NULL,
-                          &w, triangles, w.area[1], w.thickness[1]);
+    sqffd__motion_areas(endo->grid, w.es, w.area[1], w.normal);
+    if (!sqffd__wall_segments(motion, m, w.es, w.area[1], w.normal, w.segment_es)) return SQFFD_ERROR_DEGENERATE;
+    sqffd__wall_thickness(endo, epi + motion->es_frame, w.es, w.segment_es, motion->axis, o->endo_stacks ? o->endo_stacks + motion->es_frame : NULL,
+                          &w, w.thickness[1]);
     memset(sum, 0, sizeof sum);
     for (v = 0; v < m; ++v) {
+        const unsigned char frame_segment[2] = {segment[v], w.segment_es[v]};
         w.thickening[v] = w.thickness[1][v] / w.thickness[0][v] - 1.0; /* (NaN where either is) */
-        if (!segment[v]) continue;
-        for (c = 0; c < 2; ++c)
-            if (w.thickness[c][v] > 0.0) { /* (each frame's means: over the vertices it measured) */
-                sum[segment[v]][c] += w.area[c][v] * w.thickness[c][v];
-                sum[segment[v]][2 + c] += w.area[c][v];
+        for (c = 0; c < 2; ++c) /* each frame's means: over its own segments' vertices that it measured */
+            if (w.thickness[c][v] > 0.0) {
+                sum[frame_segment[c]][c] += w.area[c][v] * w.thickness[c][v];
+                sum[frame_segment[c]][2 + c] += w.area[c][v];
             }
+        if (!segment[v]) continue;
         if (!isfinite(w.thickening[v])) { /* (a zero ED thickness too: the surfaces touch) */
             w.thickening[v] = NAN;
             ++rep->unmeasured;

@@ -17,10 +17,11 @@
      60-degree sectors (from the image's +x axis); a sector's thickening is
      its mean ES thickness over its mean ED thickness less 1, over all its
      slices; global: the same over all sectors. The library's sectors pool
-     its wall vertices by their ED angle about the ED endocardium's area
-     centroid, in the same six bins (the data give no septum, so the AHA
-     segments are sectors from a superquadric axis; the bins are the
-     image's);
+     each frame's measured wall vertices by their angle in that frame about
+     that frame's centroid of them, in the same six bins, weighted by that
+     frame's vertex areas, as sqffd_wall pools its segments (the data give
+     no septum, so the AHA segments are sectors from a superquadric axis;
+     the bins are the image's);
    - infarcted against control pigs (Mann-Whitney AUC, 1: every infarcted
      exam scores above every control): the library's share of dysfunctional
      segments (thickening < 20 %), the contours' share of slice sectors
@@ -143,6 +144,51 @@ static void contour_thickness(const double *endo, size_t ne, const double *epi, 
     }
 }
 
+/* One frame's wall thickness pooled into the six sectors (sums[k]: area x
+   thickness, area): its measured vertices x (thickness not NaN) by their
+   angle about their centroid, weighted by their areas on the model's mesh. */
+static int frame_sectors(const sqffd_model *model, const double *x, const double *thickness, double sums[SECTORS][2])
+{
+    size_t m = 0, nt = 0, i, v;
+    uint32_t *tri;
+    double *area, centre[2] = {0.0, 0.0}, count = 0.0;
+    int c;
+    sqffd_model_mesh_size(model->grid[0], model->grid[1], &m, &nt);
+    tri = (uint32_t *)malloc(3 * nt * sizeof *tri);
+    area = (double *)calloc(m, sizeof *area);
+    if (!tri || !area || sqffd_model_mesh(model, model->grid[0], model->grid[1], NULL, tri) != SQFFD_OK) {
+        free(tri);
+        free(area);
+        return -1;
+    }
+    for (i = 0; i < nt; i++) { /* a third of each triangle's area to each of its vertices */
+        const double *a = x + 3 * tri[3 * i], *b = x + 3 * tri[3 * i + 1], *d = x + 3 * tri[3 * i + 2];
+        double e1[3], e2[3], n[3];
+        for (c = 0; c < 3; c++) { e1[c] = b[c] - a[c]; e2[c] = d[c] - a[c]; }
+        n[0] = e1[1] * e2[2] - e1[2] * e2[1];
+        n[1] = e1[2] * e2[0] - e1[0] * e2[2];
+        n[2] = e1[0] * e2[1] - e1[1] * e2[0];
+        for (c = 0; c < 3; c++) area[tri[3 * i + c]] += sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]) / 6.0;
+    }
+    for (v = 0; v < m; v++)
+        if (!isnan(thickness[v])) {
+            centre[0] += x[3 * v];
+            centre[1] += x[3 * v + 1];
+            count += 1.0;
+        }
+    for (v = 0; v < m; v++) {
+        double a;
+        if (isnan(thickness[v])) continue;
+        a = atan2(x[3 * v + 1] - centre[1] / count, x[3 * v] - centre[0] / count) * 180.0 / 3.14159265358979323846;
+        c = (int)((a < 0.0 ? a + 360.0 : a) / 60.0) % SECTORS;
+        sums[c][0] += area[v] * thickness[v];
+        sums[c][1] += area[v];
+    }
+    free(tri);
+    free(area);
+    return 0;
+}
+
 /* A surface's two frames tracked as the CLI does (stacks, lids; stacks
    NULL: as they are, as label maps' surfaces); stacks out. */
 static int track_surface(double *points[2], size_t counts[2], sqffd_stack stacks[2], sqffd_model models[2])
@@ -210,7 +256,7 @@ static int run(exam *e)
 {
     static const char *const files[4] = {"ed", "es", "ed_epi", "es_epi"};
     double *raw[4] = {NULL, NULL, NULL, NULL}, *points[4] = {NULL, NULL, NULL, NULL}, sums[2][SECTORS][2];
-    double slices[2][64][SECTORS], lib[SECTORS][3], start, centre[2] = {0.0, 0.0}, area_sum = 0.0;
+    double slices[2][64][SECTORS], lib[2][SECTORS][2], start;
     size_t raw_counts[4], counts[4], m, size, v, f;
     sqffd_stack stacks[4];
     sqffd_model endo[2], epi[2];
@@ -221,7 +267,7 @@ static int run(exam *e)
     sqffd_wall_outputs wout;
     sqffd_wall_report wall;
     unsigned char *segment = NULL;
-    double *x = NULL, *ted = NULL, *tes = NULL, *traj = NULL;
+    double *ted = NULL, *tes = NULL, *traj = NULL;
     void *work = NULL;
     int k, status = -1, flagged = 0, thin = 0, total = 0;
     for (k = 0; k < 4; k++) {
@@ -276,26 +322,12 @@ static int run(exam *e)
         total += wall.segments[k].thickness_ed > 0.0;
     }
     e->dysfunctional_share = (double)flagged / total;
-    /* the library's six sectors: wall vertices by their ED angle about the ED centroid */
-    x = traj + 3 * m * motion.ed_frame;
-    for (v = 0; v < m; v++)
-        if (segment[v]) {
-            centre[0] += x[3 * v];
-            centre[1] += x[3 * v + 1];
-            area_sum += 1.0;
-        }
-    centre[0] /= area_sum;
-    centre[1] /= area_sum;
+    /* the library's six sectors: each frame's own measured vertices, by their angle then */
     memset(lib, 0, sizeof lib);
-    for (v = 0; v < m; v++) {
-        double a;
-        if (!segment[v] || isnan(ted[v]) || isnan(tes[v])) continue;
-        a = atan2(x[3 * v + 1] - centre[1], x[3 * v] - centre[0]) * 180.0 / 3.14159265358979323846;
-        k = (int)((a < 0.0 ? a + 360.0 : a) / 60.0) % SECTORS;
-        lib[k][0] += ted[v];
-        lib[k][1] += tes[v];
-    }
-    for (k = 0; k < SECTORS; k++) e->sector[k] = lib[k][1] / lib[k][0] - 1.0;
+    if (frame_sectors(endo + motion.ed_frame, traj + 3 * m * motion.ed_frame, ted, lib[0]) ||
+        frame_sectors(endo + motion.es_frame, traj + 3 * m * motion.es_frame, tes, lib[1]))
+        goto done;
+    for (k = 0; k < SECTORS; k++) e->sector[k] = (lib[1][k][0] / lib[1][k][1]) / (lib[0][k][0] / lib[0][k][1]) - 1.0;
     /* the contours' share of slice sectors thickening < 20 %: ED and ES slices paired by rank from the
        first slice (the files list them in the same order) */
     {

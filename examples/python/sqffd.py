@@ -221,7 +221,8 @@ class _SegmentMotion(ctypes.Structure):
 class _MotionReport(ctypes.Structure):
     _fields_ = [("ed_frame", _size), ("es_frame", _size), ("edv", _double), ("esv", _double),
                 ("ejection_fraction", _double), ("axis", _double * 3), ("apex", _double * 3), ("length", _double),
-                ("anterior", _double * 3), ("septum", _double * 3), ("median_excursion", _double),
+                ("anterior", _double * 3), ("septum", _double * 3), ("apex_fraction", _double),
+                ("median_excursion", _double),
                 ("segments", _SegmentMotion * _SEGMENTS)]
 
 
@@ -923,6 +924,7 @@ class Motion:
     length: float
     anterior: np.ndarray
     septum: np.ndarray
+    apex_fraction: float      # the options' (wall() places the ES segments with it)
     median_excursion: float
     segments: List[SegmentMotion]
 
@@ -962,7 +964,7 @@ def motion(models, stacks=None, **options):
     return Motion(volumes, trajectories, displacement, excursion, low_motion.astype(bool), segment,
                   report.ed_frame, report.es_frame, report.edv, report.esv, report.ejection_fraction,
                   _array(report.axis), _array(report.apex), report.length, _array(report.anterior),
-                  _array(report.septum), report.median_excursion, segments)
+                  _array(report.septum), report.apex_fraction, report.median_excursion, segments)
 
 
 # ---- the heart wall ------------------------------------------------------------------------------
@@ -999,7 +1001,8 @@ class Wall:
 def _motion_report(motion_result):
     """A Motion's report as the C struct sqffd_wall reads."""
     report = _MotionReport()
-    for name in ("ed_frame", "es_frame", "edv", "esv", "ejection_fraction", "length", "median_excursion"):
+    for name in ("ed_frame", "es_frame", "edv", "esv", "ejection_fraction", "length", "apex_fraction",
+                 "median_excursion"):
         setattr(report, name, getattr(motion_result, name))
     for name in ("axis", "apex", "anterior", "septum"):
         getattr(report, name)[:] = [float(x) for x in getattr(motion_result, name)]

@@ -150,6 +150,7 @@ int main(void)
     FIELD(sqffd_motion_report, length);
     FIELD(sqffd_motion_report, anterior);
     FIELD(sqffd_motion_report, septum);
+    FIELD(sqffd_motion_report, apex_fraction);
     FIELD(sqffd_motion_report, median_excursion);
     FIELD(sqffd_motion_report, segments);
 

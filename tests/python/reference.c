@@ -150,6 +150,7 @@ static int write_motion_report(const char *path, const sqffd_motion_report *m)
     put(f, "", "length", m->length);
     put_array(f, "", "anterior", m->anterior, 3);
     put_array(f, "", "septum", m->septum, 3);
+    put(f, "", "apex_fraction", m->apex_fraction);
     put(f, "", "median_excursion", m->median_excursion);
     for (k = 0; k < SQFFD_SEGMENTS; k++) {
         char prefix[32];
