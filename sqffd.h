@@ -7467,6 +7467,7 @@ static const int sqffd__fit_region_grid[2] = {32, 64}; /* the superquadric's sur
 #define SQFFD__FIT_ROUNDS 8       /* rounds of a step's candidate samples at most */
 #define SQFFD__FIT_CANDIDATES 96  /* samples one step's penalty holds at most */
 #define SQFFD__FIT_ROUND_BATCH 16 /* of them a round adds at most */
+#define SQFFD__FIT_OFF_GRID 0xffffffffu /* a sample off the region's lattice (sqffd__fit_fold.node) */
 
 struct sqffd__fit_fold {
     sqffd__jacobian_work at;   /* J's coefficients over the box */
@@ -7480,13 +7481,19 @@ struct sqffd__fit_fold {
     double *value;             /* J - goal at each, for the accepted model */
     double *trial;             /* and for the trial */
     unsigned char *active;     /* the step's candidates */
-    unsigned char *fresh;      /* whether gradients[i] is that of the accepted model */
+    uint32_t *node;            /* each sample's node of the region's lattice (SQFFD__FIT_OFF_GRID: a point the
+                                  certificate added) */
+    double (*cross)[9];        /* the accepted model's d1 x d2, d2 x d0, d0 x d1 at each (d_a = dX/dstu_a in the box's
+                                  frame: J = d0 . (d1 x d2), and J's change along a step is sum_a step's d_a . cross_a) */
+    double (*frames)[9];       /* SQFFD__FIT_REGION_NODES: d0 d1 d2 at every node of the lattice, for one field */
+    double *contract;          /* the frames' partial sums, one axis at a time */
     size_t samples, capacity;
     double *tensor;            /* the certificate's coefficients, one tensor a level */
     double *surface;           /* the superquadric's points on the SQFFD__FIT_REGION_GRID (the region's seeds) */
     double (*fails)[3];        /* SQFFD__FIT_CERT_FAILS */
     size_t failed;
-    double *gradients;         /* samples x 3L: dJ / dP at each, for the accepted model (planar) */
+    double *gradients;         /* SQFFD__FIT_CANDIDATES x 3L: dJ / dP at each candidate, for the accepted model
+                                  (planar) */
     double *hessian;           /* 3L x 3L lower triangle, planar unknowns: the energy's Gauss-Newton matrix at the
                                   accepted model, without the penalty */
     double *factor;            /* 3L x 3L: the step's matrix factored, stored as L^T (rows of the upper triangle) */
@@ -7497,7 +7504,6 @@ struct sqffd__fit_fold {
     double *base;              /* 3L: L^-1 rhs, L the factor of the step's matrix without the penalty */
     uint32_t *candidate;       /* SQFFD__FIT_CANDIDATES: the samples the step's penalty may hold */
     double *solved;            /* SQFFD__FIT_CANDIDATES x 3L: L^-1 g for each */
-    double *batch;             /* 3L x SQFFD__FIT_ROUND_BATCH: one round's new candidates' g, then L^-1 g, side by side */
     double *gram;              /* SQFFD__FIT_CANDIDATES^2: their products, plus 1 / (M rho) on the diagonal */
     double *small;             /* SQFFD__FIT_CANDIDATES^2: the multipliers' solve */
     double *need, *multiplier, *z, *slope; /* SQFFD__FIT_CANDIDATES each: the multipliers' solve */
@@ -7505,6 +7511,14 @@ struct sqffd__fit_fold {
     double *damping;           /* L x L lower: the damping's matrix */
     double *planes;            /* M x 6: the pass's sums of w n n^T (xx xy xz yy yz zz) */
 };
+
+/* sqffd__fit_fold_frames' partial sums: axis 2 summed (value and slope),
+   then axis 1 (three of them), for the region's lattice. */
+static size_t sqffd__fit_contract_size(const int dims[3])
+{
+    size_t n = SQFFD__FIT_REGION + 1, l0 = (size_t)dims[0];
+    return 3 * l0 * n * (2 * (size_t)dims[1] + 3 * n);
+}
 
 static void sqffd__fit_fold_layout(sqffd__arena *a, const int dims[3], size_t m, int with_floor, sqffd__fit_fold *f)
 {
@@ -7527,8 +7541,11 @@ static void sqffd__fit_fold_layout(sqffd__arena *a, const int dims[3], size_t m,
     f->value = (double *)sqffd__arena_take(a, f->capacity, sizeof(double));
     f->trial = (double *)sqffd__arena_take(a, f->capacity, sizeof(double));
     f->active = (unsigned char *)sqffd__arena_take(a, f->capacity, 1);
-    f->fresh = (unsigned char *)sqffd__arena_take(a, f->capacity, 1);
-    f->gradients = (double *)sqffd__arena_take(a, f->capacity, size * sizeof(double));
+    f->node = (uint32_t *)sqffd__arena_take(a, f->capacity, sizeof(uint32_t));
+    f->cross = (double (*)[9])sqffd__arena_take(a, f->capacity, 9 * sizeof(double));
+    f->frames = (double (*)[9])sqffd__arena_take(a, SQFFD__FIT_REGION_NODES, 9 * sizeof(double));
+    f->contract = (double *)sqffd__arena_take(a, sqffd__fit_contract_size(dims), sizeof(double));
+    f->gradients = (double *)sqffd__arena_take(a, SQFFD__FIT_CANDIDATES, size * sizeof(double));
     f->hessian = (double *)sqffd__arena_take(a, size * size, sizeof(double));
     f->factor = (double *)sqffd__arena_take(a, size * size, sizeof(double));
     f->gradient = (double *)sqffd__arena_take(a, size, sizeof(double));
@@ -7537,7 +7554,6 @@ static void sqffd__fit_fold_layout(sqffd__arena *a, const int dims[3], size_t m,
     f->scratch = (double *)sqffd__arena_take(a, size, sizeof(double));
     f->base = (double *)sqffd__arena_take(a, size, sizeof(double));
     f->solved = (double *)sqffd__arena_take(a, SQFFD__FIT_CANDIDATES, size * sizeof(double));
-    f->batch = (double *)sqffd__arena_take(a, SQFFD__FIT_ROUND_BATCH, size * sizeof(double));
     f->gram = (double *)sqffd__arena_take(a, SQFFD__FIT_CANDIDATES * SQFFD__FIT_CANDIDATES, sizeof(double));
     f->small = (double *)sqffd__arena_take(a, SQFFD__FIT_CANDIDATES * SQFFD__FIT_CANDIDATES, sizeof(double));
     f->candidate = (uint32_t *)sqffd__arena_take(a, SQFFD__FIT_CANDIDATES, sizeof(uint32_t));
@@ -7617,6 +7633,7 @@ static void sqffd__fit_region(const sqffd_model *model, sqffd__fit_fold *f)
                             near = f->region[(di * r + dj) * r + dk];
                 if (!near) continue;
                 at = f->samples++;
+                f->node[at] = (uint32_t)((i * (r + 1) + j) * (r + 1) + k);
                 f->sample[at][0] = (double)i / r;
                 f->sample[at][1] = (double)j / r;
                 f->sample[at][2] = (double)k / r;
@@ -7640,6 +7657,15 @@ static int sqffd__fit_region_meets(const sqffd__fit_fold *f, int cells, const in
 }
 
 /* 1-D Bernstein values b and derivatives db of degree d at t. */
+/* d1 x d2, d2 x d0, d0 x d1 of a frame d (9) into cross (9); J = d0 . (d1 x d2). */
+static double sqffd__fit_fold_crosses(const double *d, double *cross)
+{
+    sqffd__cross3(d + 3, d + 6, cross);
+    sqffd__cross3(d + 6, d, cross + 3);
+    sqffd__cross3(d, d + 3, cross + 6);
+    return sqffd__dot3(d, cross);
+}
+
 static void sqffd__bernstein_derivatives(int d, double t, double *b, double *db)
 {
     double low[SQFFD_MAX_LATTICE];
@@ -7650,52 +7676,132 @@ static void sqffd__bernstein_derivatives(int d, double t, double *b, double *db)
     for (i = 0; i <= d; ++i) db[i] = (double)d * ((i > 0 ? low[i - 1] : 0.0) - (i < d ? low[i] : 0.0));
 }
 
-/* J at box point stu for control points in sqffd_ffd's layout; with grad
-   (3L, planar) its gradient with respect to them. */
-static double sqffd__fit_fold_sample(const int dims[3], const double *control, const double inverse[9],
-                                     const double stu[3], double *grad)
+/* The frame d_a = inverse (d x / d stu_a), a = 0 1 2, at box point stu of a
+   field over the lattice (control points, or a step: entry c of point p at
+   field[p ps + c cs]) into d (9); with grad (3L, planar) J's gradient
+   with respect to the control points, from the field's frame. J itself:
+   d0 . (d1 x d2) (sqffd__fit_fold_crosses). */
+static void sqffd__fit_fold_frame(const int dims[3], const double *field, size_t ps, size_t cs, const double inverse[9],
+                                  const double stu[3], double *d, double *grad)
 {
-    double b[3][SQFFD_MAX_LATTICE], db[3][SQFFD_MAX_LATTICE], world[3][3], d[3][3], cross[3][3], m[3][3];
-    size_t l = (size_t)dims[0] * (size_t)dims[1] * (size_t)dims[2], p;
-    int a, c, i, j, k;
+    double b[3][SQFFD_MAX_LATTICE], db[3][SQFFD_MAX_LATTICE], world[3][3], cross[9], m[3][3];
+    size_t l = (size_t)dims[0] * (size_t)dims[1] * (size_t)dims[2], p, c;
+    int a, i, j, k;
     for (a = 0; a < 3; ++a) sqffd__bernstein_derivatives(dims[a] - 1, stu[a], b[a], db[a]);
     memset(world, 0, sizeof world); /* world[a]: d x / d stu_a */
     for (i = 0, p = 0; i < dims[0]; ++i)
         for (j = 0; j < dims[1]; ++j)
             for (k = 0; k < dims[2]; ++k, ++p) {
-                const double *q = control + 3 * p;
                 double ds = db[0][i] * b[1][j] * b[2][k], dt = b[0][i] * db[1][j] * b[2][k], du = b[0][i] * b[1][j] * db[2][k];
                 for (c = 0; c < 3; ++c) {
-                    world[0][c] += ds * q[c];
-                    world[1][c] += dt * q[c];
-                    world[2][c] += du * q[c];
+                    double q = field[p * ps + c * cs];
+                    world[0][c] += ds * q;
+                    world[1][c] += dt * q;
+                    world[2][c] += du * q;
                 }
             }
-    for (a = 0; a < 3; ++a) sqffd__mat3_vec(inverse, world[a], d[a]);
-    sqffd__cross3(d[1], d[2], cross[0]);
-    sqffd__cross3(d[2], d[0], cross[1]);
-    sqffd__cross3(d[0], d[1], cross[2]);
-    if (grad) { /* dJ / dP_p = inverse^T (sum_a dB_p / d stu_a cross[a]) */
-        for (a = 0; a < 3; ++a) sqffd__mat3t_vec(inverse, cross[a], m[a]);
-        for (i = 0, p = 0; i < dims[0]; ++i)
-            for (j = 0; j < dims[1]; ++j)
-                for (k = 0; k < dims[2]; ++k, ++p) {
-                    double ds = db[0][i] * b[1][j] * b[2][k], dt = b[0][i] * db[1][j] * b[2][k], du = b[0][i] * b[1][j] * db[2][k];
-                    for (c = 0; c < 3; ++c) grad[(size_t)c * l + p] = ds * m[0][c] + dt * m[1][c] + du * m[2][c];
+    for (a = 0; a < 3; ++a) sqffd__mat3_vec(inverse, world[a], d + 3 * a);
+    if (!grad) return;
+    sqffd__fit_fold_crosses(d, cross); /* dJ / dP_p = inverse^T (sum_a dB_p / d stu_a cross_a) */
+    for (a = 0; a < 3; ++a) sqffd__mat3t_vec(inverse, cross + 3 * a, m[a]);
+    for (i = 0, p = 0; i < dims[0]; ++i)
+        for (j = 0; j < dims[1]; ++j)
+            for (k = 0; k < dims[2]; ++k, ++p) {
+                double ds = db[0][i] * b[1][j] * b[2][k], dt = b[0][i] * db[1][j] * b[2][k], du = b[0][i] * b[1][j] * db[2][k];
+                for (c = 0; c < 3; ++c) grad[c * l + p] = ds * m[0][c] + dt * m[1][c] + du * m[2][c];
+            }
+}
+
+/* J at box point stu for control points in sqffd_ffd's layout; with grad
+   (3L, planar) its gradient with respect to them. */
+static double sqffd__fit_fold_sample(const int dims[3], const double *control, const double inverse[9],
+                                     const double stu[3], double *grad)
+{
+    double d[9], cross[9];
+    sqffd__fit_fold_frame(dims, control, 3, 1, inverse, stu, d, grad);
+    return sqffd__fit_fold_crosses(d, cross);
+}
+
+/* The frames of a field (as sqffd__fit_fold_frame's) at every node of the
+   region's lattice (SQFFD__FIT_REGION + 1 an axis) into f->frames: one
+   axis at a time, the lattice's sums shared by the nodes of a row (a few
+   hundred thousand products on a 5 x 5 x 5 lattice, against that many for
+   every few samples one at a time). */
+static void sqffd__fit_fold_frames(const int dims[3], const double *field, size_t ps, size_t cs, const double inverse[9],
+                                   sqffd__fit_fold *f)
+{
+    enum { n = SQFFD__FIT_REGION + 1 };
+    double b[3][n][SQFFD_MAX_LATTICE], db[3][n][SQFFD_MAX_LATTICE];
+    size_t l0 = (size_t)dims[0], l1 = (size_t)dims[1], l2 = (size_t)dims[2], i, j, k, u, v, w, c;
+    double *value2 = f->contract, *slope2 = value2 + l0 * l1 * n * 3; /* [i][j][w][c]: axis 2 summed */
+    double *vv = slope2 + l0 * l1 * n * 3, *dv = vv + l0 * n * n * 3, *vd = dv + l0 * n * n * 3; /* [i][v][w][c] */
+    int a;
+    for (a = 0; a < 3; ++a)
+        for (u = 0; u < n; ++u) sqffd__bernstein_derivatives(dims[a] - 1, (double)u / SQFFD__FIT_REGION, b[a][u], db[a][u]);
+    for (i = 0; i < l0; ++i)
+        for (j = 0; j < l1; ++j)
+            for (w = 0; w < n; ++w)
+                for (c = 0; c < 3; ++c) {
+                    double sv = 0.0, sd = 0.0;
+                    for (k = 0; k < l2; ++k) {
+                        double q = field[((i * l1 + j) * l2 + k) * ps + c * cs];
+                        sv += b[2][w][k] * q;
+                        sd += db[2][w][k] * q;
+                    }
+                    value2[((i * l1 + j) * n + w) * 3 + c] = sv;
+                    slope2[((i * l1 + j) * n + w) * 3 + c] = sd;
                 }
-    }
-    return sqffd__dot3(d[0], cross[0]);
+    for (i = 0; i < l0; ++i)
+        for (v = 0; v < n; ++v)
+            for (w = 0; w < n; ++w)
+                for (c = 0; c < 3; ++c) {
+                    double s0 = 0.0, s1 = 0.0, s2 = 0.0;
+                    for (j = 0; j < l1; ++j) {
+                        size_t at = ((i * l1 + j) * n + w) * 3 + c;
+                        s0 += b[1][v][j] * value2[at];
+                        s1 += db[1][v][j] * value2[at];
+                        s2 += b[1][v][j] * slope2[at];
+                    }
+                    vv[((i * n + v) * n + w) * 3 + c] = s0;
+                    dv[((i * n + v) * n + w) * 3 + c] = s1;
+                    vd[((i * n + v) * n + w) * 3 + c] = s2;
+                }
+    for (u = 0; u < n; ++u)
+        for (v = 0; v < n; ++v)
+            for (w = 0; w < n; ++w) {
+                double world[3][3] = {{0.0}};
+                for (i = 0; i < l0; ++i)
+                    for (c = 0; c < 3; ++c) {
+                        size_t at = ((i * n + v) * n + w) * 3 + c;
+                        world[0][c] += db[0][u][i] * vv[at];
+                        world[1][c] += b[0][u][i] * dv[at];
+                        world[2][c] += b[0][u][i] * vd[at];
+                    }
+                for (a = 0; a < 3; ++a) sqffd__mat3_vec(inverse, world[a], f->frames[(u * n + v) * n + w] + 3 * a);
+            }
+}
+
+/* Each sample's frame for a field: its node's from sqffd__fit_fold_frames
+   (run first), or its own (a point the certificate added). */
+static const double *sqffd__fit_fold_frame_of(const int dims[3], const sqffd__fit_fold *f, size_t i, const double *field,
+                                              size_t ps, size_t cs, const double inverse[9], double *own)
+{
+    if (f->node[i] != SQFFD__FIT_OFF_GRID) return f->frames[f->node[i]];
+    sqffd__fit_fold_frame(dims, field, ps, cs, inverse, f->sample[i], own, NULL);
+    return own;
 }
 
 /* J - goal at every sample for these control points into out; the
-   smallest. */
-static double sqffd__fit_fold_values(const int dims[3], const sqffd__fit_fold *f, const double *control,
-                                     const double inverse[9], double *out)
+   smallest. With cross, each sample's crosses too (the accepted model's). */
+static double sqffd__fit_fold_values(const int dims[3], sqffd__fit_fold *f, const double *control,
+                                     const double inverse[9], double *out, double (*cross)[9])
 {
-    double least = HUGE_VAL;
+    double least = HUGE_VAL, own[9], scratch[9];
     size_t i;
+    sqffd__fit_fold_frames(dims, control, 3, 1, inverse, f);
     for (i = 0; i < f->samples; ++i) {
-        out[i] = sqffd__fit_fold_sample(dims, control, inverse, f->sample[i], NULL) - f->goal;
+        const double *d = sqffd__fit_fold_frame_of(dims, f, i, control, 3, 1, inverse, own);
+        out[i] = sqffd__fit_fold_crosses(d, cross ? cross[i] : scratch) - f->goal;
         if (!(out[i] >= least)) least = out[i];
     }
     return least;
@@ -7792,10 +7898,10 @@ static double sqffd__fit_fold_certify(const int dims[3], sqffd__fit_fold *f, con
             --depth;
             continue;
         }
-        if (c == 0) sqffd__bernstein_split(t[depth], ej, 0, halves, halves + count);
+        if (c == 0) sqffd__bernstein_split(t[depth], ej, 2, halves, halves + count);
         if (c % 4 == 0) sqffd__bernstein_split(halves + (size_t)(c / 4) * count, ej, 1, halves + 2 * count, halves + 3 * count);
-        if (c % 2 == 0) sqffd__bernstein_split(halves + (size_t)(2 + c / 2 % 2) * count, ej, 2, halves + 4 * count, halves + 5 * count);
-        for (a = 0; a < 3; ++a) sub[a] = 2 * index[depth][a] + ((c >> (2 - a)) & 1);
+        if (c % 2 == 0) sqffd__bernstein_split(halves + (size_t)(2 + c / 2 % 2) * count, ej, 0, halves + 4 * count, halves + 5 * count);
+        for (a = 0; a < 3; ++a) sub[a] = 2 * index[depth][a] + ((c >> a) & 1);
         if (depth + 1 <= SQFFD__FIT_REGION_LEVELS && !sqffd__fit_region_meets(f, 1 << (depth + 1), sub)) continue;
         if (sqffd__fit_fold_cell(ej, f, target, depth + 1, sub, halves + (size_t)(4 + c % 2) * count, &least)) {
             if (least < bound) bound = least;
@@ -7916,8 +8022,8 @@ static double sqffd__fit_fold_predicted(const sqffd__fit_system *s, sqffd__fit_f
     sqffd__fit_symmetric_times(f->hessian, size, f->move, f->scratch);
     decrease -= 0.5 * sqffd__la_dot(f->move, f->scratch, size);
     for (k = 0; k < count; ++k) { /* (the other samples are not short before the step nor after it) */
-        size_t i = f->candidate[k];
-        double before = SQFFD__FIT_MARGIN - f->value[i], after = before - sqffd__la_dot(f->gradients + i * size, f->move, size);
+        double before = SQFFD__FIT_MARGIN - f->value[f->candidate[k]];
+        double after = before - sqffd__la_dot(f->gradients + k * size, f->move, size);
         decrease += 0.5 * weight * ((before > 0.0 ? before * before : 0.0) - (after > 0.0 ? after * after : 0.0));
     }
     return decrease;
@@ -7972,17 +8078,19 @@ static void sqffd__fit_fold_multipliers(sqffd__fit_fold *f, size_t k)
     }
 }
 
-/* L y = b for k right-hand sides at once (forward; b: n x k, its row p the
-   p-th entries of all k, so each row of L^T is read once for all of them)
-   and L^T x = y for one (backward), L^T's rows in u. */
+/* L y = b for k right-hand sides at once (forward; b: k vectors of n one
+   after another; each row of L^T is read once for all of them) and L^T x = y
+   for one (backward), L^T's rows in u. */
 static void sqffd__la_upper_forward(const double *u, size_t n, double *b, size_t k)
 {
-    size_t i, j, c;
+    size_t j, c;
     for (j = 0; j < n; ++j) {
         const double *row = u + j * n;
-        double *bj = b + j * k;
-        for (c = 0; c < k; ++c) bj[c] /= row[j];
-        for (i = j + 1; i < n; ++i) sqffd__la_axpy(b + i * k, -row[i], bj, k);
+        for (c = 0; c < k; ++c) {
+            double *bc = b + c * n;
+            bc[j] /= row[j];
+            sqffd__la_axpy(bc + j + 1, -bc[j], row + j + 1, n - j - 1);
+        }
     }
 }
 
@@ -8018,17 +8126,18 @@ static double sqffd__fit_fold_step(const sqffd__fit_system *s, sqffd__fit_fold *
     sqffd__la_upper_forward(f->factor, size, f->base, 1);
     memcpy(f->move, f->base, size * sizeof(double));
     sqffd__la_upper_backward(f->factor, size, f->move);
-    for (i = 0; i < f->samples; ++i) {
-        f->active[i] = 0;
-        if (f->value[i] < SQFFD__FIT_NEAR * SQFFD__FIT_MARGIN && !f->fresh[i]) {
-            sqffd__fit_fold_sample(s->dims, control, inverse, f->sample[i], f->gradients + i * size);
-            f->fresh[i] = 1;
-        }
-    }
+    for (i = 0; i < f->samples; ++i) f->active[i] = 0;
     for (round = 0; round < SQFFD__FIT_ROUNDS; ++round) {
-        for (i = 0; i < f->samples; ++i) /* how far the step sinks each near sample under the margin, linearised */
-            f->trial[i] = f->value[i] < SQFFD__FIT_NEAR * SQFFD__FIT_MARGIN
-                              ? SQFFD__FIT_MARGIN - f->value[i] - sqffd__la_dot(f->gradients + i * size, f->move, size) : 0.0;
+        double own[9];
+        sqffd__fit_fold_frames(s->dims, f->move, 1, s->lattice, inverse, f);
+        for (i = 0; i < f->samples; ++i) { /* how far the step sinks each near sample under the margin, linearised */
+            const double *d;
+            f->trial[i] = 0.0;
+            if (!(f->value[i] < SQFFD__FIT_NEAR * SQFFD__FIT_MARGIN)) continue;
+            d = sqffd__fit_fold_frame_of(s->dims, f, i, f->move, 1, s->lattice, inverse, own);
+            f->trial[i] = SQFFD__FIT_MARGIN - f->value[i] -
+                          (sqffd__dot3(d, f->cross[i]) + sqffd__dot3(d + 3, f->cross[i] + 3) + sqffd__dot3(d + 6, f->cross[i] + 6));
+        }
         while (k < SQFFD__FIT_CANDIDATES && k - done < SQFFD__FIT_ROUND_BATCH) { /* the most sunk samples become candidates */
             size_t worst = f->samples;
             double most = 0.0;
@@ -8039,12 +8148,13 @@ static double sqffd__fit_fold_step(const sqffd__fit_system *s, sqffd__fit_fold *
             f->candidate[k++] = (uint32_t)worst;
         }
         if (k == done) break;
-        for (i = done; i < k; ++i) /* the new candidates' g_i (once a linearisation), side by side */
-            for (p = 0; p < size; ++p) f->batch[p * (k - done) + i - done] = f->gradients[(size_t)f->candidate[i] * size + p];
-        sqffd__la_upper_forward(f->factor, size, f->batch, k - done);
-        for (i = done; i < k; ++i) { /* y_i = L^-1 g_i, its products, its need */
-            double *y = f->solved + i * size;
-            for (p = 0; p < size; ++p) y[p] = f->batch[p * (k - done) + i - done];
+        for (i = done; i < k; ++i) { /* the new candidates' g_i, and y_i = L^-1 g_i */
+            sqffd__fit_fold_sample(s->dims, control, inverse, f->sample[f->candidate[i]], f->gradients + i * size);
+            memcpy(f->solved + i * size, f->gradients + i * size, size * sizeof(double));
+        }
+        sqffd__la_upper_forward(f->factor, size, f->solved + done * size, k - done);
+        for (i = done; i < k; ++i) { /* their products, their need */
+            const double *y = f->solved + i * size;
             for (j = 0; j <= i; ++j)
                 f->gram[i * stride + j] = f->gram[j * stride + i] = sqffd__la_dot(y, f->solved + j * size, size);
             f->gram[i * stride + i] += 1.0 / weight;
@@ -8478,7 +8588,7 @@ static void sqffd__fit_fold_coarsen(const sqffd__fit_system *s, double *plane)
 /* The energy's Gauss-Newton matrix and gradient at the current model from
    its pass (w->target, w->weights, f->planes; it->next: the holding model
    points' nearest data): f->hessian, f->gradient, f->damping, and the
-   samples' gradients. */
+   samples' J and crosses (J's linear model). */
 static void sqffd__fit_fold_linearise(sqffd__fit_iteration *it)
 {
     static const int entry[3][3] = {{0, 1, 2}, {1, 3, 4}, {2, 4, 5}}; /* f->planes' order */
@@ -8528,7 +8638,7 @@ static void sqffd__fit_fold_linearise(sqffd__fit_iteration *it)
         sqffd__fit_symmetric_times(s->fixed, l, f->move + c * l, f->scratch);
         for (v = 0; v < l; ++v) f->gradient[c * l + v] -= f->scratch[v];
     }
-    for (v = 0; v < f->samples; ++v) f->fresh[v] = 0; /* (the samples' gradients: when the step needs them) */
+    sqffd__fit_fold_values(s->dims, f, control, it->model->ffd.inverse, f->value, f->cross); /* (J's linear model) */
 }
 
 /* The control points back to the accepted ones, with their matches. */
@@ -8545,9 +8655,11 @@ static void sqffd__fit_fold_add_samples(sqffd__fit_iteration *it, const double *
     sqffd__fit_fold *f = it->w->fold;
     size_t i;
     for (i = 0; i < f->failed && f->samples < f->capacity; ++i, ++f->samples) {
+        double d[9];
         memcpy(f->sample[f->samples], f->fails[i], sizeof f->fails[i]);
-        f->value[f->samples] = sqffd__fit_fold_sample(it->s->dims, control, it->model->ffd.inverse, f->fails[i], NULL) - f->goal;
-        f->fresh[f->samples] = 0;
+        f->node[f->samples] = SQFFD__FIT_OFF_GRID;
+        sqffd__fit_fold_frame(it->s->dims, control, 3, 1, it->model->ffd.inverse, f->fails[i], d, NULL);
+        f->value[f->samples] = sqffd__fit_fold_crosses(d, f->cross[f->samples]) - f->goal;
     }
 }
 
@@ -8575,11 +8687,10 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
     res = sqffd__fit_measure(it, 0, &energy, &stats);
     if (res == SQFFD_OK) res = sqffd__fit_record(it, energy, &stats);
     if (res != SQFFD_OK) return res;
-    sqffd__fit_fold_values(s->dims, f, control, inverse, f->value);
+    sqffd__fit_fold_linearise(it);
     f->rho = 2.0 * (energy > 0.0 ? energy : 1.0) / (SQFFD__FIT_MARGIN * SQFFD__FIT_MARGIN);
     penalty = sqffd__fit_fold_penalty(f, f->value, NULL);
     f->lambda = SQFFD__FIT_LAMBDA_START;
-    sqffd__fit_fold_linearise(it);
     it->accepted = energy;
     accepted_stats = stats;
     rep->min_jacobian = bound;
@@ -8603,7 +8714,7 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
             for (p = 0; p < s->lattice; ++p)
                 for (c = 0; c < 3; ++c)
                     control[3 * p + (size_t)c] = w->accepted[3 * p + (size_t)c] + tau * f->move[(size_t)c * s->lattice + p];
-            if (!(sqffd__fit_fold_values(s->dims, f, control, inverse, f->trial) < f->floor - f->goal) || tau < 1e-3) break;
+            if (!(sqffd__fit_fold_values(s->dims, f, control, inverse, f->trial, NULL) < f->floor - f->goal) || tau < 1e-3) break;
         }
         predicted *= tau * (2.0 - tau);
         sqffd__fit_control_changed(it); /* (it->next: the accepted model points) */
