@@ -339,6 +339,71 @@ static void test_internal_jacobian_sample(void)
     free(memory);
 }
 
+/* The frames on the region's node lattice (sqffd__fit_fold_frames, one axis
+   at a time) against each node's own (sqffd__fit_fold_frame, a sum over the
+   lattice), for control points (interleaved) and for a step (planar), on a
+   folded random 4 x 5 x 3 lattice in a skewed box; and J's change along the
+   step from the crosses against J's own difference. */
+static void test_internal_jacobian_frames(void)
+{
+    const int dims[3] = {4, 5, 3};
+    const double origin[3] = {1.0, 2.0, 3.0}, edges[9] = {10.0, 1.0, 0.0, 0.0, 8.0, 2.0, 1.0, 0.0, 12.0};
+    const size_t l = 60, n = SQFFD__FIT_REGION + 1;
+    sqffd_ffd f;
+    sqffd__arena a;
+    sqffd__fit_fold fold;
+    void *memory;
+    double step[3 * 60], *control = &f.control[0][0], worst[2] = {0.0, 0.0}, scale[2] = {0.0, 0.0}, change = 0.0;
+    size_t p, node;
+    int c, layout;
+    CHECK_RESULT(sqffd_ffd_init(&f, dims, origin, edges), SQFFD_OK);
+    srand(17);
+    for (p = 0; p < 3 * l; p++) control[p] += 3.0 * ((double)rand() / RAND_MAX - 0.5);
+    for (p = 0; p < 3 * l; p++) step[p] = 1e-6 * ((double)rand() / RAND_MAX - 0.5);
+    sqffd__arena_measure(&a);
+    sqffd__fit_fold_layout(&a, dims, 1, 1, NULL);
+    memory = malloc(a.used + 64);
+    sqffd__arena_init(&a, memory, a.used + 64);
+    sqffd__fit_fold_layout(&a, dims, 1, 1, &fold);
+    CHECK(!a.overflow);
+    for (layout = 0; layout < 2; layout++) {
+        const double *field = layout ? step : control;
+        size_t ps = layout ? 1 : 3, cs = layout ? l : 1;
+        sqffd__fit_fold_frames(dims, field, ps, cs, f.inverse, &fold);
+        for (node = 0; node < n * n * n; node++) {
+            double stu[3], d[9];
+            stu[0] = (double)(node / (n * n)) / SQFFD__FIT_REGION;
+            stu[1] = (double)(node / n % n) / SQFFD__FIT_REGION;
+            stu[2] = (double)(node % n) / SQFFD__FIT_REGION;
+            sqffd__fit_fold_frame(dims, field, ps, cs, f.inverse, stu, d, NULL);
+            for (c = 0; c < 9; c++) {
+                worst[layout] = fmax(worst[layout], fabs(fold.frames[node][c] - d[c]));
+                scale[layout] = fmax(scale[layout], fabs(d[c]));
+            }
+        }
+    }
+    for (layout = 0; layout < 2; layout++)
+        CHECK_MSG(scale[layout] > 0.0 && worst[layout] <= 1e-12 * scale[layout], "%s frames off by %g (largest %g)",
+                  layout ? "a step's" : "control points'", worst[layout], scale[layout]);
+    for (node = 0; node < n * n * n; node += 7) { /* J's change along the step: linear in it, to its square */
+        double stu[3], d[9], cross[9], moved[3 * 60], before, after, linear;
+        stu[0] = (double)(node / (n * n)) / SQFFD__FIT_REGION;
+        stu[1] = (double)(node / n % n) / SQFFD__FIT_REGION;
+        stu[2] = (double)(node % n) / SQFFD__FIT_REGION;
+        before = sqffd__fit_fold_sample(dims, control, f.inverse, stu, NULL);
+        sqffd__fit_fold_frame(dims, control, 3, 1, f.inverse, stu, d, NULL);
+        CHECK(fabs(sqffd__fit_fold_crosses(d, cross) - before) <= 1e-12 * fmax(1.0, fabs(before)));
+        for (p = 0; p < l; p++)
+            for (c = 0; c < 3; c++) moved[3 * p + (size_t)c] = control[3 * p + (size_t)c] + step[(size_t)c * l + p];
+        after = sqffd__fit_fold_sample(dims, moved, f.inverse, stu, NULL);
+        sqffd__fit_fold_frame(dims, step, 1, l, f.inverse, stu, d, NULL);
+        linear = sqffd__dot3(d, cross) + sqffd__dot3(d + 3, cross + 3) + sqffd__dot3(d + 6, cross + 6);
+        change = fmax(change, fabs((after - before) - linear));
+    }
+    CHECK_MSG(change <= 1e-9, "J's change along a step off its linear model by %g", change);
+    free(memory);
+}
+
 /* The region's certificate (sqffd__fit_fold_certify) against brute force:
    J at 20,000 random points of the region's cells is never below the bound
    it certifies; a lattice that folds inside the region gets a bound under
@@ -408,6 +473,7 @@ static void test_internal_certificate(void)
 void suite_internal(void)
 {
     RUN_TEST(test_internal_jacobian_sample);
+    RUN_TEST(test_internal_jacobian_frames);
     RUN_TEST(test_internal_certificate);
     RUN_TEST(test_internal_triangle_tree);
     RUN_TEST(test_internal_lagged_step);
