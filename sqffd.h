@@ -7512,12 +7512,13 @@ struct sqffd__fit_fold {
     double *planes;            /* M x 6: the pass's sums of w n n^T (xx xy xz yy yz zz) */
 };
 
-/* sqffd__fit_fold_frames' partial sums: axis 2 summed (value and slope),
-   then axis 1 (three of them), for the region's lattice. */
+/* sqffd__fit_fold_frames' scratch (not on the stack: the firmware's frames
+   are small): the Bernstein values and slopes at the region's nodes, then
+   the partial sums, axis 2 summed (value and slope), then axis 1 (three). */
 static size_t sqffd__fit_contract_size(const int dims[3])
 {
     size_t n = SQFFD__FIT_REGION + 1, l0 = (size_t)dims[0];
-    return 3 * l0 * n * (2 * (size_t)dims[1] + 3 * n);
+    return 6 * n * SQFFD_MAX_LATTICE + 3 * l0 * n * (2 * (size_t)dims[1] + 3 * n);
 }
 
 static void sqffd__fit_fold_layout(sqffd__arena *a, const int dims[3], size_t m, int with_floor, sqffd__fit_fold *f)
@@ -7731,9 +7732,10 @@ static void sqffd__fit_fold_frames(const int dims[3], const double *field, size_
                                    sqffd__fit_fold *f)
 {
     enum { n = SQFFD__FIT_REGION + 1 };
-    double b[3][n][SQFFD_MAX_LATTICE], db[3][n][SQFFD_MAX_LATTICE];
+    typedef double sqffd__fit_node_basis[n][SQFFD_MAX_LATTICE]; /* [node][i] */
+    sqffd__fit_node_basis *b = (sqffd__fit_node_basis *)f->contract, *db = b + 3; /* [axis]: values, slopes */
     size_t l0 = (size_t)dims[0], l1 = (size_t)dims[1], l2 = (size_t)dims[2], i, j, k, u, v, w, c;
-    double *value2 = f->contract, *slope2 = value2 + l0 * l1 * n * 3; /* [i][j][w][c]: axis 2 summed */
+    double *value2 = f->contract + 6 * n * SQFFD_MAX_LATTICE, *slope2 = value2 + l0 * l1 * n * 3; /* [i][j][w][c]: axis 2 */
     double *vv = slope2 + l0 * l1 * n * 3, *dv = vv + l0 * n * n * 3, *vd = dv + l0 * n * n * 3; /* [i][v][w][c] */
     int a;
     for (a = 0; a < 3; ++a)
