@@ -410,6 +410,56 @@ static void test_wall_own_areas(void)
     }
 }
 
+/* A segment of which a frame measured no vertex has no means: both its
+   thicknesses 0 and its thickening NaN (not 0, which reads as a segment
+   that does not thicken), not flagged dysfunctional. The concentric
+   spheres of test_wall_stack_planes, the ES planes only z = -10, -5, 0
+   (ED's -10 to 10): the segments with no vertex between a frame's outer
+   planes in that frame's segments (at ES the basal ones and the apex) have
+   none; the others their means. */
+static void test_wall_empty_segments(void)
+{
+    const double endo_scale[2] = {1.0, 0.75}, epi_scale[2] = {1.0, 25.0 / 28.0}, top[2] = {10.0, 0.0};
+    sqffd_model endo[2], epi[2];
+    sqffd_motion_report motion;
+    sqffd_stack stacks[2];
+    sqffd_wall_options o = sqffd_wall_options_default();
+    sqffd_wall_report rep;
+    double *x;
+    unsigned char *segment[2];
+    size_t m = 32 * 64 + 2, v, within[2][SQFFD_SEGMENTS + 1];
+    int t, k, empty = 0;
+    sphere_frames(20.0, endo_scale, 2, 32, endo);
+    sphere_frames(28.0, epi_scale, 2, 32, epi);
+    x = (double *)test_malloc(3 * m * sizeof *x);
+    for (t = 0; t < 2; t++) segment[t] = (unsigned char *)test_malloc(m);
+    endo_motion(endo, 2, 1, &motion, segment[1]);
+    endo_motion(endo, 2, 0, &motion, segment[0]);
+    z_planes(5, -10.0, 5.0, stacks);
+    stacks[1].planes = 3;
+    o.endo_stacks = stacks;
+    CHECK_RESULT(run_wall(endo, epi, 2, &motion, segment[0], &o, NULL, &rep), SQFFD_OK);
+    memset(within, 0, sizeof within);
+    for (t = 0; t < 2; t++) {
+        CHECK_RESULT(sqffd_model_mesh(endo + t, endo->grid[0], endo->grid[1], x, NULL), SQFFD_OK);
+        for (v = 0; v < m; v++) within[t][segment[t][v]] += x[3 * v + 2] >= -10.0 && x[3 * v + 2] <= top[t];
+    }
+    for (k = 0; k < SQFFD_SEGMENTS; k++) {
+        const sqffd_segment_wall *g = rep.segments + k;
+        if (within[0][k + 1] && within[1][k + 1]) {
+            CHECK_MSG(g->thickness_ed > 0.0 && g->thickness_es > 0.0 && isfinite(g->thickening), "segment %d", k + 1);
+            continue;
+        }
+        empty++;
+        CHECK_MSG(g->thickness_ed == 0.0 && g->thickness_es == 0.0 && isnan(g->thickening) && !g->dysfunctional,
+                  "segment %d: %g, %g, %g, %d", k + 1, g->thickness_ed, g->thickness_es, g->thickening, g->dysfunctional);
+    }
+    printf("    %d segments with no vertex measured in a frame: thickening NaN\n", empty);
+    CHECK(empty >= 7 && empty < SQFFD_SEGMENTS);
+    free(x);
+    for (t = 0; t < 2; t++) free(segment[t]);
+}
+
 /* A ray that meets the endocardium again before the epicardium crosses the
    cavity, not the wall: unmeasured. The endocardium a sphere of radius 20
    whose control points are lifted by 0.1 (x^2 + y^2) (the lattice
@@ -515,9 +565,11 @@ static void test_wall_cavity_rays(void)
 }
 
 /* Refused, nothing written: NULL arguments, no frames, the report's ED or ES
-   frame out of range, a segment above 17, either sequence's frames on
-   different superquadrics, a bad rule or stack, too small a workspace; an
-   epicardium inside the endocardium measures nothing (DEGENERATE). */
+   frame out of range, its segment frame not unit vectors or its
+   apex_fraction outside [0, 1), a segment above 17, either sequence's
+   frames on different superquadrics, a bad rule or stack, too small a
+   workspace; an epicardium inside the endocardium measures nothing, and a
+   flat ES endocardium has no ES segments (DEGENERATE). */
 static void test_wall_bad_input(void)
 {
     const double one[2] = {1.0, 0.9};
@@ -531,6 +583,7 @@ static void test_wall_bad_input(void)
     unsigned char *segment;
     size_t m = 16 * 32 + 2, size;
     void *work;
+    int k;
     sphere_frames(10.0, one, 2, 16, endo);
     sphere_frames(14.0, one, 2, 16, epi);
     segment = (unsigned char *)test_malloc(m);
@@ -551,6 +604,19 @@ static void test_wall_bad_input(void)
     m2 = motion;
     m2.ed_frame = 5;
     CHECK_RESULT(sqffd_wall(endo, epi, 2, &m2, segment, NULL, &out, &rep, work, size), SQFFD_ERROR_INVALID_ARGUMENT);
+    for (k = 0; k < 6; k++) { /* the segment frame: a NaN septum once gave segment 255 at ES, written out of bounds */
+        double *bad_value[6];
+        m2 = motion;
+        bad_value[0] = &m2.septum[0];
+        bad_value[1] = &m2.anterior[1];
+        bad_value[2] = &m2.axis[2];
+        bad_value[3] = &m2.apex_fraction;
+        bad_value[4] = &m2.apex_fraction;
+        bad_value[5] = &m2.septum[0];
+        *bad_value[k] = k == 4 ? 1.0 : k == 5 ? 2.0 * m2.septum[0] : NAN;
+        CHECK_MSG(sqffd_wall(endo, epi, 2, &m2, segment, NULL, &out, &rep, work, size) == SQFFD_ERROR_INVALID_ARGUMENT,
+                  "bad segment frame %d", k);
+    }
     segment[m / 2] = 18;
     CHECK_RESULT(sqffd_wall(endo, epi, 2, &motion, segment, NULL, &out, &rep, work, size), SQFFD_ERROR_INVALID_ARGUMENT);
     segment[m / 2] = 9;
@@ -571,6 +637,10 @@ static void test_wall_bad_input(void)
     CHECK_RESULT(sqffd_wall(endo, epi, 2, &motion, segment, NULL, &out, &rep, work, size - 1),
                  SQFFD_ERROR_WORKSPACE_TOO_SMALL);
     CHECK_RESULT(sqffd_wall(epi, endo, 2, &motion, segment, NULL, &out, &rep, work, size), SQFFD_ERROR_DEGENERATE);
+    bad[0] = endo[0];
+    bad[1] = endo[1];
+    for (k = 0; k < SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE; k++) bad[1].ffd.control[k][2] = 0.0;
+    CHECK_RESULT(sqffd_wall(bad, epi, 2, &motion, segment, NULL, &out, &rep, work, size), SQFFD_ERROR_DEGENERATE); /* a flat ES */
     CHECK(myo[0] == -1.0 && myo[1] == -1.0);
     {
         sqffd_wall_report untouched;
@@ -748,6 +818,7 @@ void suite_wall(void)
     RUN_TEST(test_wall_own_areas);
     RUN_TEST(test_wall_es_segments);
     RUN_TEST(test_wall_cavity_rays);
+    RUN_TEST(test_wall_empty_segments);
     RUN_TEST(test_wall_bad_input);
     RUN_TEST(test_wall_phantom);
 }
