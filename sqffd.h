@@ -1414,11 +1414,11 @@ SQFFD_DEF sqffd_result sqffd_motion(const sqffd_model *models, size_t frame_coun
      a tube's thickening (endocardium 20 -> 15, epicardium 28 -> 25) reads
      19 % for its 25 %. (On the pig contours of ../shared/data/cardiac,
      along the 3-D normal over the whole wall, the global thickening read
-     3.3 points from the contours' own on average, 3.03 this way;
-     bench/bench_wall.c);
-     A ray that meets the endocardium again before the epicardium crosses
-     the cavity, not the wall (a tracked surface's crease by the base,
-     where the normal's in-plane part turns inward): none there;
+     3.3 points from the contours' own on average, 3.03 this way, on
+     0.15.0's fit; bench/bench_wall.c). A ray that meets the endocardium
+     again before the epicardium crosses the cavity, not the wall (a
+     tracked surface's crease or sagging lid by the base, where the
+     normal's in-plane part turns inward): none there;
    - the ES segments: placed on the ES mesh as sqffd_motion places the ED
      mesh's, in the same frame (the motion report's axis, septum and
      apex_fraction) but with the ES mesh's own levels (its extent along the
@@ -1430,9 +1430,9 @@ SQFFD_DEF sqffd_result sqffd_motion(const sqffd_model *models, size_t frame_coun
    - thickening[v] = WT_ES / WT_ED - 1 at the tracked vertex (its ED and ES
      positions); ED valve-plane vertices (segment 0) and wall vertices
      whose normal crosses no epicardium (an epicardium inside the
-     endocardium there), or that are outside the planes or off the wall at
-     ED or ES, have none: NaN in the outputs, counted in
-     report->unmeasured;
+     endocardium there) or the cavity first, or that are outside the
+     planes or off the wall at ED or ES, have none: NaN in the outputs,
+     counted in report->unmeasured;
    - per segment, the mean ED thickness: over the vertices of its ED
      segment measured at ED, weighted by their ED areas; the mean ES
      thickness over the vertices of its ES segment measured at ES, by their
@@ -1443,20 +1443,24 @@ SQFFD_DEF sqffd_result sqffd_motion(const sqffd_model *models, size_t frame_coun
      the ES thickness weighed by the ED areas mixes the two frames (on the
      bench, along the normals: 5.4 points from the contours', 3.4 by each
      frame's own areas), and so do segments that keep their ED vertices at
-     ES (per-sector r 0.81 against the contours' sectors, 0.88 placed at
-     ES; bench/bench_wall.c). A segment is
-     dysfunctional when its thickening < options->dysfunctional_thickening
+     ES (per-sector r 0.80 against the contours' sectors, 0.88 placed at
+     ES; bench/bench_wall.c). A segment that one frame measured no vertex
+     of (none of positive area; at ES its ES segment may hold no vertex at
+     all) has no means: both thicknesses 0, thickening NaN, not
+     dysfunctional. A segment is dysfunctional when its thickening <
+     options->dysfunctional_thickening
      (default 0.2, the cut-off the contours' sector share uses in issue 35;
      normal regional values on cine MRI: Ubachs, Heiberg, Steding & Arheden,
      "Normal values for wall thickening by magnetic resonance imaging", J
      Cardiovasc Magn Reson 2009, 11(Suppl 1):P61; the control pigs of
      ../shared/data/cardiac thicken by 46-67 % globally on their contours).
    Results: INVALID_ARGUMENT (NULL endo, epi, motion or segment, frame_count
-   0, the motion report's ED or ES frame out of range, a segment above 17,
-   either sequence's models differing in superquadric, lattice or grid, bad
-   options or stacks), NON_FINITE, DEGENERATE (a flat ED endocardium, no
-   wall vertex measured), WORKSPACE_TOO_SMALL. Nothing is written on an
-   error. */
+   0, the motion report's ED or ES frame out of range, its axis, septum or
+   anterior not a unit vector (within 1e-6) or its apex_fraction outside
+   [0, 1), a segment above 17, either sequence's models differing in
+   superquadric, lattice or grid, bad options or stacks), NON_FINITE,
+   DEGENERATE (a flat ED or ES endocardium, no wall vertex measured),
+   WORKSPACE_TOO_SMALL. Nothing is written on an error. */
 typedef struct sqffd_wall_options {
     double dysfunctional_thickening; /* a segment thickening less is dysfunctional (default 0.2) */
     const sqffd_stack *stacks;       /* NULL (default): closed volumes; else frame_count stacks (the epicardium's):
@@ -1474,8 +1478,9 @@ typedef struct sqffd_wall_outputs {
 } sqffd_wall_outputs;
 
 typedef struct sqffd_segment_wall {
-    double thickness_ed, thickness_es; /* each frame's area-weighted mean over its segment's measured vertices (0: none) */
-    double thickening;                 /* thickness_es / thickness_ed - 1 */
+    double thickness_ed, thickness_es; /* each frame's area-weighted mean over its segment's measured vertices
+                                          (both 0 where either frame measured none) */
+    double thickening;                 /* thickness_es / thickness_ed - 1 (NaN where none) */
     int dysfunctional;
 } sqffd_segment_wall;
 
@@ -10340,6 +10345,22 @@ static int sqffd__wall_segments(const sqffd_motion_report *motion, size_t m, con
     return 1;
 }
 
+/* Whether the motion report's segment frame can place the ES segments: its
+   axis, septum and anterior unit vectors (within 1e-6), apex_fraction in
+   [0, 1) as sqffd_motion's options (a NaN there would make a segment
+   number out of range). */
+static int sqffd__wall_frame_valid(const sqffd_motion_report *motion)
+{
+    const double *unit[3];
+    int k;
+    unit[0] = motion->axis;
+    unit[1] = motion->septum;
+    unit[2] = motion->anterior;
+    for (k = 0; k < 3; ++k)
+        if (!sqffd__finite3(unit[k]) || !(fabs(sqffd__dot3(unit[k], unit[k]) - 1.0) <= 1e-6)) return 0;
+    return motion->apex_fraction >= 0.0 && motion->apex_fraction < 1.0;
+}
+
 /* Frame t's wall thickness along the endocardium's normals (endo vertices x,
    their normals in w->normal, epicardium model epi) into thickness: NaN off
    the wall (segment 0), without a crossing, or where the crossing is on
@@ -10397,7 +10418,8 @@ SQFFD_DEF sqffd_result sqffd_wall(const sqffd_model *endo, const sqffd_model *ep
     size_t m, e = 0, triangles[2] = {0, 0}, t, v;
     int k, c;
     if (!endo || !epi || !motion || !segment || frame_count == 0 || motion->ed_frame >= frame_count ||
-        motion->es_frame >= frame_count || !(o->dysfunctional_thickening > -1.0) || !isfinite(o->dysfunctional_thickening))
+        motion->es_frame >= frame_count || !sqffd__wall_frame_valid(motion) || !(o->dysfunctional_thickening > -1.0) ||
+        !isfinite(o->dysfunctional_thickening))
         return SQFFD_ERROR_INVALID_ARGUMENT;
     for (t = 0; t < frame_count; ++t) {
         sqffd_result r;
@@ -10464,7 +10486,10 @@ SQFFD_DEF sqffd_result sqffd_wall(const sqffd_model *endo, const sqffd_model *ep
         sqffd_segment_wall *g = rep->segments + k;
         const double *s = sum[k + 1];
         for (c = 0; c < 4; ++c) total[c] += s[c];
-        if (!(s[2] > 0.0 && s[3] > 0.0)) continue;
+        if (!(s[2] > 0.0 && s[3] > 0.0)) { /* no vertex of it measured in a frame (or no area): none */
+            g->thickening = NAN;
+            continue;
+        }
         g->thickness_ed = s[0] / s[2];
         g->thickness_es = s[1] / s[3];
         g->thickening = g->thickness_es / g->thickness_ed - 1.0;

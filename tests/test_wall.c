@@ -175,6 +175,19 @@ static void test_wall_spheres(void)
     free(segment);
 }
 
+/* Both frames' short-axis stacks: `planes` planes z = first, first +
+   spacing, ... */
+static void z_planes(size_t planes, double first, double spacing, sqffd_stack stacks[2])
+{
+    size_t k;
+    memset(stacks, 0, 2 * sizeof *stacks);
+    stacks[0].axis[2] = 1.0;
+    stacks[0].planes = planes;
+    stacks[0].spacing = spacing;
+    for (k = 0; k < planes; k++) stacks[0].level[k] = first + spacing * (double)k;
+    stacks[1] = stacks[0];
+}
+
 /* x's part of the disc of radius a up to height z: the integral of
    sqrt(a^2 - z^2) dz. */
 static double disc_integral(double a, double z)
@@ -206,19 +219,14 @@ static void test_wall_stack_planes(void)
     double *wt[2], *x, worst = 0.0, mean[2], band[2] = {-10.0, 10.0};
     unsigned char *segment;
     size_t m = 32 * 64 + 2, v, measured[2] = {0, 0};
-    int t, k;
+    int t;
     sphere_frames(20.0, endo_scale, 2, 32, endo);
     sphere_frames(28.0, epi_scale, 2, 32, epi);
     segment = (unsigned char *)test_malloc(m);
     x = (double *)test_malloc(3 * m * sizeof *x);
     for (t = 0; t < 2; t++) wt[t] = (double *)test_malloc(m * sizeof(double));
     endo_motion(endo, 2, 0, &motion, segment);
-    memset(stacks, 0, sizeof stacks);
-    stacks[0].axis[2] = 1.0;
-    stacks[0].planes = 5;
-    stacks[0].spacing = 5.0;
-    for (k = 0; k < 5; k++) stacks[0].level[k] = 5.0 * k - 10.0;
-    stacks[1] = stacks[0];
+    z_planes(5, -10.0, 5.0, stacks);
     o.endo_stacks = stacks;
     memset(&out, 0, sizeof out);
     out.thickness_ed = wt[0];
@@ -253,15 +261,6 @@ static void test_wall_stack_planes(void)
     free(segment);
 }
 
-/* Each frame's means weigh its vertices by their areas in that frame. The
-   endocardium a sphere of radius 20 at ED, squashed at ES (x 0.75 across,
-   x 0.5 along z: its sides shrink more than its poles), in an epicardial
-   sphere 28 -> 25: each vertex's ES thickness is the ray along its normal
-   to the sphere, -p.n + sqrt((p.n)^2 - |p|^2 + 25^2) (within the facets'
-   0.05); the report's ED and ES thickness are the means of the outputs
-   weighted by the ED and the ES mesh's vertex areas, globally and per
-   segment (to rounding). Weighted by the ED areas the ES mean would read
-   more than 1 % lower: the sides, thin at ES, weigh more at ED. */
 /* The ES segments are placed on the ES mesh, not carried by the vertices:
    the endocardium 20 -> 15 and turned a quarter about the long axis at ES
    (the surface the same sphere, its vertices slid 16 grid columns round
@@ -335,6 +334,15 @@ static void test_wall_es_segments(void)
     free(segment);
 }
 
+/* Each frame's means weigh its vertices by their areas in that frame. The
+   endocardium a sphere of radius 20 at ED, squashed at ES (x 0.75 across,
+   x 0.5 along z: its sides shrink more than its poles), in an epicardial
+   sphere 28 -> 25: each vertex's ES thickness is the ray along its normal
+   to the sphere, -p.n + sqrt((p.n)^2 - |p|^2 + 25^2) (within the facets'
+   0.05); the report's ED and ES thickness are the means of the outputs
+   weighted by the ED and the ES mesh's vertex areas, globally and per
+   segment (to rounding). Weighted by the ED areas the ES mean would read
+   more than 1 % lower: the sides, thin at ES, weigh more at ED. */
 static void test_wall_own_areas(void)
 {
     const double epi_scale[2] = {1.0, 25.0 / 28.0}, one[2] = {1.0, 1.0};
@@ -402,10 +410,166 @@ static void test_wall_own_areas(void)
     }
 }
 
+/* A segment of which a frame measured no vertex has no means: both its
+   thicknesses 0 and its thickening NaN (not 0, which reads as a segment
+   that does not thicken), not flagged dysfunctional. The concentric
+   spheres of test_wall_stack_planes, the ES planes only z = -10, -5, 0
+   (ED's -10 to 10): the segments with no vertex between a frame's outer
+   planes in that frame's segments (at ES the basal ones and the apex) have
+   none; the others their means. */
+static void test_wall_empty_segments(void)
+{
+    const double endo_scale[2] = {1.0, 0.75}, epi_scale[2] = {1.0, 25.0 / 28.0}, top[2] = {10.0, 0.0};
+    sqffd_model endo[2], epi[2];
+    sqffd_motion_report motion;
+    sqffd_stack stacks[2];
+    sqffd_wall_options o = sqffd_wall_options_default();
+    sqffd_wall_report rep;
+    double *x;
+    unsigned char *segment[2];
+    size_t m = 32 * 64 + 2, v, within[2][SQFFD_SEGMENTS + 1];
+    int t, k, empty = 0;
+    sphere_frames(20.0, endo_scale, 2, 32, endo);
+    sphere_frames(28.0, epi_scale, 2, 32, epi);
+    x = (double *)test_malloc(3 * m * sizeof *x);
+    for (t = 0; t < 2; t++) segment[t] = (unsigned char *)test_malloc(m);
+    endo_motion(endo, 2, 1, &motion, segment[1]);
+    endo_motion(endo, 2, 0, &motion, segment[0]);
+    z_planes(5, -10.0, 5.0, stacks);
+    stacks[1].planes = 3;
+    o.endo_stacks = stacks;
+    CHECK_RESULT(run_wall(endo, epi, 2, &motion, segment[0], &o, NULL, &rep), SQFFD_OK);
+    memset(within, 0, sizeof within);
+    for (t = 0; t < 2; t++) {
+        CHECK_RESULT(sqffd_model_mesh(endo + t, endo->grid[0], endo->grid[1], x, NULL), SQFFD_OK);
+        for (v = 0; v < m; v++) within[t][segment[t][v]] += x[3 * v + 2] >= -10.0 && x[3 * v + 2] <= top[t];
+    }
+    for (k = 0; k < SQFFD_SEGMENTS; k++) {
+        const sqffd_segment_wall *g = rep.segments + k;
+        if (within[0][k + 1] && within[1][k + 1]) {
+            CHECK_MSG(g->thickness_ed > 0.0 && g->thickness_es > 0.0 && isfinite(g->thickening), "segment %d", k + 1);
+            continue;
+        }
+        empty++;
+        CHECK_MSG(g->thickness_ed == 0.0 && g->thickness_es == 0.0 && isnan(g->thickening) && !g->dysfunctional,
+                  "segment %d: %g, %g, %g, %d", k + 1, g->thickness_ed, g->thickness_es, g->thickening, g->dysfunctional);
+    }
+    printf("    %d segments with no vertex measured in a frame: thickening NaN\n", empty);
+    CHECK(empty >= 7 && empty < SQFFD_SEGMENTS);
+    free(x);
+    for (t = 0; t < 2; t++) free(segment[t]);
+}
+
+/* A ray that meets the endocardium again before the epicardium crosses the
+   cavity, not the wall: unmeasured. The endocardium a sphere of radius 20
+   whose control points are lifted by 0.1 (x^2 + y^2) (the lattice
+   reproduces the quadratic: a surface of revolution about z, the sphere
+   lifted by 0.075 (x^2 + y^2) and a constant), so its base sags into a dish
+   13 deep whose sides are steep enough to be wall (basal segments, not the
+   valve plane), x 0.9 at ES; the epicardium a sphere of radius 40 about
+   (0, 0, 30) in both frames; short-axis planes z = 0, 30, 60 (the whole
+   heart). In a plane the cavity is an annulus: a vertex on its outer
+   circle has its in-plane normal outward, thickness sqrt(40^2 - (z -
+   30)^2) - r (within the facets' 0.1); one on the dish, its inner circle,
+   points toward the axis, and its ray crosses the dish to meet the
+   endocardium again on the far side (a chord of that circle) before the
+   epicardium: unmeasured. Each frame's segment means are the chords' over
+   the outward vertices, by that frame's areas and segments (within the
+   facets' 0.1). Measured, the dish vertices would read the far wall, r +
+   sqrt(40^2 - (z - 30)^2) (46 to 47 at ED, where the outer circles' chords
+   are 10 to 14), and the basal segments 23.1 instead of 14.5 at ED. */
+static void test_wall_cavity_rays(void)
+{
+    const double one[2] = {1.0, 1.0}, radius = 40.0, centre = 30.0;
+    double *x, *area, *normal, *wt[2], sums[SQFFD_SEGMENTS + 1][4], worst = 0.0, off = 0.0;
+    sqffd_model endo[2], epi[2];
+    sqffd_stack stacks[2];
+    sqffd_motion_report motion;
+    sqffd_wall_options o = sqffd_wall_options_default();
+    sqffd_wall_outputs out;
+    sqffd_wall_report rep;
+    unsigned char *segment[2];
+    size_t m = 32 * 64 + 2, v, crossing[2] = {0, 0}, unmeasured = 0;
+    int k, c, t;
+    sphere_frames(20.0, one, 2, 32, endo);
+    for (k = 0; k < SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE; k++) {
+        double *p = endo[0].ffd.control[k];
+        p[2] += 0.1 * (p[0] * p[0] + p[1] * p[1]);
+        for (c = 0; c < 3; c++) endo[1].ffd.control[k][c] = 0.9 * p[c];
+    }
+    sphere_frames(radius, one, 2, 32, epi);
+    for (t = 0; t < 2; t++)
+        for (k = 0; k < SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE; k++) epi[t].ffd.control[k][2] += centre;
+    x = (double *)test_malloc(3 * m * sizeof *x);
+    area = (double *)test_malloc(m * sizeof *area);
+    normal = (double *)test_malloc(3 * m * sizeof *normal);
+    for (t = 0; t < 2; t++) {
+        segment[t] = (unsigned char *)test_malloc(m);
+        wt[t] = (double *)test_malloc(m * sizeof(double));
+    }
+    endo_motion(endo, 2, 1, &motion, segment[1]); /* the ES segments: placed on the ES mesh */
+    endo_motion(endo, 2, 0, &motion, segment[0]);
+    CHECK(motion.ed_frame == 0 && motion.es_frame == 1);
+    z_planes(3, 0.0, 30.0, stacks);
+    o.endo_stacks = stacks;
+    memset(&out, 0, sizeof out);
+    out.thickness_ed = wt[0];
+    out.thickness_es = wt[1];
+    CHECK_RESULT(run_wall(endo, epi, 2, &motion, segment[0], &o, &out, &rep), SQFFD_OK);
+    for (v = 0; v < m; v++) unmeasured += segment[0][v] && (isnan(wt[0][v]) || isnan(wt[1][v]));
+    CHECK(rep.unmeasured == unmeasured);
+    for (t = 0; t < 2; t++) {
+        mesh_areas(endo + t, x, area, normal);
+        memset(sums, 0, sizeof sums);
+        for (v = 0; v < m; v++) {
+            const double *p = x + 3 * v, *n = normal + 3 * v, r = sqrt(p[0] * p[0] + p[1] * p[1]);
+            double outward = (n[0] * p[0] + n[1] * p[1]) / r, half = sqrt(radius * radius - (p[2] - centre) * (p[2] - centre));
+            if (!segment[t][v]) continue;
+            if (!(fabs(outward) > 1e-6)) { /* the pole: no in-plane direction */
+                CHECK(isnan(wt[t][v]));
+                continue;
+            }
+            if (outward < 0.0) { /* toward the axis, across the dish */
+                CHECK_MSG(isnan(wt[t][v]), "frame %d, vertex %zu at r %.3f, z %.3f: %.6f across the cavity", t, v, r, p[2],
+                          wt[t][v]);
+                crossing[t]++;
+                sums[segment[t][v]][2] += area[v] * (r + half); /* (the far wall) */
+                sums[segment[t][v]][3] += area[v];
+                continue;
+            }
+            CHECK_MSG(fabs(wt[t][v] - (half - r)) <= 0.1, "frame %d, vertex %zu at r %.3f, z %.3f: %.6f, chord %.6f", t, v,
+                      r, p[2], wt[t][v], half - r);
+            for (c = 0; c < 4; c += 2) {
+                sums[segment[t][v]][c] += area[v] * (half - r);
+                sums[segment[t][v]][c + 1] += area[v];
+            }
+        }
+        for (k = 0; k < SQFFD_SEGMENTS; k++) {
+            const double *s = sums[k + 1], mean = s[0] / s[1], got = t ? rep.segments[k].thickness_es : rep.segments[k].thickness_ed;
+            CHECK(s[1] > 0.0);
+            CHECK_NEAR(got, mean, 0.1);
+            worst = fmax(worst, fabs(got - mean));
+            off = fmax(off, s[2] / s[3] - mean);
+        }
+    }
+    printf("    cavity rays: %zu / %zu wall vertices' rays cross the dish at ED / ES (unmeasured); segments within %.4f "
+           "of the chords' means (read at the far wall, up to %.1f higher)\n", crossing[0], crossing[1], worst, off);
+    CHECK(crossing[0] >= 4 * 64 && crossing[1] >= 4 * 64);
+    free(x);
+    free(area);
+    free(normal);
+    for (t = 0; t < 2; t++) {
+        free(segment[t]);
+        free(wt[t]);
+    }
+}
+
 /* Refused, nothing written: NULL arguments, no frames, the report's ED or ES
-   frame out of range, a segment above 17, either sequence's frames on
-   different superquadrics, a bad rule or stack, too small a workspace; an
-   epicardium inside the endocardium measures nothing (DEGENERATE). */
+   frame out of range, its segment frame not unit vectors or its
+   apex_fraction outside [0, 1), a segment above 17, either sequence's
+   frames on different superquadrics, a bad rule or stack, too small a
+   workspace; an epicardium inside the endocardium measures nothing, and a
+   flat ES endocardium has no ES segments (DEGENERATE). */
 static void test_wall_bad_input(void)
 {
     const double one[2] = {1.0, 0.9};
@@ -419,6 +583,7 @@ static void test_wall_bad_input(void)
     unsigned char *segment;
     size_t m = 16 * 32 + 2, size;
     void *work;
+    int k;
     sphere_frames(10.0, one, 2, 16, endo);
     sphere_frames(14.0, one, 2, 16, epi);
     segment = (unsigned char *)test_malloc(m);
@@ -439,6 +604,19 @@ static void test_wall_bad_input(void)
     m2 = motion;
     m2.ed_frame = 5;
     CHECK_RESULT(sqffd_wall(endo, epi, 2, &m2, segment, NULL, &out, &rep, work, size), SQFFD_ERROR_INVALID_ARGUMENT);
+    for (k = 0; k < 6; k++) { /* the segment frame: a NaN septum once gave segment 255 at ES, written out of bounds */
+        double *bad_value[6];
+        m2 = motion;
+        bad_value[0] = &m2.septum[0];
+        bad_value[1] = &m2.anterior[1];
+        bad_value[2] = &m2.axis[2];
+        bad_value[3] = &m2.apex_fraction;
+        bad_value[4] = &m2.apex_fraction;
+        bad_value[5] = &m2.septum[0];
+        *bad_value[k] = k == 4 ? 1.0 : k == 5 ? 2.0 * m2.septum[0] : NAN;
+        CHECK_MSG(sqffd_wall(endo, epi, 2, &m2, segment, NULL, &out, &rep, work, size) == SQFFD_ERROR_INVALID_ARGUMENT,
+                  "bad segment frame %d", k);
+    }
     segment[m / 2] = 18;
     CHECK_RESULT(sqffd_wall(endo, epi, 2, &motion, segment, NULL, &out, &rep, work, size), SQFFD_ERROR_INVALID_ARGUMENT);
     segment[m / 2] = 9;
@@ -459,6 +637,10 @@ static void test_wall_bad_input(void)
     CHECK_RESULT(sqffd_wall(endo, epi, 2, &motion, segment, NULL, &out, &rep, work, size - 1),
                  SQFFD_ERROR_WORKSPACE_TOO_SMALL);
     CHECK_RESULT(sqffd_wall(epi, endo, 2, &motion, segment, NULL, &out, &rep, work, size), SQFFD_ERROR_DEGENERATE);
+    bad[0] = endo[0];
+    bad[1] = endo[1];
+    for (k = 0; k < SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE; k++) bad[1].ffd.control[k][2] = 0.0;
+    CHECK_RESULT(sqffd_wall(bad, epi, 2, &motion, segment, NULL, &out, &rep, work, size), SQFFD_ERROR_DEGENERATE); /* a flat ES */
     CHECK(myo[0] == -1.0 && myo[1] == -1.0);
     {
         sqffd_wall_report untouched;
@@ -635,6 +817,8 @@ void suite_wall(void)
     RUN_TEST(test_wall_stack_planes);
     RUN_TEST(test_wall_own_areas);
     RUN_TEST(test_wall_es_segments);
+    RUN_TEST(test_wall_cavity_rays);
+    RUN_TEST(test_wall_empty_segments);
     RUN_TEST(test_wall_bad_input);
     RUN_TEST(test_wall_phantom);
 }

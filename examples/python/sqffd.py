@@ -971,10 +971,10 @@ def motion(models, stacks=None, **options):
 
 @dataclasses.dataclass(eq=False)
 class SegmentWall:
-    """sqffd_segment_wall: one AHA segment's wall (thicknesses 0 and not dysfunctional where no
-    vertex was measured)."""
-    thickness_ed: float       # ED-area-weighted mean over its measured vertices
-    thickness_es: float
+    """sqffd_segment_wall: one AHA segment's wall (thicknesses 0, thickening NaN and not
+    dysfunctional where a frame measured none of its vertices)."""
+    thickness_ed: float       # over its ED vertices measured at ED, by their ED areas
+    thickness_es: float       # over its ES vertices (placed on the ES mesh) measured at ES, by their ES areas
     thickening: float         # thickness_es / thickness_ed - 1
     dysfunctional: bool       # thickening < the options' dysfunctional_thickening
 
@@ -982,7 +982,8 @@ class SegmentWall:
 @dataclasses.dataclass(eq=False)
 class Wall:
     """sqffd_wall's outputs and report. Per-vertex arrays follow the endocardium's grid mesh (as
-    Motion's), NaN where not measured (the valve plane, no epicardium along the normal);
+    Motion's), NaN where not measured (the valve plane, no epicardium along the normal, a ray
+    across the cavity, outside the slices, off the ES wall);
     segments[k] is AHA segment k + 1. Volumes and lengths in the models' units."""
     myocardium: np.ndarray    # (frames,) V_epi - V_endo
     thickness_ed: np.ndarray  # (M,) along the ED endocardium's normal to the ED epicardium
