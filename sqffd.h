@@ -7883,7 +7883,7 @@ static double sqffd__fit_fold_certify(const int dims[3], sqffd__fit_fold *f, con
                                       double target)
 {
     enum { levels = SQFFD__FIT_REGION_LEVELS + SQFFD__FIT_CERT_DEPTH };
-    int ej[3], index[levels + 1][3], child[levels + 1], depth = 0, a;
+    int ej[3], index[levels + 1][3], child[levels + 1], quad[levels + 1], pair[levels + 1], depth = 0, a;
     const double *t[levels + 1];
     double near = 2.0, eps = sqffd__ffd_jacobian_derivatives(dims, control, inverse, &f->at), bound = HUGE_VAL, least;
     size_t count;
@@ -7898,6 +7898,7 @@ static double sqffd__fit_fold_certify(const int dims[3], sqffd__fit_fold *f, con
     t[0] = f->at.coef;
     if (sqffd__fit_fold_cell(ej, f, target, 0, index[0], t[0], &least)) return least;
     child[0] = 0;
+    quad[0] = pair[0] = -1;
     while (depth >= 0) {
         double *halves = f->tensor + (size_t)depth * 6 * count; /* [axis][side] */
         int c = child[depth]++, sub[3];
@@ -7905,11 +7906,19 @@ static double sqffd__fit_fold_certify(const int dims[3], sqffd__fit_fold *f, con
             --depth;
             continue;
         }
-        if (c == 0) sqffd__bernstein_split(t[depth], ej, 2, halves, halves + count);
-        if (c % 4 == 0) sqffd__bernstein_split(halves + (size_t)(c / 4) * count, ej, 1, halves + 2 * count, halves + 3 * count);
-        if (c % 2 == 0) sqffd__bernstein_split(halves + (size_t)(2 + c / 2 % 2) * count, ej, 0, halves + 4 * count, halves + 5 * count);
         for (a = 0; a < 3; ++a) sub[a] = 2 * index[depth][a] + ((c >> a) & 1);
         if (depth + 1 <= SQFFD__FIT_REGION_LEVELS && !sqffd__fit_region_meets(f, 1 << (depth + 1), sub)) continue;
+        /* the halvings this child needs, each once: axis 2, then axis 1 of its half, then axis 0 of its quarter */
+        if (quad[depth] == -1) sqffd__bernstein_split(t[depth], ej, 2, halves, halves + count);
+        if (quad[depth] != c / 4) {
+            sqffd__bernstein_split(halves + (size_t)(c / 4) * count, ej, 1, halves + 2 * count, halves + 3 * count);
+            quad[depth] = c / 4;
+            pair[depth] = -1;
+        }
+        if (pair[depth] != c / 2) {
+            sqffd__bernstein_split(halves + (size_t)(2 + c / 2 % 2) * count, ej, 0, halves + 4 * count, halves + 5 * count);
+            pair[depth] = c / 2;
+        }
         if (sqffd__fit_fold_cell(ej, f, target, depth + 1, sub, halves + (size_t)(4 + c % 2) * count, &least)) {
             if (least < bound) bound = least;
             continue;
@@ -7918,6 +7927,7 @@ static double sqffd__fit_fold_certify(const int dims[3], sqffd__fit_fold *f, con
         memcpy(index[depth], sub, sizeof sub);
         t[depth] = halves + (size_t)(4 + c % 2) * count;
         child[depth] = 0;
+        quad[depth] = pair[depth] = -1;
     }
     return bound;
 }
