@@ -10247,16 +10247,15 @@ typedef struct sqffd__wall_work {
     double *thickening;      /* M */
     unsigned char *segment_es; /* M: the ES segments, assigned on the ES mesh */
     double *epi;             /* E x 3: the epicardium's vertices */
-    uint32_t *triangles;     /* its mesh */
-    uint32_t *endo_triangles; /* the endocardium's */
-    size_t triangle_count[2]; /* the epicardium's, the endocardium's */
+    sqffd__fit_bvh tree[2];  /* the trees over the epicardium's and the endocardium's grid meshes (sqffd__wall_ray) */
     double *myocardium;      /* frame_count */
     sqffd_wall_report *report;
 } sqffd__wall_work;
 
-static void sqffd__wall_layout(sqffd__arena *a, size_t m, size_t e, const size_t triangles[2], size_t frames,
+static void sqffd__wall_layout(sqffd__arena *a, const sqffd_model *endo, const sqffd_model *epi, size_t frames,
                                sqffd__wall_work *w)
 {
+    size_t m = sqffd__fit_grid_count(endo->grid), e = sqffd__fit_grid_count(epi->grid);
     w->ed = (double *)sqffd__arena_take(a, m, 3 * sizeof(double));
     w->es = (double *)sqffd__arena_take(a, m, 3 * sizeof(double));
     w->area[0] = (double *)sqffd__arena_take(a, m, sizeof(double));
@@ -10267,10 +10266,8 @@ static void sqffd__wall_layout(sqffd__arena *a, size_t m, size_t e, const size_t
     w->thickening = (double *)sqffd__arena_take(a, m, sizeof(double));
     w->segment_es = (unsigned char *)sqffd__arena_take(a, m, 1);
     w->epi = (double *)sqffd__arena_take(a, e, 3 * sizeof(double));
-    w->triangles = (uint32_t *)sqffd__arena_take(a, triangles[0], 3 * sizeof(uint32_t));
-    w->endo_triangles = (uint32_t *)sqffd__arena_take(a, triangles[1], 3 * sizeof(uint32_t));
-    w->triangle_count[0] = triangles[0];
-    w->triangle_count[1] = triangles[1];
+    sqffd__fit_bvh_layout(a, epi->grid, &w->tree[0]);
+    sqffd__fit_bvh_layout(a, endo->grid, &w->tree[1]);
     w->myocardium = (double *)sqffd__arena_take(a, frames, sizeof(double));
     w->report = (sqffd_wall_report *)sqffd__arena_take(a, 1, sizeof(sqffd_wall_report));
 }
@@ -10280,49 +10277,123 @@ SQFFD_DEF sqffd_result sqffd_wall_workspace_size(const sqffd_model *endo, const 
 {
     sqffd__arena a;
     sqffd__wall_work w;
-    size_t e = 0, m = 0, triangles[2] = {0, 0};
     sqffd_result r;
     if (!size) return SQFFD_ERROR_INVALID_ARGUMENT;
     *size = 0;
     if (!endo || !epi || frame_count == 0) return SQFFD_ERROR_INVALID_ARGUMENT;
     if ((r = sqffd_model_validate(endo)) != SQFFD_OK || (r = sqffd_model_validate(epi)) != SQFFD_OK) return r;
-    sqffd_model_mesh_size(epi->grid[0], epi->grid[1], &e, &triangles[0]);
-    sqffd_model_mesh_size(endo->grid[0], endo->grid[1], &m, &triangles[1]);
     sqffd__arena_measure(&a);
-    sqffd__wall_layout(&a, m, e, triangles, frame_count, &w);
+    sqffd__wall_layout(&a, endo, epi, frame_count, &w);
     return sqffd__arena_size(&a, size);
 }
 
-/* The distance along unit direction d from o to the nearest crossing of the
-   mesh ahead of o (Moller & Trumbore's ray-triangle test), HUGE_VAL if none;
-   *hit: the crossed triangle. The triangles around vertex `skip` (o itself,
-   on this mesh; (size_t)-1: none), and those whose first vertex is farther
-   than `within` from o (HUGE_VAL: none), are not looked at. */
-static double sqffd__wall_ray(const double *x, const uint32_t *tri, size_t triangles, const double o[3], const double d[3],
-                              size_t skip, double within, size_t *hit)
+/* The crossing of triangle (a, b, c) by the ray from o along d (Moller &
+   Trumbore's test, u and v in [0, 1] inclusive): its distance along d
+   (negative behind o), HUGE_VAL if none or if the ray runs along the
+   triangle's plane. */
+static double sqffd__wall_cross(const double *a, const double *b, const double *c, const double o[3], const double d[3])
 {
-    double best = HUGE_VAL;
-    size_t i;
-    for (i = 0; i < triangles; ++i) {
-        const double *a = x + 3 * (size_t)tri[3 * i], *b = x + 3 * (size_t)tri[3 * i + 1], *c = x + 3 * (size_t)tri[3 * i + 2];
-        double e1[3], e2[3], p[3], s[3], q[3], det, u, v, t;
-        if (tri[3 * i] == skip || tri[3 * i + 1] == skip || tri[3 * i + 2] == skip) continue;
-        sqffd__sub3(o, a, s);
-        if (within < HUGE_VAL && sqffd__dot3(s, s) > within * within) continue;
-        sqffd__sub3(b, a, e1);
-        sqffd__sub3(c, a, e2);
-        sqffd__cross3(d, e2, p);
-        det = sqffd__dot3(e1, p);
-        if (det == 0.0) continue; /* the ray along the triangle's plane */
-        u = sqffd__dot3(s, p) / det;
-        if (!(u >= 0.0 && u <= 1.0)) continue;
-        sqffd__cross3(s, e1, q);
-        v = sqffd__dot3(d, q) / det;
-        if (!(v >= 0.0 && u + v <= 1.0)) continue;
-        t = sqffd__dot3(e2, q) / det;
-        if (t > 0.0 && t < best) {
-            best = t;
-            *hit = i;
+    double e1[3], e2[3], p[3], s[3], q[3], det, u, v;
+    sqffd__sub3(o, a, s);
+    sqffd__sub3(b, a, e1);
+    sqffd__sub3(c, a, e2);
+    sqffd__cross3(d, e2, p);
+    det = sqffd__dot3(e1, p);
+    if (det == 0.0) return HUGE_VAL;
+    u = sqffd__dot3(s, p) / det;
+    if (!(u >= 0.0 && u <= 1.0)) return HUGE_VAL;
+    sqffd__cross3(s, e1, q);
+    v = sqffd__dot3(d, q) / det;
+    if (!(v >= 0.0 && u + v <= 1.0)) return HUGE_VAL;
+    return sqffd__dot3(e2, q) / det;
+}
+
+/* The stretch [near, far] of the ray o + t d, t >= 0, inside each of a
+   node's four child boxes grown by pad on every side (near > far: it
+   misses the box), from inv = 1 / d per axis (finite: no 0 x inf), written
+   out so that the compiler packs the four into vectors. */
+static void sqffd__wall_slabs(const sqffd__fit_bvh_node *node, const double o[3], const double inv[3], double pad,
+                              double near[SQFFD__FIT_BVH_WIDTH], double far[SQFFD__FIT_BVH_WIDTH])
+{
+    int c, k;
+    for (k = 0; k < SQFFD__FIT_BVH_WIDTH; ++k) {
+        near[k] = 0.0;
+        far[k] = HUGE_VAL;
+    }
+    for (c = 0; c < 3; ++c)
+        SQFFD__KEEP_LOOP
+        for (k = 0; k < SQFFD__FIT_BVH_WIDTH; ++k) {
+            double t1 = (node->low[c][k] - pad - o[c]) * inv[c], t2 = (node->high[c][k] + pad - o[c]) * inv[c];
+            double lo = t1 < t2 ? t1 : t2, hi = t1 < t2 ? t2 : t1;
+            near[k] = lo > near[k] ? lo : near[k];
+            far[k] = hi < far[k] ? hi : far[k];
+        }
+}
+
+/* The nearest crossing, closer than reach, of the grid mesh x (tree h over
+   grid's cells, its boxes measured over x: sqffd__fit_bvh_boxes) by the ray
+   from o along unit d: its distance along d (reach if none) and the
+   crossed triangle's corners in tri. The triangles with corner skip (o
+   itself, a vertex of this mesh; UINT32_MAX: none) are not looked at. The
+   answer is the brute force's over the mesh's triangles as sqffd_model_mesh
+   lists them (the grid cells', cell by cell): the nearest, the first listed
+   of equal ones. The walk visits the boxes the ray meets, nearest first,
+   and skips those it enters beyond the best so far; the boxes are grown by
+   a billionth of the coordinates' scale, so that a crossing whose rounding
+   puts it on a triangle's edge just outside the triangle's box (a ray
+   that meets an edge) is not skipped. */
+static double sqffd__wall_ray(const sqffd__fit_bvh *h, const int grid[2], const double *x, const double o[3],
+                              const double d[3], uint32_t skip, double reach, uint32_t tri[3])
+{
+    uint32_t stack[SQFFD__FIT_BVH_STACK], columns = (uint32_t)grid[1], k, j;
+    double nears[SQFFD__FIT_BVH_STACK], inv[3], scale = 0.0, best = reach;
+    size_t best_key = 0; /* the best triangle's place in the list: 2 x cell + its triangle */
+    int top = 0, c;
+    for (c = 0; c < 3; ++c) {
+        inv[c] = 1.0 / d[c];
+        if (!(fabs(inv[c]) < 1e300)) inv[c] = copysign(1e300, d[c]); /* (conservative: a longer stretch) */
+        scale = fmax(scale, fabs(o[c]));
+        for (k = 0; k < h->nodes->count; ++k)
+            scale = fmax(scale, fmax(fabs(h->nodes->low[c][k]), fabs(h->nodes->high[c][k])));
+    }
+    stack[top] = 0;
+    nears[top++] = 0.0;
+    while (top > 0) {
+        const sqffd__fit_bvh_node *node;
+        double near[SQFFD__FIT_BVH_WIDTH], far[SQFFD__FIT_BVH_WIDTH];
+        --top;
+        if (!(nears[top] < best)) continue; /* (the best may have improved since it was pushed) */
+        node = h->nodes + stack[top];
+        sqffd__wall_slabs(node, o, inv, 1e-9 * scale, near, far);
+        if (node->bottom) {
+            for (k = 0; k < node->count; ++k) {
+                uint32_t cell[2][3];
+                int t, count;
+                if (!(near[k] <= far[k] && near[k] < best)) continue;
+                count = sqffd__fit_cell(grid, node->child[k] / columns, node->child[k] % columns, cell);
+                for (t = 0; t < count; ++t) {
+                    size_t key = 2 * (size_t)node->child[k] + (size_t)t;
+                    double at;
+                    if (cell[t][0] == skip || cell[t][1] == skip || cell[t][2] == skip) continue;
+                    at = sqffd__wall_cross(x + 3 * (size_t)cell[t][0], x + 3 * (size_t)cell[t][1], x + 3 * (size_t)cell[t][2], o, d);
+                    if (!(at > 0.0 && (at < best || (at == best && key < best_key)))) continue;
+                    best = at;
+                    best_key = key;
+                    memcpy(tri, cell[t], sizeof cell[t]);
+                }
+            }
+        } else { /* the children the ray meets in reach, farthest first (so the nearest is visited next) */
+            int first = top;
+            for (k = 0; k < node->count; ++k) {
+                if (!(near[k] <= far[k] && near[k] < best)) continue;
+                for (j = (uint32_t)top; (int)j > first && nears[j - 1] < near[k]; --j) { /* (insertion: at most 4) */
+                    nears[j] = nears[j - 1];
+                    stack[j] = stack[j - 1];
+                }
+                nears[j] = near[k];
+                stack[j] = node->child[k];
+                ++top;
+            }
         }
     }
     return best;
@@ -10379,32 +10450,28 @@ static int sqffd__wall_frame_valid(const sqffd_motion_report *motion)
    wall is cut, not across it). */
 static void sqffd__wall_thickness(const sqffd_model *endo, const sqffd_model *epi, const double *x,
                                   const unsigned char *segment, const double axis[3], const sqffd_stack *stack,
-                                  const sqffd__wall_work *w, double *thickness)
+                                  sqffd__wall_work *w, double *thickness)
 {
-    size_t m = sqffd__fit_grid_count(endo->grid), v, hit = 0, other;
-    double reach = 0.0; /* the endocardium's longest edge: a triangle within d of a point has its first vertex within d + it */
+    size_t m = sqffd__fit_grid_count(endo->grid), v;
+    int k;
     sqffd__fit_surface(epi, epi->grid, w->epi);
-    for (v = 0; v < 3 * w->triangle_count[1]; ++v) {
-        double e[3];
-        sqffd__sub3(x + 3 * (size_t)w->endo_triangles[v], x + 3 * (size_t)w->endo_triangles[v - v % 3 + (v + 1) % 3], e);
-        reach = fmax(reach, sqrt(sqffd__dot3(e, e)));
-    }
+    sqffd__fit_bvh_boxes(&w->tree[0], epi->grid, w->epi);
+    sqffd__fit_bvh_boxes(&w->tree[1], endo->grid, x);
     for (v = 0; v < m; ++v) {
         double n[3], e1[3], e2[3], face[3], d;
-        const uint32_t *t;
+        uint32_t t[3], other[3];
         thickness[v] = NAN;
         if (!segment[v] || !sqffd__unit3(w->normal + 3 * v, 0.0, n)) continue;
         if (stack) {
             double level = sqffd__dot3(stack->axis, x + 3 * v), along = sqffd__dot3(stack->axis, n);
             if (level < stack->level[0] || level > stack->level[stack->planes - 1]) continue;
-            for (hit = 0; hit < 3; ++hit) n[hit] -= along * stack->axis[hit];
+            for (k = 0; k < 3; ++k) n[k] -= along * stack->axis[k];
             if (!sqffd__unit3(n, 1.0, n)) continue;
         }
-        d = sqffd__wall_ray(w->epi, w->triangles, w->triangle_count[0], x + 3 * v, n, (size_t)-1, HUGE_VAL, &hit);
+        d = sqffd__wall_ray(&w->tree[0], epi->grid, w->epi, x + 3 * v, n, UINT32_MAX, HUGE_VAL, t);
         if (!(d < HUGE_VAL)) continue;
         /* a ray that meets the endocardium again first crosses the cavity, not the wall */
-        if (sqffd__wall_ray(x, w->endo_triangles, w->triangle_count[1], x + 3 * v, n, v, d + reach, &other) < d) continue;
-        t = w->triangles + 3 * hit;
+        if (sqffd__wall_ray(&w->tree[1], endo->grid, x, x + 3 * v, n, (uint32_t)v, d, other) < d) continue;
         sqffd__sub3(w->epi + 3 * (size_t)t[1], w->epi + 3 * (size_t)t[0], e1);
         sqffd__sub3(w->epi + 3 * (size_t)t[2], w->epi + 3 * (size_t)t[0], e2);
         sqffd__cross3(e1, e2, face);
@@ -10425,7 +10492,7 @@ SQFFD_DEF sqffd_result sqffd_wall(const sqffd_model *endo, const sqffd_model *ep
     sqffd__wall_work w;
     sqffd__arena a;
     double sum[SQFFD_SEGMENTS + 1][4], total[4] = {0.0, 0.0, 0.0, 0.0}; /* [c]: area x thickness, [2 + c]: area at ED, ES */
-    size_t m, e = 0, triangles[2] = {0, 0}, t, v;
+    size_t m, e, t, v;
     int k, c;
     if (!endo || !epi || !motion || !segment || frame_count == 0 || motion->ed_frame >= frame_count ||
         motion->es_frame >= frame_count || !sqffd__wall_frame_valid(motion) || !(o->dysfunctional_thickening > -1.0) ||
@@ -10443,15 +10510,14 @@ SQFFD_DEF sqffd_result sqffd_wall(const sqffd_model *endo, const sqffd_model *ep
     m = sqffd__fit_grid_count(endo->grid);
     for (v = 0; v < m; ++v)
         if (segment[v] > SQFFD_SEGMENTS) return SQFFD_ERROR_INVALID_ARGUMENT;
-    sqffd_model_mesh_size(epi->grid[0], epi->grid[1], &e, &triangles[0]);
-    sqffd_model_mesh_size(endo->grid[0], endo->grid[1], NULL, &triangles[1]);
+    e = sqffd__fit_grid_count(epi->grid);
     sqffd__arena_init(&a, workspace, workspace_size);
-    sqffd__wall_layout(&a, m, e, triangles, frame_count, &w);
+    sqffd__wall_layout(&a, endo, epi, frame_count, &w);
     if (a.overflow) return sqffd__arena_error(&a);
     rep = w.report;
     memset(rep, 0, sizeof *rep);
-    sqffd_model_mesh(epi, epi->grid[0], epi->grid[1], NULL, w.triangles);
-    sqffd_model_mesh(endo, endo->grid[0], endo->grid[1], NULL, w.endo_triangles);
+    sqffd__fit_bvh_build(epi->grid, w.tree[0].nodes);
+    sqffd__fit_bvh_build(endo->grid, w.tree[1].nodes);
     volumes.stacks = o->stacks;
     for (t = 0; t < frame_count; ++t) { /* the myocardium: the volume between the two surfaces */
         sqffd__fit_surface(endo + t, endo->grid, w.ed);

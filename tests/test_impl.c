@@ -470,12 +470,119 @@ static void test_internal_certificate(void)
     free(memory);
 }
 
+/* The heart wall's ray query (sqffd__wall_ray, a walk of the tree over the
+   grid mesh) against the brute force over sqffd_model_mesh's triangle list
+   (the nearest crossing closer than the reach, the first listed of equal
+   ones, no triangle with the skipped corner): the same distance, bit for
+   bit, and the same triangle, on deformed models' meshes (random lattices,
+   boxy and tapered). Rays from random points along random and axis-aligned
+   directions, rays aimed at a vertex or an edge's midpoint (crossings on
+   shared edges: equal distances on two or more triangles), and rays from
+   mesh vertices with that vertex skipped and a reach (random, or exactly
+   the nearest crossing's distance: that one not counted). */
+static void test_internal_wall_rays(void)
+{
+    static const int grids[][2] = {{2, 3}, {7, 5}, {16, 32}, {31, 40}};
+    sqffd_fit_options o = sqffd_fit_options_default();
+    sqffd_superquadric sq;
+    size_t g;
+    int ties = 0, hits = 0, cut = 0;
+    memset(&sq, 0, sizeof sq);
+    sq.size[0] = 30.0; sq.size[1] = 22.0; sq.size[2] = 45.0;
+    sq.shape[0] = 0.5; sq.shape[1] = 1.3;
+    sq.taper[0] = 0.3; sq.taper[1] = -0.2;
+    sq.rotation[0] = sq.rotation[4] = sq.rotation[8] = 1.0;
+    sq.center[0] = 100.0; sq.center[1] = -40.0; sq.center[2] = 7.0;
+    srand(35);
+    for (g = 0; g < sizeof grids / sizeof grids[0]; g++) {
+        sqffd_model model;
+        sqffd__fit_bvh h;
+        size_t m = 0, triangles = 0, p, i;
+        double *x, *control = &model.ffd.control[0][0];
+        uint32_t *tri;
+        int trial, c, bad = 0;
+        o.grid[0] = grids[g][0];
+        o.grid[1] = grids[g][1];
+        CHECK_RESULT(sqffd_model_init(&model, &sq, &o), SQFFD_OK);
+        for (p = 0; p < sizeof model.ffd.control / sizeof(double); p++) control[p] += 16.0 * ((double)rand() / RAND_MAX - 0.5);
+        CHECK_RESULT(sqffd_model_mesh_size(grids[g][0], grids[g][1], &m, &triangles), SQFFD_OK);
+        x = (double *)malloc(3 * m * sizeof *x);
+        tri = (uint32_t *)malloc(3 * triangles * sizeof *tri);
+        CHECK_RESULT(sqffd_model_mesh(&model, grids[g][0], grids[g][1], x, tri), SQFFD_OK);
+        h.count = sqffd__fit_bvh_build(grids[g], NULL);
+        h.nodes = (sqffd__fit_bvh_node *)malloc(h.count * sizeof *h.nodes);
+        sqffd__fit_bvh_build(grids[g], h.nodes);
+        sqffd__fit_bvh_boxes(&h, grids[g], x);
+        for (trial = 0; trial < 600; trial++) {
+            double o3[3], d[3], aim[3], len, reach = HUGE_VAL, t, brute = HUGE_VAL, second = HUGE_VAL;
+            uint32_t skip = UINT32_MAX, corners[3] = {0, 0, 0};
+            size_t hit = 0, u = (size_t)rand() % m, w = (size_t)rand() % triangles;
+            int kind = trial % 6;
+            for (c = 0; c < 3; c++) o3[c] = sq.center[c] + 120.0 * ((double)rand() / RAND_MAX - 0.5);
+            if (kind >= 4) { /* from vertex u, skipping it */
+                skip = (uint32_t)u;
+                memcpy(o3, x + 3 * u, sizeof o3);
+            }
+            for (c = 0; c < 3; c++) d[c] = (double)rand() / RAND_MAX - 0.5;
+            if (kind == 1) { /* along an axis (two zero components) */
+                d[0] = d[1] = d[2] = 0.0;
+                d[trial / 6 % 3] = trial / 18 % 2 ? 1.0 : -1.0;
+            } else if (kind == 2 || kind == 3 || kind == 5) { /* at a vertex, or an edge's midpoint */
+                const double *a = x + 3 * (size_t)tri[3 * w], *b = x + 3 * (size_t)tri[3 * w + 1];
+                for (c = 0; c < 3; c++) aim[c] = kind == 3 ? 0.5 * (a[c] + b[c]) : a[c];
+                if (kind == 5 && tri[3 * w] == skip) continue;
+                sqffd__sub3(aim, o3, d);
+            }
+            len = sqrt(sqffd__dot3(d, d));
+            if (!(len > 0.0)) continue;
+            for (c = 0; c < 3; c++) d[c] /= len;
+            for (p = 0; p < 2; p++) { /* the brute force: without a reach, then with it */
+                if (p == 1 && kind >= 4) /* a random reach, or exactly the nearest crossing's */
+                    reach = rand() % 3 == 0 && brute < HUGE_VAL ? brute : 100.0 * (double)rand() / RAND_MAX;
+                else if (p == 1) break;
+                brute = reach;
+                second = HUGE_VAL;
+                for (i = 0; i < triangles; i++) {
+                    double at;
+                    if (tri[3 * i] == skip || tri[3 * i + 1] == skip || tri[3 * i + 2] == skip) continue;
+                    at = sqffd__wall_cross(x + 3 * (size_t)tri[3 * i], x + 3 * (size_t)tri[3 * i + 1],
+                                           x + 3 * (size_t)tri[3 * i + 2], o3, d);
+                    if (at > 0.0 && at < brute) {
+                        second = brute;
+                        brute = at;
+                        hit = i;
+                    } else if (at > 0.0 && at == brute)
+                        second = at;
+                }
+            }
+            t = sqffd__wall_ray(&h, grids[g], x, o3, d, skip, reach, corners);
+            hits += brute < reach;
+            ties += brute < reach && second == brute;
+            cut += reach < HUGE_VAL;
+            if (t == brute && (!(brute < reach) || (corners[0] == tri[3 * hit] && corners[1] == tri[3 * hit + 1] &&
+                                                    corners[2] == tri[3 * hit + 2])))
+                continue;
+            if (++bad <= 5)
+                CHECK_MSG(0, "grid %d x %d, ray %d (kind %d): the walk's %.17g (%u %u %u), brute force %.17g (triangle %u %u %u)",
+                          grids[g][0], grids[g][1], trial, kind, t, corners[0], corners[1], corners[2], brute,
+                          tri[3 * hit], tri[3 * hit + 1], tri[3 * hit + 2]);
+        }
+        CHECK_MSG(bad == 0, "grid %d x %d: %d rays differ", grids[g][0], grids[g][1], bad);
+        free(h.nodes);
+        free(tri);
+        free(x);
+    }
+    printf("    %d crossings (%d on equal distances), %d rays with a reach\n", hits, ties, cut);
+    CHECK(hits > 800 && ties > 10 && cut > 200);
+}
+
 void suite_internal(void)
 {
     RUN_TEST(test_internal_jacobian_sample);
     RUN_TEST(test_internal_jacobian_frames);
     RUN_TEST(test_internal_certificate);
     RUN_TEST(test_internal_triangle_tree);
+    RUN_TEST(test_internal_wall_rays);
     RUN_TEST(test_internal_lagged_step);
     RUN_TEST(test_internal_pass_order);
 }
