@@ -10340,7 +10340,7 @@ static void sqffd__wall_slabs(const sqffd__fit_bvh_node *node, const double o[3]
 /* The nearest crossing, closer than reach, of the grid mesh x (tree h over
    grid's cells, its boxes measured over x: sqffd__fit_bvh_boxes) by the ray
    from o along unit d: its distance along d (reach if none) and the
-   crossed triangle's corners in tri. The triangles with corner skip (o
+   crossed triangle's corners in tri (0 0 0 if none). The triangles with corner skip (o
    itself, a vertex of this mesh; UINT32_MAX: none) are not looked at. The
    answer is the brute force's over the mesh's triangles as sqffd_model_mesh
    lists them (the grid cells', cell by cell): the nearest, the first listed
@@ -10356,6 +10356,7 @@ static double sqffd__wall_ray(const sqffd__fit_bvh *h, const int grid[2], const 
     double nears[SQFFD__FIT_BVH_STACK], inv[3], scale = 0.0, best = reach;
     size_t best_key = 0; /* the best triangle's place in the list: 2 x cell + its triangle */
     int top = 0, c;
+    tri[0] = tri[1] = tri[2] = 0;
     for (c = 0; c < 3; ++c) {
         inv[c] = 1.0 / d[c];
         if (!(fabs(inv[c]) < 1e300)) inv[c] = copysign(1e300, d[c]); /* (conservative: a longer stretch) */
