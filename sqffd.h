@@ -5545,6 +5545,8 @@ SQFFD_DEF sqffd_result sqffd_ffd_jacobian_bound(const sqffd_ffd *ffd, double *mi
      sqffd__fit_iterate_fold_free under the floor:
        sqffd__fit_region          the region's cells and samples (from the superquadric and the box)
        sqffd__fit_fold_certify    J's Bernstein coefficients on the region's cells, halved where low
+       sqffd__fit_fold_frames     J's frames on the region's node lattice (the samples' J, its change
+                                  along a step)
        sqffd__fit_fold_linearise  the energy's Gauss-Newton matrix (point-to-plane) at the accepted model
        sqffd__fit_fold_step       the damped step with the samples' penalty (its dual over candidates)
    The sections below, in order: the grid and its mesh, the closest-point
