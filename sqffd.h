@@ -7501,8 +7501,8 @@ struct sqffd__fit_fold {
     double *surface;           /* the superquadric's points on the SQFFD__FIT_REGION_GRID (the region's seeds) */
     double (*fails)[3];        /* SQFFD__FIT_CERT_FAILS */
     size_t failed;
-    double *hessian;           /* 3L x 3L lower triangle, planar unknowns: the energy's Gauss-Newton matrix at the
-                                  accepted model, without the penalty */
+    double *hessian;           /* 3L x 3L lower triangle, packed (sqffd__packed_row), planar unknowns: the energy's
+                                  Gauss-Newton matrix at the accepted model, without the penalty */
     double *factor;            /* 3L x 3L: the step's matrix factored, stored as L^T (rows of the upper triangle) */
     double *gradient;          /* 3L: minus the energy's gradient there, without the penalty */
     double *rhs;               /* 3L: with the active samples' penalty */
@@ -7553,7 +7553,7 @@ static void sqffd__fit_fold_layout(sqffd__arena *a, const int dims[3], size_t m,
     f->cross = (double (*)[9])sqffd__arena_take(a, f->capacity, 9 * sizeof(double));
     f->frames = (double (*)[9])sqffd__arena_take(a, SQFFD__FIT_REGION_NODES, 9 * sizeof(double));
     f->contract = (double *)sqffd__arena_take(a, sqffd__fit_contract_size(dims), sizeof(double));
-    f->hessian = (double *)sqffd__arena_take(a, size * size, sizeof(double));
+    f->hessian = (double *)sqffd__arena_take(a, size * (size + 1) / 2, sizeof(double));
     f->factor = (double *)sqffd__arena_take(a, size * size, sizeof(double));
     f->gradient = (double *)sqffd__arena_take(a, size, sizeof(double));
     f->rhs = (double *)sqffd__arena_take(a, size, sizeof(double));
@@ -7966,23 +7966,31 @@ SQFFD_DEF sqffd_result sqffd_model_jacobian_bound(const sqffd_model *model, doub
     return SQFFD_OK;
 }
 
-/* y = A x for a symmetric n x n A given by its lower triangle (row-major). */
-static void sqffd__fit_symmetric_times(const double *a, size_t n, const double *x, double *y)
+/* Where row i of a lower triangle packed row after row (i + 1 entries each) starts. */
+static size_t sqffd__packed_row(size_t i)
+{
+    return i * (i + 1) / 2;
+}
+
+/* y = A x for a symmetric n x n A given by its lower triangle (row-major:
+   n x n, or packed: sqffd__packed_row). */
+static void sqffd__fit_symmetric_times(const double *a, size_t n, int packed, const double *x, double *y)
 {
     size_t i, j;
     for (i = 0; i < n; ++i) {
-        y[i] = sqffd__la_dot(a + i * n, x, i + 1);
-        for (j = 0; j < i; ++j) y[j] += a[i * n + j] * x[i];
+        const double *row = a + (packed ? sqffd__packed_row(i) : i * n);
+        y[i] = sqffd__la_dot(row, x, i + 1);
+        for (j = 0; j < i; ++j) y[j] += row[j] * x[i];
     }
 }
 
-/* matrix (3L x 3L lower, planar unknowns) += the symmetric L x L block
+/* matrix (3L x 3L lower, packed, planar unknowns) += the symmetric L x L block
    (lower triangle given) at block row c, column c2 (c >= c2). */
 static void sqffd__fit_fold_scatter(size_t l, const double *block, size_t c, size_t c2, double *matrix)
 {
-    size_t size = 3 * l, p, q;
+    size_t p, q;
     for (p = 0; p < l; ++p) {
-        double *row = matrix + (c * l + p) * size + c2 * l;
+        double *row = matrix + sqffd__packed_row(c * l + p) + c2 * l;
         for (q = 0; q <= p; ++q) row[q] += block[p * l + q];
         if (c != c2)
             for (q = p + 1; q < l; ++q) row[q] += block[q * l + p];
@@ -8015,7 +8023,8 @@ static int sqffd__fit_fold_factor(const sqffd__fit_system *s, sqffd__fit_fold *f
     size_t l = s->lattice, size = 3 * l, c, p, q;
     int tries;
     for (tries = 0; tries < 40; ++tries, f->lambda = f->lambda > 0.0 ? 10.0 * f->lambda : 1e-6) {
-        memcpy(f->factor, f->hessian, size * size * sizeof(double));
+        for (p = 0; p < size; ++p) /* (the factor reads the lower triangle only) */
+            memcpy(f->factor + p * size, f->hessian + sqffd__packed_row(p), (p + 1) * sizeof(double));
         memcpy(f->rhs, f->gradient, size * sizeof(double));
         for (c = 0; c < 3; ++c)
             for (p = 0; p < l; ++p) {
@@ -8056,7 +8065,7 @@ static double sqffd__fit_fold_predicted(const sqffd__fit_system *s, sqffd__fit_f
 {
     size_t size = 3 * s->lattice, k;
     double decrease = sqffd__la_dot(f->gradient, f->move, size);
-    sqffd__fit_symmetric_times(f->hessian, size, f->move, f->scratch);
+    sqffd__fit_symmetric_times(f->hessian, size, 1, f->move, f->scratch);
     decrease -= 0.5 * sqffd__la_dot(f->move, f->scratch, size);
     sqffd__fit_fold_sinking(s, f, inverse);
     for (k = 0; k < count; ++k) { /* (the other samples are not short before the step nor after it) */
@@ -8649,7 +8658,7 @@ static void sqffd__fit_fold_linearise(sqffd__fit_iteration *it)
     for (v = 0; v < l; ++v) laplacian += f->damping[v * l + v];
     sqffd__fit_fold_coarsen(s, plane);
     for (v = 0; v < l * l; ++v) f->damping[v] *= trace / laplacian;
-    memset(f->hessian, 0, size * size * sizeof(double));
+    memset(f->hessian, 0, size * (size + 1) / 2 * sizeof(double));
     for (c = 0; c < 3; ++c)
         for (c2 = 0; c2 <= c; ++c2) {
             for (v = 0; v < m; ++v) w->weights[v] = plane[6 * v + (size_t)entry[c][c2]];
@@ -8661,7 +8670,7 @@ static void sqffd__fit_fold_linearise(sqffd__fit_iteration *it)
     sqffd__fit_project(s, t, NULL, s->rhs0, (double (*)[3])w->block, f->gradient); /* B^T t + rhs0 - fixed P */
     sqffd__fit_planar(control, l, f->move);
     for (c = 0; c < 3; ++c) {
-        sqffd__fit_symmetric_times(s->fixed, l, f->move + c * l, f->scratch);
+        sqffd__fit_symmetric_times(s->fixed, l, 0, f->move + c * l, f->scratch);
         for (v = 0; v < l; ++v) f->gradient[c * l + v] -= f->scratch[v];
     }
     sqffd__fit_fold_values(s->dims, f, control, it->model->ffd.inverse, f->value, f->cross); /* (J's linear model) */

@@ -68,7 +68,7 @@
 #include "sqffd_io.h"
 
 #ifndef STREAM_ARENA_BYTES
-#define STREAM_ARENA_BYTES (8u << 20) /* 8 MiB: the default 20,000 points need 7.2 MB */
+#define STREAM_ARENA_BYTES (8u << 20) /* 8 MiB: the default 20,000 points need 6.7 MB */
 #endif
 #define STREAM_DEFAULT_MAX_POINTS 20000
 #define STREAM_TIMINGS 4096 /* tracked frames whose times the median is taken over (the last ones) */
