@@ -6057,6 +6057,20 @@ static void sqffd__fit_bvh_gaps(const sqffd__fit_bvh_node *node, const double q[
         }
 }
 
+/* A child pushed on a walk's stack among those pushed since first, kept
+   farthest key first (so the nearest is popped next; insertion: at most 4). */
+static void sqffd__fit_bvh_push(uint32_t *stack, double *keys, int *top, int first, double key, uint32_t child)
+{
+    int j;
+    for (j = *top; j > first && keys[j - 1] < key; --j) {
+        keys[j] = keys[j - 1];
+        stack[j] = stack[j - 1];
+    }
+    keys[j] = key;
+    stack[j] = child;
+    ++*top;
+}
+
 /* The exact closest point from a first answer (best2, tri, w) for q: the
    tree over the triangles (sqffd__fit_bvh) is walked nearest box first,
    skipping every box (of a node, or of a cell before its triangles) farther
@@ -6077,7 +6091,7 @@ static void sqffd__fit_certify(sqffd__fit_search *s, const double q[3], double *
     while (top > 0) {
         const sqffd__fit_bvh_node *node;
         double gap2[SQFFD__FIT_BVH_WIDTH];
-        uint32_t k, j;
+        uint32_t k;
         --top;
         if (gaps[top] >= *best2) continue; /* (the best may have improved since it was pushed) */
         node = h->nodes + stack[top];
@@ -6102,16 +6116,8 @@ static void sqffd__fit_certify(sqffd__fit_search *s, const double q[3], double *
             }
         } else { /* the children within reach, farthest first (so the nearest is visited next) */
             int first = top;
-            for (k = 0; k < node->count; ++k) {
-                if (!(gap2[k] < *best2)) continue;
-                for (j = (uint32_t)top; (int)j > first && gaps[j - 1] < gap2[k]; --j) { /* (insertion: at most 4) */
-                    gaps[j] = gaps[j - 1];
-                    stack[j] = stack[j - 1];
-                }
-                gaps[j] = gap2[k];
-                stack[j] = node->child[k];
-                ++top;
-            }
+            for (k = 0; k < node->count; ++k)
+                if (gap2[k] < *best2) sqffd__fit_bvh_push(stack, gaps, &top, first, gap2[k], node->child[k]);
         }
     }
 }
@@ -10363,7 +10369,7 @@ static void sqffd__wall_slabs(const sqffd__fit_bvh_node *node, const double o[3]
 static double sqffd__wall_ray(const sqffd__fit_bvh *h, const int grid[2], const double *x, const double o[3],
                               const double d[3], uint32_t skip, double reach, uint32_t tri[3])
 {
-    uint32_t stack[SQFFD__FIT_BVH_STACK], columns = (uint32_t)grid[1], k, j;
+    uint32_t stack[SQFFD__FIT_BVH_STACK], columns = (uint32_t)grid[1], k;
     double nears[SQFFD__FIT_BVH_STACK], inv[3], scale = 0.0, best = reach;
     size_t best_key = 0; /* the best triangle's place in the list: 2 x cell + its triangle */
     int top = 0, c;
@@ -10403,16 +10409,8 @@ static double sqffd__wall_ray(const sqffd__fit_bvh *h, const int grid[2], const 
             }
         } else { /* the children the ray meets in reach, farthest first (so the nearest is visited next) */
             int first = top;
-            for (k = 0; k < node->count; ++k) {
-                if (!(near[k] <= far[k] && near[k] < best)) continue;
-                for (j = (uint32_t)top; (int)j > first && nears[j - 1] < near[k]; --j) { /* (insertion: at most 4) */
-                    nears[j] = nears[j - 1];
-                    stack[j] = stack[j - 1];
-                }
-                nears[j] = near[k];
-                stack[j] = node->child[k];
-                ++top;
-            }
+            for (k = 0; k < node->count; ++k)
+                if (near[k] <= far[k] && near[k] < best) sqffd__fit_bvh_push(stack, nears, &top, first, near[k], node->child[k]);
         }
     }
     return best;
