@@ -1978,20 +1978,33 @@ static void sqffd__la_axpy(double *SQFFD__LA_RESTRICT y, double alpha, const dou
 
 /* ---- Cholesky ---- */
 
-SQFFD_DEF sqffd_result sqffd_cholesky_factor(double *a, size_t n)
+/* Where row i of a lower triangle packed row after row (i + 1 entries each) starts. */
+static size_t sqffd__packed_row(size_t i)
 {
-    size_t nn, i, j;
-    if (!a || n < 1) return SQFFD_ERROR_INVALID_ARGUMENT;
-    nn = (size_t)n;
-    for (i = 0; i < nn; ++i)
+    return i * (i + 1) / 2;
+}
+
+/* Row i of an n x n lower triangle stored row-major (n a row) or packed. */
+static double *sqffd__la_row(const double *a, size_t n, int packed, size_t i)
+{
+    return (double *)a + (packed ? sqffd__packed_row(i) : i * n);
+}
+
+/* The Cholesky factor L of the lower triangle of a (row-major or packed) in
+   its place. Row by row (Cholesky-Crout): L[i][j] = (A[i][j] - L[i][:j].L[j][:j]) / L[j][j];
+   both dot operands are contiguous rows. */
+static sqffd_result sqffd__la_cholesky(double *a, size_t n, int packed)
+{
+    size_t i, j;
+    for (i = 0; i < n; ++i) {
+        const double *li = sqffd__la_row(a, n, packed, i);
         for (j = 0; j <= i; ++j)
-            if (!isfinite(a[i * nn + j])) return SQFFD_ERROR_NON_FINITE;
-    /* Row by row (Cholesky-Crout): L[i][j] = (A[i][j] - L[i][:j].L[j][:j]) / L[j][j];
-       both dot operands are contiguous rows. */
-    for (i = 0; i < nn; ++i) {
-        double *li = a + i * nn;
+            if (!isfinite(li[j])) return SQFFD_ERROR_NON_FINITE;
+    }
+    for (i = 0; i < n; ++i) {
+        double *li = sqffd__la_row(a, n, packed, i);
         for (j = 0; j <= i; ++j) {
-            const double *lj = a + j * nn;
+            const double *lj = sqffd__la_row(a, n, packed, j);
             double sum = li[j] - sqffd__la_dot(li, lj, j);
             if (j < i) {
                 li[j] = sum / lj[j];
@@ -2000,45 +2013,53 @@ SQFFD_DEF sqffd_result sqffd_cholesky_factor(double *a, size_t n)
                 li[i] = sqrt(sum);
             }
         }
-        for (j = i + 1; j < nn; ++j) li[j] = 0.0;
     }
     return SQFFD_OK;
 }
 
-/* L y = b in place (L lower triangular, row-major n x n). */
-static void sqffd__la_forward(const double *l, size_t n, double *b)
+SQFFD_DEF sqffd_result sqffd_cholesky_factor(double *a, size_t n)
 {
+    sqffd_result r;
     size_t i;
-    for (i = 0; i < n; ++i) b[i] = (b[i] - sqffd__la_dot(l + i * n, b, i)) / l[i * n + i];
+    if (!a || n < 1) return SQFFD_ERROR_INVALID_ARGUMENT;
+    r = sqffd__la_cholesky(a, n, 0);
+    if (r == SQFFD_OK)
+        for (i = 0; i + 1 < n; ++i) memset(a + i * n + i + 1, 0, (n - i - 1) * sizeof(double));
+    return r;
+}
+
+/* L y = b in place for k right-hand sides at once (b: k vectors of n one
+   after another; each row of L is read once for all of them), L lower
+   triangular (row-major n x n, or packed). */
+static void sqffd__la_forward(const double *l, size_t n, int packed, double *b, size_t k)
+{
+    size_t i, c;
+    for (i = 0; i < n; ++i) {
+        const double *li = sqffd__la_row(l, n, packed, i);
+        for (c = 0; c < k; ++c) {
+            double *bc = b + c * n;
+            bc[i] = (bc[i] - sqffd__la_dot(li, bc, i)) / li[i];
+        }
+    }
 }
 
 /* L^T x = y in place, column-oriented so rows of L are read. */
-static void sqffd__la_backward(const double *l, size_t n, double *b)
+static void sqffd__la_backward(const double *l, size_t n, int packed, double *b)
 {
     size_t i;
     for (i = n; i-- > 0;) {
-        const double *li = l + i * n;
+        const double *li = sqffd__la_row(l, n, packed, i);
         double xi = b[i] / li[i];
         b[i] = xi;
         sqffd__la_axpy(b, -xi, li, i);
     }
 }
 
-/* The lower-triangular factor of sqffd_cholesky_factor (row-major, n x n)
-   transposed in place: its rows become those of L^T, the form the two
-   functions below use (each row contiguous where they run along it). */
-static void sqffd__la_transpose_lower(double *l, size_t n)
-{
-    size_t i, j;
-    for (i = 0; i < n; ++i)
-        for (j = 0; j < i; ++j) l[j * n + i] = l[i * n + j];
-}
-
 SQFFD_DEF sqffd_result sqffd_cholesky_solve(const double *l, size_t n, double *b)
 {
     if (!l || !b || n < 1) return SQFFD_ERROR_INVALID_ARGUMENT;
-    sqffd__la_forward(l, n, b);
-    sqffd__la_backward(l, n, b);
+    sqffd__la_forward(l, n, 0, b, 1);
+    sqffd__la_backward(l, n, 0, b);
     return SQFFD_OK;
 }
 
@@ -7450,9 +7471,12 @@ static sqffd_result sqffd__fit_step(const sqffd__fit_system *s, sqffd__fit_work 
    the lattice's graph Laplacian (scaled to the data's point-to-point
    matrix) keeps the step smooth, so that J, cubic in P, stays near its
    linear model; a step that still sinks a sample under the floor is halved
-   before it is measured. lambda falls after a step that lowered the
-   penalised energy as predicted and rises after one that did not (then the
-   control points go back). rho starts where a sample sunk by the whole
+   before it is measured. A step is kept when it lowers the penalised
+   energy or the energy alone (its samples may then sit inside the margin:
+   the certified floor is the constraint, the margin only steers the step),
+   else the control points go back. lambda falls after a step that lowered
+   the penalised energy as predicted and rises after one that did not.
+   rho starts where a sample sunk by the whole
    margin costs twice the energy, and grows tenfold while an accepted model
    leaves a sample half the margin short.
    CERTIFIED: a step is kept only when its J is certified on every region
@@ -7490,6 +7514,7 @@ struct sqffd__fit_fold {
     double goal;               /* min_jacobian: the samples are held above it (the floor rises to it from a start
                                   below it) */
     double rho, lambda;        /* the penalty's weight (energy units), the damping */
+    double factored;           /* the damping f->factor holds (-1: none, or the matrix changed since) */
     unsigned char *region;     /* SQFFD__FIT_REGION_CELLS: the region's cells */
     unsigned char *coarse;     /* the coarser levels' (a cell meets the region where one of its children does) */
     double (*sample)[3];       /* stu of the samples */
@@ -7509,12 +7534,11 @@ struct sqffd__fit_fold {
     size_t failed;
     double *hessian;           /* 3L x 3L lower triangle, packed (sqffd__packed_row), planar unknowns: the energy's
                                   Gauss-Newton matrix at the accepted model, without the penalty */
-    double *factor;            /* 3L x 3L: the step's matrix factored, stored as L^T (rows of the upper triangle) */
+    double *factor;            /* 3L x 3L lower triangle, packed: the step's matrix's Cholesky factor */
     double *gradient;          /* 3L: minus the energy's gradient there, without the penalty */
-    double *rhs;               /* 3L: with the active samples' penalty */
     double *move;              /* 3L: the step */
     double *scratch;           /* 3L */
-    double *base;              /* 3L: L^-1 rhs, L the factor of the step's matrix without the penalty */
+    double *base;              /* 3L: L^-1 gradient, L the factor of the step's matrix without the penalty */
     uint32_t *candidate;       /* SQFFD__FIT_CANDIDATES: the samples the step's penalty may hold */
     double *solved;            /* SQFFD__FIT_CANDIDATES x 3L: L^-1 g for each */
     double *gram;              /* SQFFD__FIT_CANDIDATES^2: their products, plus 1 / (M rho) on the diagonal */
@@ -7560,9 +7584,8 @@ static void sqffd__fit_fold_layout(sqffd__arena *a, const int dims[3], size_t m,
     f->frames = (double (*)[9])sqffd__arena_take(a, SQFFD__FIT_REGION_NODES, 9 * sizeof(double));
     f->contract = (double *)sqffd__arena_take(a, sqffd__fit_contract_size(dims), sizeof(double));
     f->hessian = (double *)sqffd__arena_take(a, size * (size + 1) / 2, sizeof(double));
-    f->factor = (double *)sqffd__arena_take(a, size * size, sizeof(double));
+    f->factor = (double *)sqffd__arena_take(a, sqffd__packed_row(size), sizeof(double));
     f->gradient = (double *)sqffd__arena_take(a, size, sizeof(double));
-    f->rhs = (double *)sqffd__arena_take(a, size, sizeof(double));
     f->move = (double *)sqffd__arena_take(a, size, sizeof(double));
     f->scratch = (double *)sqffd__arena_take(a, size, sizeof(double));
     f->base = (double *)sqffd__arena_take(a, size, sizeof(double));
@@ -7822,25 +7845,32 @@ static double sqffd__fit_fold_values(const int dims[3], sqffd__fit_fold *f, cons
 }
 
 /* The tensor t (extents ext) split at the middle of axis `axis` (de
-   Casteljau at 1/2) into its halves' tensors lo and hi, a slab of the later
-   axes at a time. */
+   Casteljau at 1/2) into its halves' tensors lo and hi. The lines along the
+   axis go four at a time through a small table (their triangles side by
+   side: the compiler packs the four into vectors, and the table stays in
+   registers or L1 instead of every level passing over the tensor). */
+#define SQFFD__SPLIT_LANES 4
 static void sqffd__bernstein_split(const double *t, const int ext[3], int axis, double *lo, double *hi)
 {
     size_t slab = axis == 0 ? (size_t)(ext[1] * ext[2]) : axis == 1 ? (size_t)ext[2] : 1, n = (size_t)ext[axis];
-    size_t blocks = sqffd__jacobian_count(ext) / (n * slab), block, r, i, e;
-    for (block = 0; block < blocks; ++block) {
-        const double *v = t + block * n * slab;
-        double *left = lo + block * n * slab, *right = hi + block * n * slab;
-        memcpy(right, v, n * slab * sizeof(double)); /* right's rows hold the triangle's levels as they go */
-        memcpy(left, v, slab * sizeof(double));
-        for (r = 1; r < n; ++r) {
-            for (i = 0; i + r < n; ++i) {
-                double *to = right + i * slab;
-                const double *from = to + slab;
-                for (e = 0; e < slab; ++e) to[e] = 0.5 * (to[e] + from[e]);
-            }
-            memcpy(left + r * slab, right, slab * sizeof(double)); /* level r's first: the left half's r-th */
+    size_t lines = sqffd__jacobian_count(ext) / n, line, r, i, q;
+    double w[3 * SQFFD_MAX_LATTICE][SQFFD__SPLIT_LANES];
+    size_t start[SQFFD__SPLIT_LANES];
+    for (line = 0; line < lines; line += SQFFD__SPLIT_LANES) {
+        for (q = 0; q < SQFFD__SPLIT_LANES; ++q) { /* (a last short group repeats its last line) */
+            size_t at = line + q < lines ? line + q : lines - 1;
+            start[q] = at / slab * n * slab + at % slab;
         }
+        for (i = 0; i < n; ++i)
+            for (q = 0; q < SQFFD__SPLIT_LANES; ++q) w[i][q] = t[start[q] + i * slab];
+        for (q = 0; q < SQFFD__SPLIT_LANES; ++q) lo[start[q]] = w[0][q];
+        for (r = 1; r < n; ++r) { /* level r of the triangle: its first point is the left half's r-th */
+            for (i = 0; i + r < n; ++i)
+                for (q = 0; q < SQFFD__SPLIT_LANES; ++q) w[i][q] = 0.5 * (w[i][q] + w[i + 1][q]);
+            for (q = 0; q < SQFFD__SPLIT_LANES; ++q) lo[start[q] + r * slab] = w[0][q];
+        }
+        for (i = 0; i < n; ++i) /* each level's last point: the right half */
+            for (q = 0; q < SQFFD__SPLIT_LANES; ++q) hi[start[q] + i * slab] = w[i][q];
     }
 }
 
@@ -7972,12 +8002,6 @@ SQFFD_DEF sqffd_result sqffd_model_jacobian_bound(const sqffd_model *model, doub
     return SQFFD_OK;
 }
 
-/* Where row i of a lower triangle packed row after row (i + 1 entries each) starts. */
-static size_t sqffd__packed_row(size_t i)
-{
-    return i * (i + 1) / 2;
-}
-
 /* y = A x for a symmetric n x n A given by its lower triangle (row-major:
    n x n, or packed: sqffd__packed_row). */
 static void sqffd__fit_symmetric_times(const double *a, size_t n, int packed, const double *x, double *y)
@@ -8022,23 +8046,24 @@ static double sqffd__fit_fold_penalty(const sqffd__fit_fold *f, const double *va
 }
 
 /* The step's matrix without the penalty, the energy's plus lambda x the
-   damping, factored into f->factor (as L^T), and its right-hand side into
-   f->rhs; lambda grows tenfold until it factors. 0 when it never does. */
+   damping, factored into f->factor (unless it holds that already: a step
+   taken again with new samples); lambda grows tenfold until it factors. 0
+   when it never does. */
 static int sqffd__fit_fold_factor(const sqffd__fit_system *s, sqffd__fit_fold *f)
 {
     size_t l = s->lattice, size = 3 * l, c, p, q;
     int tries;
+    if (f->factored == f->lambda) return 1;
+    f->factored = -1.0;
     for (tries = 0; tries < 40; ++tries, f->lambda = f->lambda > 0.0 ? 10.0 * f->lambda : 1e-6) {
-        for (p = 0; p < size; ++p) /* (the factor reads the lower triangle only) */
-            memcpy(f->factor + p * size, f->hessian + sqffd__packed_row(p), (p + 1) * sizeof(double));
-        memcpy(f->rhs, f->gradient, size * sizeof(double));
+        memcpy(f->factor, f->hessian, sqffd__packed_row(size) * sizeof(double));
         for (c = 0; c < 3; ++c)
             for (p = 0; p < l; ++p) {
-                double *row = f->factor + (c * l + p) * size + c * l;
+                double *row = f->factor + sqffd__packed_row(c * l + p) + c * l;
                 for (q = 0; q <= p; ++q) row[q] += f->lambda * f->damping[p * l + q];
             }
-        if (sqffd_cholesky_factor(f->factor, size) == SQFFD_OK) {
-            sqffd__la_transpose_lower(f->factor, size);
+        if (sqffd__la_cholesky(f->factor, size, 1) == SQFFD_OK) {
+            f->factored = f->lambda;
             return 1;
         }
     }
@@ -8130,33 +8155,6 @@ static void sqffd__fit_fold_multipliers(sqffd__fit_fold *f, size_t k)
     }
 }
 
-/* L y = b for k right-hand sides at once (forward; b: k vectors of n one
-   after another; each row of L^T is read once for all of them) and L^T x = y
-   for one (backward), L^T's rows in u. */
-static void sqffd__la_upper_forward(const double *u, size_t n, double *b, size_t k)
-{
-    size_t j, c;
-    for (j = 0; j < n; ++j) {
-        const double *row = u + j * n;
-        for (c = 0; c < k; ++c) {
-            double *bc = b + c * n;
-            bc[j] /= row[j];
-            sqffd__la_axpy(bc + j + 1, -bc[j], row + j + 1, n - j - 1);
-        }
-    }
-}
-
-static void sqffd__la_upper_backward(const double *u, size_t n, double *b)
-{
-    size_t i, j;
-    for (i = n; i-- > 0;) {
-        const double *row = u + i * n;
-        double sum = b[i];
-        for (j = i + 1; j < n; ++j) sum -= row[j] * b[j];
-        b[i] = sum / row[i];
-    }
-}
-
 /* The step on the energy's model plus the penalty of the samples the step
    itself sinks under the margin (by their linearised J), into f->move
    (planar). With A the damped matrix and b its right-hand side, the step is
@@ -8174,10 +8172,10 @@ static double sqffd__fit_fold_step(const sqffd__fit_system *s, sqffd__fit_fold *
     size_t size = 3 * s->lattice, i, j, k = 0, done = 0, p;
     int round;
     if (!sqffd__fit_fold_factor(s, f)) return -1.0;
-    memcpy(f->base, f->rhs, size * sizeof(double));
-    sqffd__la_upper_forward(f->factor, size, f->base, 1);
+    memcpy(f->base, f->gradient, size * sizeof(double));
+    sqffd__la_forward(f->factor, size, 1, f->base, 1);
     memcpy(f->move, f->base, size * sizeof(double));
-    sqffd__la_upper_backward(f->factor, size, f->move);
+    sqffd__la_backward(f->factor, size, 1, f->move);
     for (i = 0; i < f->samples; ++i) f->active[i] = 0;
     for (round = 0; round < SQFFD__FIT_ROUNDS; ++round) {
         sqffd__fit_fold_sinking(s, f, inverse);
@@ -8193,7 +8191,7 @@ static double sqffd__fit_fold_step(const sqffd__fit_system *s, sqffd__fit_fold *
         if (k == done) break;
         for (i = done; i < k; ++i) /* the new candidates' g_i, then y_i = L^-1 g_i in their place */
             sqffd__fit_fold_sample(s->dims, control, inverse, f->sample[f->candidate[i]], f->solved + i * size);
-        sqffd__la_upper_forward(f->factor, size, f->solved + done * size, k - done);
+        sqffd__la_forward(f->factor, size, 1, f->solved + done * size, k - done);
         for (i = done; i < k; ++i) { /* their products, their need */
             const double *y = f->solved + i * size;
             for (j = 0; j <= i; ++j)
@@ -8207,7 +8205,7 @@ static double sqffd__fit_fold_step(const sqffd__fit_system *s, sqffd__fit_fold *
         for (i = 0; i < k; ++i)
             if (f->multiplier[i] > 0.0)
                 for (p = 0; p < size; ++p) f->move[p] += f->multiplier[i] * f->solved[i * size + p];
-        sqffd__la_upper_backward(f->factor, size, f->move);
+        sqffd__la_backward(f->factor, size, 1, f->move);
     }
     return sqffd__fit_fold_predicted(s, f, inverse, weight, k);
 }
@@ -8598,10 +8596,10 @@ static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagon
 /* ---- the fold-free iteration ----------------------------------------------
    The fold-free step's loop (its section above): measure the start; then
    per iteration the damped step from the accepted model, measured by a
-   pass; accepted when it lowers the penalised energy (then linearised anew
-   from that pass and certified), else rolled back with more damping. The
-   fit ends on the last accepted model the certificate passed: its energy is
-   never above the start's. A start that breaks the floor on the region runs
+   pass; accepted when it lowers the penalised energy or the energy alone
+   and is certified (then linearised anew from that pass), else rolled back
+   with more damping. The fit ends on the last accepted model the
+   certificate passed. A start that breaks the floor on the region runs
    with the floor just under its certified bound, raised after each
    certified step toward min_jacobian (a rising threshold that untangles it
    where it can). */
@@ -8664,7 +8662,8 @@ static void sqffd__fit_fold_linearise(sqffd__fit_iteration *it)
     for (v = 0; v < l; ++v) laplacian += f->damping[v * l + v];
     sqffd__fit_fold_coarsen(s, plane);
     for (v = 0; v < l * l; ++v) f->damping[v] *= trace / laplacian;
-    memset(f->hessian, 0, size * (size + 1) / 2 * sizeof(double));
+    memset(f->hessian, 0, sqffd__packed_row(size) * sizeof(double));
+    f->factored = -1.0;
     for (c = 0; c < 3; ++c)
         for (c2 = 0; c2 <= c; ++c2) {
             for (v = 0; v < m; ++v) w->weights[v] = plane[6 * v + (size_t)entry[c][c2]];
@@ -8765,9 +8764,10 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
         res = sqffd__fit_measure(it, 0, &energy, &stats);
         if (res != SQFFD_OK) return res;
         trial_penalty = sqffd__fit_fold_penalty(f, f->trial, &trial_worst);
-        bound = energy + trial_penalty < it->accepted + penalty
+        bound = energy + trial_penalty < it->accepted + penalty || energy < it->accepted
                     ? sqffd__fit_fold_certify(s->dims, f, control, inverse, o->min_jacobian) : -HUGE_VAL;
-        if (bound >= f->floor) { /* lower and certified: accepted */
+        if (bound >= f->floor) { /* lower and certified: accepted (lambda rises when the penalised energy did not fall) */
+            int merit = energy + trial_penalty < it->accepted + penalty;
             double gain = (it->accepted + penalty - energy - trial_penalty) * (double)m / predicted;
             f->lambda = tau < 1.0 || gain < 0.25 ? 2.0 * f->lambda : gain > 0.75 ? f->lambda / 3.0 : f->lambda;
             swap = f->value; f->value = f->trial; f->trial = swap;
@@ -8781,7 +8781,7 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
                 if (bound - below > f->floor) f->floor = bound - below < o->min_jacobian ? bound - below : o->min_jacobian;
                 sqffd__fit_fold_add_samples(it, control);
             }
-            if (trial_worst > 0.5 * SQFFD__FIT_MARGIN) f->rho *= 10.0; /* the penalty let a sample sink: stiffer */
+            if (trial_worst > 0.5 * SQFFD__FIT_MARGIN && merit) f->rho *= 10.0; /* the penalty let a sample sink: stiffer */
             penalty = sqffd__fit_fold_penalty(f, f->value, NULL);
             rep->converged = tau == 1.0 && rep->step <= o->tolerance;
             sqffd__fit_fold_linearise(it);

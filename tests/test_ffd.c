@@ -1313,7 +1313,9 @@ static void test_fit_coarse_stage(void)
     CHECK(rep_grid.coarse_iterations == 0 && rep_grid.iterations == o.max_iterations);
     CHECK_NEAR(rep.sq_error.rms, rep_grid.sq_error.rms, 0.0); /* (both: the superquadric on the grid) */
     printf("    coarse first %.4f%%, all on the grid %.4f%%\n", 100.0 * rep.error.rms_relative, 100.0 * rep_grid.error.rms_relative);
-    CHECK_MSG(rep.error.rms <= 1.15 * rep_grid.error.rms, "coarse first %g, all on the grid %g", rep.error.rms,
+    /* the coarse stage trades a little error for time (1.20 here at 0.18.0: the fold-free step gains more per
+       iteration on the grid than on the coarse grid) */
+    CHECK_MSG(rep.error.rms <= 1.3 * rep_grid.error.rms, "coarse first %g, all on the grid %g", rep.error.rms,
               rep_grid.error.rms);
     o.progress = NULL;
     o.max_iterations = 3; /* never all coarse */
