@@ -7005,19 +7005,26 @@ static int sqffd__fit_spring(const int d[3], size_t p, int axis, size_t *other)
     return 0;
 }
 
-/* matrix (L x L, lower triangle) += weight x the lattice's graph Laplacian:
-   the springs' part of a normal matrix. */
-static void sqffd__fit_add_springs(const int dims[3], size_t l, double weight, double *matrix)
+/* weight x the lattice's graph Laplacian (the springs' part of a normal
+   matrix) added to the L x L block at (at, at) of an n x n lower triangle
+   (row-major or packed). */
+static void sqffd__fit_add_springs(const int dims[3], double weight, double *matrix, size_t n, int packed, size_t at)
 {
-    size_t p, q;
+    size_t l = (size_t)dims[0] * (size_t)dims[1] * (size_t)dims[2], p, q;
     int axis;
     for (p = 0; p < l; ++p)
         for (axis = 0; axis < 3; ++axis)
             if (sqffd__fit_spring(dims, p, axis, &q)) {
-                matrix[p * l + p] += weight;
-                matrix[q * l + q] += weight;
-                matrix[q * l + p] -= weight; /* q > p: lower triangle */
+                sqffd__la_row(matrix, n, packed, at + p)[at + p] += weight;
+                sqffd__la_row(matrix, n, packed, at + q)[at + q] += weight;
+                sqffd__la_row(matrix, n, packed, at + q)[at + p] -= weight; /* q > p: lower triangle */
             }
+}
+
+/* The Laplacian's trace: twice the springs (neighbours along an axis). */
+static double sqffd__fit_laplacian_trace(const int d[3])
+{
+    return 2.0 * (double)((d[0] - 1) * d[1] * d[2] + d[0] * (d[1] - 1) * d[2] + d[0] * d[1] * (d[2] - 1));
 }
 
 /* Whether a step may meet a singular normal matrix (then it is solved by
@@ -7268,7 +7275,7 @@ static sqffd_result sqffd__fit_prepare(const sqffd_model *model, double alpha, d
                 if (q < p) s->rhs0[c * l + q] += h * s->rest_control[3 * p + c];
             }
         }
-    sqffd__fit_add_springs(s->dims, l, s->spring, s->fixed);
+    sqffd__fit_add_springs(s->dims, s->spring, s->fixed, l, 0, 0);
     if (regularization == SQFFD_REG_DISPLACEMENT)
         for (p = 0; p < l; ++p)
             for (axis = 0; axis < 3; ++axis)
@@ -7545,7 +7552,7 @@ struct sqffd__fit_fold {
     double *small;             /* SQFFD__FIT_CANDIDATES^2: the multipliers' solve */
     double *need, *multiplier, *z, *slope; /* SQFFD__FIT_CANDIDATES each: the multipliers' solve */
     unsigned char *free_set;   /* SQFFD__FIT_CANDIDATES */
-    double *damping;           /* L x L lower: the damping's matrix */
+    double damping;            /* the damping's matrix: this x the lattice's graph Laplacian */
     double *planes;            /* M x 6: the pass's sums of w n n^T (xx xy xz yy yz zz) */
 };
 
@@ -7569,7 +7576,7 @@ static void sqffd__fit_fold_layout(sqffd__arena *a, const int dims[3], size_t m,
     f->coarse = (unsigned char *)sqffd__arena_take(a, SQFFD__FIT_REGION_CELLS / 7 + 1, 1);
     f->fails = (double (*)[3])sqffd__arena_take(a, SQFFD__FIT_CERT_FAILS, 3 * sizeof(double));
     sqffd__jacobian_extent(dims, 3, ej);
-    f->tensor = (double *)sqffd__arena_take(a, 6 * (SQFFD__FIT_REGION_LEVELS + SQFFD__FIT_CERT_DEPTH) *
+    f->tensor = (double *)sqffd__arena_take(a, 3 * (SQFFD__FIT_REGION_LEVELS + SQFFD__FIT_CERT_DEPTH) *
                                                    sqffd__jacobian_count(ej), sizeof(double));
     f->surface = (double *)sqffd__arena_take(a, sqffd__fit_grid_count(sqffd__fit_region_grid), 3 * sizeof(double));
     f->capacity = 0;
@@ -7598,7 +7605,6 @@ static void sqffd__fit_fold_layout(sqffd__arena *a, const int dims[3], size_t m,
     f->z = (double *)sqffd__arena_take(a, SQFFD__FIT_CANDIDATES, sizeof(double));
     f->slope = (double *)sqffd__arena_take(a, SQFFD__FIT_CANDIDATES, sizeof(double));
     f->free_set = (unsigned char *)sqffd__arena_take(a, SQFFD__FIT_CANDIDATES, 1);
-    f->damping = (double *)sqffd__arena_take(a, l * l, sizeof(double));
     f->planes = (double *)sqffd__arena_take(a, m, 6 * sizeof(double));
 }
 
@@ -7845,7 +7851,8 @@ static double sqffd__fit_fold_values(const int dims[3], sqffd__fit_fold *f, cons
 }
 
 /* The tensor t (extents ext) split at the middle of axis `axis` (de
-   Casteljau at 1/2) into its halves' tensors lo and hi. The lines along the
+   Casteljau at 1/2) into its halves' tensors lo (which may be t: in place)
+   and hi. The lines along the
    axis go four at a time through a small table (their triangles side by
    side: the compiler packs the four into vectors, and the table stays in
    registers or L1 instead of every level passing over the tensor). */
@@ -7913,15 +7920,17 @@ static int sqffd__fit_fold_cell(const int ej[3], sqffd__fit_fold *f, double targ
    the smallest coefficient over the settled cells of a depth-first walk
    down from the box, halving where a cell is not settled (at least the
    floor: certified; below it, f->fails holds up to SQFFD__FIT_CERT_FAILS
-   points where it may dip). A level's children come from its slots in
-   f->tensor: the two halves of axis 0, then of axis 1 of one of those, then
-   of axis 2 (no recursion: the firmware's stack is bounded). */
+   points where it may dip). A cell's children come from halving it along
+   axis 2, one half along axis 1, one quarter along axis 0, each in place
+   (the first half, quarter, eighth where the whole was: it is not needed
+   again) with the second in the level's slot of f->tensor (no recursion:
+   the firmware's stack is bounded). */
 static double sqffd__fit_fold_certify(const int dims[3], sqffd__fit_fold *f, const double *control, const double inverse[9],
                                       double target)
 {
     enum { levels = SQFFD__FIT_REGION_LEVELS + SQFFD__FIT_CERT_DEPTH };
     int ej[3], index[levels + 1][3], child[levels + 1], quad[levels + 1], pair[levels + 1], depth = 0, a;
-    const double *t[levels + 1];
+    double *t[levels + 1], *half[levels + 1][2], *quarter[levels + 1][2], *eighth[levels + 1][2];
     double near = 2.0, eps = sqffd__ffd_jacobian_derivatives(dims, control, inverse, &f->at), bound = HUGE_VAL, least;
     size_t count;
     near -= (1.0 + eps) * (1.0 + eps) * (1.0 + eps);
@@ -7937,7 +7946,7 @@ static double sqffd__fit_fold_certify(const int dims[3], sqffd__fit_fold *f, con
     child[0] = 0;
     quad[0] = pair[0] = -1;
     while (depth >= 0) {
-        double *halves = f->tensor + (size_t)depth * 6 * count; /* [axis][side] */
+        double *slot = f->tensor + (size_t)depth * 3 * count; /* the second half, quarter, eighth */
         int c = child[depth]++, sub[3];
         if (c == 8) {
             --depth;
@@ -7946,23 +7955,31 @@ static double sqffd__fit_fold_certify(const int dims[3], sqffd__fit_fold *f, con
         for (a = 0; a < 3; ++a) sub[a] = 2 * index[depth][a] + ((c >> a) & 1);
         if (depth + 1 <= SQFFD__FIT_REGION_LEVELS && !sqffd__fit_region_meets(f, 1 << (depth + 1), sub)) continue;
         /* the halvings this child needs, each once: axis 2, then axis 1 of its half, then axis 0 of its quarter */
-        if (quad[depth] == -1) sqffd__bernstein_split(t[depth], ej, 2, halves, halves + count);
+        if (quad[depth] == -1) {
+            half[depth][0] = t[depth];
+            half[depth][1] = slot;
+            sqffd__bernstein_split(t[depth], ej, 2, half[depth][0], half[depth][1]);
+        }
         if (quad[depth] != c / 4) {
-            sqffd__bernstein_split(halves + (size_t)(c / 4) * count, ej, 1, halves + 2 * count, halves + 3 * count);
+            quarter[depth][0] = half[depth][c / 4];
+            quarter[depth][1] = slot + count;
+            sqffd__bernstein_split(half[depth][c / 4], ej, 1, quarter[depth][0], quarter[depth][1]);
             quad[depth] = c / 4;
             pair[depth] = -1;
         }
         if (pair[depth] != c / 2) {
-            sqffd__bernstein_split(halves + (size_t)(2 + c / 2 % 2) * count, ej, 0, halves + 4 * count, halves + 5 * count);
+            eighth[depth][0] = quarter[depth][c / 2 % 2];
+            eighth[depth][1] = slot + 2 * count;
+            sqffd__bernstein_split(quarter[depth][c / 2 % 2], ej, 0, eighth[depth][0], eighth[depth][1]);
             pair[depth] = c / 2;
         }
-        if (sqffd__fit_fold_cell(ej, f, target, depth + 1, sub, halves + (size_t)(4 + c % 2) * count, &least)) {
+        if (sqffd__fit_fold_cell(ej, f, target, depth + 1, sub, eighth[depth][c % 2], &least)) {
             if (least < bound) bound = least;
             continue;
         }
         ++depth;
         memcpy(index[depth], sub, sizeof sub);
-        t[depth] = halves + (size_t)(4 + c % 2) * count;
+        t[depth] = eighth[depth - 1][c % 2];
         child[depth] = 0;
         quad[depth] = pair[depth] = -1;
     }
@@ -8051,17 +8068,13 @@ static double sqffd__fit_fold_penalty(const sqffd__fit_fold *f, const double *va
    when it never does. */
 static int sqffd__fit_fold_factor(const sqffd__fit_system *s, sqffd__fit_fold *f)
 {
-    size_t l = s->lattice, size = 3 * l, c, p, q;
+    size_t l = s->lattice, size = 3 * l, c;
     int tries;
     if (f->factored == f->lambda) return 1;
     f->factored = -1.0;
     for (tries = 0; tries < 40; ++tries, f->lambda = f->lambda > 0.0 ? 10.0 * f->lambda : 1e-6) {
         memcpy(f->factor, f->hessian, sqffd__packed_row(size) * sizeof(double));
-        for (c = 0; c < 3; ++c)
-            for (p = 0; p < l; ++p) {
-                double *row = f->factor + sqffd__packed_row(c * l + p) + c * l;
-                for (q = 0; q <= p; ++q) row[q] += f->lambda * f->damping[p * l + q];
-            }
+        for (c = 0; c < 3; ++c) sqffd__fit_add_springs(s->dims, f->lambda * f->damping, f->factor, size, 1, c * l);
         if (sqffd__la_cholesky(f->factor, size, 1) == SQFFD_OK) {
             f->factored = f->lambda;
             return 1;
@@ -8635,7 +8648,7 @@ static void sqffd__fit_fold_linearise(sqffd__fit_iteration *it)
     sqffd__fit_work *w = it->w;
     sqffd__fit_fold *f = w->fold;
     size_t m = s->count, l = s->lattice, size = 3 * l, v, c, c2;
-    double scale = (double)m / (double)it->points->count, trace = 0.0, laplacian = 0.0;
+    double scale = (double)m / (double)it->points->count, trace = 0.0;
     double hold = it->o->model_to_data * (double)m / (double)it->holding;
     const double *control = &it->model->ffd.control[0][0];
     double *t = w->target, *plane = f->planes;
@@ -8657,11 +8670,8 @@ static void sqffd__fit_fold_linearise(sqffd__fit_iteration *it)
             for (e = 0; e < (size_t)s->dims[axis]; ++e) norms[axis] += a[from + e] * a[from + e];
         trace += w->weights[v] * norms[0] * norms[1] * norms[2];
     }
-    memset(f->damping, 0, l * l * sizeof(double));
-    sqffd__fit_add_springs(s->dims, l, 1.0, f->damping);
-    for (v = 0; v < l; ++v) laplacian += f->damping[v * l + v];
+    f->damping = trace / sqffd__fit_laplacian_trace(s->dims);
     sqffd__fit_fold_coarsen(s, plane);
-    for (v = 0; v < l * l; ++v) f->damping[v] *= trace / laplacian;
     memset(f->hessian, 0, sqffd__packed_row(size) * sizeof(double));
     f->factored = -1.0;
     for (c = 0; c < 3; ++c)

@@ -109,8 +109,14 @@ else
     fail=1
 fi
 
-# ---- run it where qemu-arm (Linux user mode) is installed: the Cortex-M7 code
-# runs unchanged on qemu's ARMv8-A CPU; Linux system calls replace semihosting.
+# ---- run it under qemu-arm (Linux user mode; installed with apt-get when missing and
+# root): the Cortex-M7 code runs unchanged on qemu's ARMv8-A CPU; Linux system calls
+# replace semihosting.
+if ! command -v qemu-arm >/dev/null 2>&1 && [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
+    echo "embedded: installing qemu-user (apt-get; log in $out/apt_qemu.log)"
+    { apt-get update && DEBIAN_FRONTEND=noninteractive apt-get install -y qemu-user; } >"$out/apt_qemu.log" 2>&1 \
+        || tail -n 5 "$out/apt_qemu.log"
+fi
 if command -v qemu-arm >/dev/null 2>&1; then
     if $CROSS-gcc $FLAGS -DFIT_M7_QEMU -c "$here/fit_m7.c" -o "$out/fit_m7_qemu.o" &&
        $CROSS-gcc $CPU_FLAGS --specs=nosys.specs -nostartfiles "$out/fit_m7_qemu.o" "$out/core.o" -lm \
@@ -125,7 +131,7 @@ if command -v qemu-arm >/dev/null 2>&1; then
         fail=1
     fi
 else
-    echo "   fit_m7: not run (qemu-arm not installed; Debian: qemu-user)"
+    echo "   fit_m7: not run (qemu-arm not installed; Debian: apt-get install qemu-user; needs root)"
 fi
 
 # ---- stack, from the Cortex-M7 call graph
