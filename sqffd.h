@@ -7881,6 +7881,16 @@ static void sqffd__bernstein_split(const double *t, const int ext[3], int axis, 
     }
 }
 
+/* The point just written to f->fails[f->failed] kept, unless it is one of
+   those before it (cells that share a corner find it each). */
+static void sqffd__fit_fold_failed(sqffd__fit_fold *f)
+{
+    size_t i;
+    for (i = 0; i < f->failed; ++i)
+        if (memcmp(f->fails[i], f->fails[f->failed], sizeof f->fails[i]) == 0) return;
+    ++f->failed;
+}
+
 /* One cell of the certificate (level: halvings of the box; index: its
    place; t: its coefficients): 1 when it is settled, its smallest
    coefficient into *least: at or above target, or (a region cell or
@@ -7903,7 +7913,7 @@ static int sqffd__fit_fold_cell(const int ej[3], sqffd__fit_fold *f, double targ
         for (a = 0; a < 3; ++a) g[a] = (corner >> (2 - a)) & 1 ? ej[a] - 1 : 0;
         if (t[((size_t)g[0] * (size_t)ej[1] + (size_t)g[1]) * (size_t)ej[2] + (size_t)g[2]] < f->goal) {
             for (a = 0; a < 3; ++a) f->fails[f->failed][a] = (double)(index[a] + (g[a] ? 1 : 0)) / cells;
-            ++f->failed;
+            sqffd__fit_fold_failed(f);
             return 1;
         }
     }
@@ -7912,7 +7922,7 @@ static int sqffd__fit_fold_cell(const int ej[3], sqffd__fit_fold *f, double targ
     g[1] = (int)(lowest / (size_t)ej[2] % (size_t)ej[1]);
     g[0] = (int)(lowest / ((size_t)ej[1] * (size_t)ej[2]));
     for (a = 0; a < 3; ++a) f->fails[f->failed][a] = (index[a] + (double)g[a] / (ej[a] - 1)) / cells;
-    ++f->failed;
+    sqffd__fit_fold_failed(f);
     return 1;
 }
 

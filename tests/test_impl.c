@@ -407,8 +407,9 @@ static void test_internal_jacobian_frames(void)
 /* The region's certificate (sqffd__fit_fold_certify) against brute force:
    J at 20,000 random points of the region's cells is never below the bound
    it certifies; a lattice that folds inside the region gets a bound under
-   the floor; one that folds only outside it (the box's corners) is
-   certified, though its whole-box bound is negative. */
+   the floor, and distinct points where it dips; one that folds only
+   outside it (the box's corners) is certified, though its whole-box bound
+   is negative. */
 static void test_internal_certificate(void)
 {
     static const int dims[3] = {5, 5, 5};
@@ -462,6 +463,14 @@ static void test_internal_certificate(void)
         printf("    lattice %d: certified %.4f, sampled minimum %.4f, whole box %.4f\n", trial, bound, least, box);
         CHECK_MSG(least >= bound - 1e-12, "J %g sampled below the certified bound %g", least, bound);
         if (least < 0.02) CHECK_MSG(bound < 0.02, "J %g sampled under the floor, yet certified (%g)", least, bound);
+        if (bound < 0.02) { /* the points it gives the step as new samples: some, each once */
+            size_t i, j;
+            CHECK(fold.failed > 0);
+            for (i = 0; i < fold.failed; i++)
+                for (j = 0; j < i; j++)
+                    CHECK_MSG(memcmp(fold.fails[i], fold.fails[j], sizeof fold.fails[i]) != 0, "lattice %d: point %zu of the "
+                              "certificate's repeats point %zu", trial, i, j);
+        }
         if (trial == 5) {
             CHECK_MSG(box < 0.0, "the corner's push did not fold the box (%g)", box);
             CHECK_MSG(bound >= 0.02, "a fold outside the region not certified (%g)", bound);
