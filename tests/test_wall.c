@@ -377,7 +377,7 @@ static void test_wall_own_areas(void)
     for (t = 0; t < 2; t++) {
         mesh_areas(endo + t, x[t], area[t], normal[t]);
         for (v = 0; v < m; v++) {
-            CHECK(!segment[t][v] == isnan(wt[t][v])); /* every wall vertex measured, in its frame's segments */
+            CHECK((segment[t][v] == 0) == (isnan(wt[t][v]) != 0)); /* every wall vertex measured, in its frame's segments */
             if (!segment[t][v] || isnan(wt[t][v])) continue;
             sums[segment[t][v]][t] += area[t][v] * wt[t][v];
             sums[segment[t][v]][2 + t] += area[t][v];
