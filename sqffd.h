@@ -940,13 +940,15 @@ SQFFD_DEF sqffd_result sqffd_fit_workspace_size(size_t n, const sqffd_fit_option
    (exact in the first and last pass, a local answer in between). Under the
    floor (the default) it then takes a damped Gauss-Newton step on E (the
    data term by its point-to-plane residuals) with the floor held at
-   samples of the region, and keeps it when it lowers E and the Jacobian
-   on the region is certified at or above the floor (the fold-free step in
-   the implementation). Without a floor: (1) each data point's displacement,
+   samples of the region by a penalty, and keeps it when the Jacobian on
+   the region is certified at or above the floor and the step lowers E
+   (a start under the floor, lifted toward it: or E plus the penalty, so E
+   may rise there). Without a floor: (1) each data point's displacement,
    shared among its closest triangle's corners by barycentric weight, gives
    a weighted least-squares bound of E; (2) the control points minimising
    that bound (it cannot raise E), over-relaxed (adaptively), a step that
-   raised E replaced by the plain step. report->energy_history never rises.
+   raised E replaced by the plain step. report->energy_history never rises
+   (but for a start under the floor).
    From the superquadric, the first options->coarse_iterations of the
    iterations run on a coarse grid (half the rows and columns) and an even
    subsample of at most SQFFD_FIT_COARSE_POINTS points, the same energy on
@@ -7478,10 +7480,11 @@ static sqffd_result sqffd__fit_step(const sqffd__fit_system *s, sqffd__fit_work 
    the lattice's graph Laplacian (scaled to the data's point-to-point
    matrix) keeps the step smooth, so that J, cubic in P, stays near its
    linear model; a step that still sinks a sample under the floor is halved
-   before it is measured. A step is kept when it lowers the penalised
-   energy or the energy alone (its samples may then sit inside the margin:
-   the certified floor is the constraint, the margin only steers the step),
-   else the control points go back. lambda falls after a step that lowered
+   before it is measured. A step is kept when it lowers the energy, though
+   its samples may end inside the margin (the certified floor is the
+   constraint, the margin only steers the step); from a start under the
+   floor also when it lowers the penalised energy (the penalty lifts the
+   start toward the floor). Else the control points go back. lambda falls after a step that lowered
    the penalised energy as predicted and rises after one that did not.
    rho starts where a sample sunk by the whole
    margin costs twice the energy, and grows tenfold while an accepted model
@@ -8619,9 +8622,9 @@ static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagon
 /* ---- the fold-free iteration ----------------------------------------------
    The fold-free step's loop (its section above): measure the start; then
    per iteration the damped step from the accepted model, measured by a
-   pass; accepted when it lowers the penalised energy or the energy alone
-   and is certified (then linearised anew from that pass), else rolled back
-   with more damping. The fit ends on the last accepted model the
+   pass; accepted when it lowers the energy (or, from a start under the
+   floor, the penalised energy) and is certified (then linearised anew from
+   that pass), else rolled back with more damping. The fit ends on the last accepted model the
    certificate passed. A start that breaks the floor on the region runs
    with the floor just under its certified bound, raised after each
    certified step toward min_jacobian (a rising threshold that untangles it
@@ -8784,7 +8787,7 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
         res = sqffd__fit_measure(it, 0, &energy, &stats);
         if (res != SQFFD_OK) return res;
         trial_penalty = sqffd__fit_fold_penalty(f, f->trial, &trial_worst);
-        bound = energy + trial_penalty < it->accepted + penalty || energy < it->accepted
+        bound = energy < it->accepted || (f->floor < f->goal && energy + trial_penalty < it->accepted + penalty)
                     ? sqffd__fit_fold_certify(s->dims, f, control, inverse, o->min_jacobian) : -HUGE_VAL;
         if (bound >= f->floor) { /* lower and certified: accepted (lambda rises when the penalised energy did not fall) */
             int merit = energy + trial_penalty < it->accepted + penalty;
