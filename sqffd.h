@@ -7888,9 +7888,10 @@ static void sqffd__bernstein_split(const double *t, const int ext[3], int axis, 
    those before it (cells that share a corner find it each). */
 static void sqffd__fit_fold_failed(sqffd__fit_fold *f)
 {
+    const double *point = f->fails[f->failed];
     size_t i;
     for (i = 0; i < f->failed; ++i)
-        if (memcmp(f->fails[i], f->fails[f->failed], sizeof f->fails[i]) == 0) return;
+        if (f->fails[i][0] == point[0] && f->fails[i][1] == point[1] && f->fails[i][2] == point[2]) return;
     ++f->failed;
 }
 
