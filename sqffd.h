@@ -7484,11 +7484,11 @@ static sqffd_result sqffd__fit_step(const sqffd__fit_system *s, sqffd__fit_work 
    its samples may end inside the margin (the certified floor is the
    constraint, the margin only steers the step); from a start under the
    floor also when it lowers the penalised energy (the penalty lifts the
-   start toward the floor). Else the control points go back. lambda falls after a step that lowered
-   the penalised energy as predicted and rises after one that did not.
-   rho starts where a sample sunk by the whole
-   margin costs twice the energy, and grows tenfold while an accepted model
-   leaves a sample half the margin short.
+   start toward the floor). Else the control points go back. lambda falls
+   after a step that lowered the penalised energy as predicted and rises
+   after one that did not. rho starts where a sample sunk by the whole
+   margin costs twice the energy, and grows tenfold while a step kept on
+   the penalised energy leaves a sample half the margin short.
    CERTIFIED: a step is kept only when its J is certified on every region
    cell by its Bernstein coefficients (J lies between them), halved up to
    SQFFD__FIT_CERT_DEPTH times where they dip below the floor; a cell still
@@ -7593,7 +7593,7 @@ static void sqffd__fit_fold_layout(sqffd__arena *a, const int dims[3], size_t m,
     f->cross = (double (*)[9])sqffd__arena_take(a, f->capacity, 9 * sizeof(double));
     f->frames = (double (*)[9])sqffd__arena_take(a, SQFFD__FIT_REGION_NODES, 9 * sizeof(double));
     f->contract = (double *)sqffd__arena_take(a, sqffd__fit_contract_size(dims), sizeof(double));
-    f->hessian = (double *)sqffd__arena_take(a, size * (size + 1) / 2, sizeof(double));
+    f->hessian = (double *)sqffd__arena_take(a, sqffd__packed_row(size), sizeof(double));
     f->factor = (double *)sqffd__arena_take(a, sqffd__packed_row(size), sizeof(double));
     f->gradient = (double *)sqffd__arena_take(a, size, sizeof(double));
     f->move = (double *)sqffd__arena_take(a, size, sizeof(double));
@@ -7855,10 +7855,10 @@ static double sqffd__fit_fold_values(const int dims[3], sqffd__fit_fold *f, cons
 
 /* The tensor t (extents ext) split at the middle of axis `axis` (de
    Casteljau at 1/2) into its halves' tensors lo (which may be t: in place)
-   and hi. The lines along the
-   axis go four at a time through a small table (their triangles side by
-   side: the compiler packs the four into vectors, and the table stays in
-   registers or L1 instead of every level passing over the tensor). */
+   and hi. The lines along the axis go four at a time through a small
+   table (their triangles side by side: the compiler packs the four into
+   vectors, and the table stays in registers or L1 instead of every level
+   passing over the tensor). */
 #define SQFFD__SPLIT_LANES 4
 static void sqffd__bernstein_split(const double *t, const int ext[3], int axis, double *lo, double *hi)
 {
@@ -7944,7 +7944,7 @@ static double sqffd__fit_fold_certify(const int dims[3], sqffd__fit_fold *f, con
 {
     enum { levels = SQFFD__FIT_REGION_LEVELS + SQFFD__FIT_CERT_DEPTH };
     int ej[3], index[levels + 1][3], child[levels + 1], quad[levels + 1], pair[levels + 1], depth = 0, a;
-    double *t[levels + 1], *half[levels + 1][2], *quarter[levels + 1][2], *eighth[levels + 1][2];
+    double *t[levels + 1];
     double near = 2.0, eps = sqffd__ffd_jacobian_derivatives(dims, control, inverse, &f->at), bound = HUGE_VAL, least;
     size_t count;
     near -= (1.0 + eps) * (1.0 + eps) * (1.0 + eps);
@@ -7962,38 +7962,34 @@ static double sqffd__fit_fold_certify(const int dims[3], sqffd__fit_fold *f, con
     while (depth >= 0) {
         double *slot = f->tensor + (size_t)depth * 3 * count; /* the second half, quarter, eighth */
         int c = child[depth]++, sub[3];
+        double *half, *quarter, *eighth; /* child c's: each first one where its whole was */
         if (c == 8) {
             --depth;
             continue;
         }
         for (a = 0; a < 3; ++a) sub[a] = 2 * index[depth][a] + ((c >> a) & 1);
         if (depth + 1 <= SQFFD__FIT_REGION_LEVELS && !sqffd__fit_region_meets(f, 1 << (depth + 1), sub)) continue;
+        half = c / 4 ? slot : t[depth];
+        quarter = c / 2 % 2 ? slot + count : half;
+        eighth = c % 2 ? slot + 2 * count : quarter;
         /* the halvings this child needs, each once: axis 2, then axis 1 of its half, then axis 0 of its quarter */
-        if (quad[depth] == -1) {
-            half[depth][0] = t[depth];
-            half[depth][1] = slot;
-            sqffd__bernstein_split(t[depth], ej, 2, half[depth][0], half[depth][1]);
-        }
+        if (quad[depth] == -1) sqffd__bernstein_split(t[depth], ej, 2, t[depth], slot);
         if (quad[depth] != c / 4) {
-            quarter[depth][0] = half[depth][c / 4];
-            quarter[depth][1] = slot + count;
-            sqffd__bernstein_split(half[depth][c / 4], ej, 1, quarter[depth][0], quarter[depth][1]);
+            sqffd__bernstein_split(half, ej, 1, half, slot + count);
             quad[depth] = c / 4;
             pair[depth] = -1;
         }
         if (pair[depth] != c / 2) {
-            eighth[depth][0] = quarter[depth][c / 2 % 2];
-            eighth[depth][1] = slot + 2 * count;
-            sqffd__bernstein_split(quarter[depth][c / 2 % 2], ej, 0, eighth[depth][0], eighth[depth][1]);
+            sqffd__bernstein_split(quarter, ej, 0, quarter, slot + 2 * count);
             pair[depth] = c / 2;
         }
-        if (sqffd__fit_fold_cell(ej, f, target, depth + 1, sub, eighth[depth][c % 2], &least)) {
+        if (sqffd__fit_fold_cell(ej, f, target, depth + 1, sub, eighth, &least)) {
             if (least < bound) bound = least;
             continue;
         }
         ++depth;
         memcpy(index[depth], sub, sizeof sub);
-        t[depth] = eighth[depth - 1][c % 2];
+        t[depth] = eighth;
         child[depth] = 0;
         quad[depth] = pair[depth] = -1;
     }
@@ -8039,7 +8035,7 @@ static void sqffd__fit_symmetric_times(const double *a, size_t n, int packed, co
 {
     size_t i, j;
     for (i = 0; i < n; ++i) {
-        const double *row = a + (packed ? sqffd__packed_row(i) : i * n);
+        const double *row = sqffd__la_row(a, n, packed, i);
         y[i] = sqffd__la_dot(row, x, i + 1);
         for (j = 0; j < i; ++j) y[j] += row[j] * x[i];
     }
@@ -8625,8 +8621,9 @@ static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagon
    per iteration the damped step from the accepted model, measured by a
    pass; accepted when it lowers the energy (or, from a start under the
    floor, the penalised energy) and is certified (then linearised anew from
-   that pass), else rolled back with more damping. The fit ends on the last accepted model the
-   certificate passed. A start that breaks the floor on the region runs
+   that pass), else rolled back with more damping. The fit ends on the last
+   accepted model the certificate passed. A start that breaks the floor on
+   the region runs
    with the floor just under its certified bound, raised after each
    certified step toward min_jacobian (a rising threshold that untangles it
    where it can). */
@@ -8764,7 +8761,7 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
         double predicted = sqffd__fit_fold_step(s, f, w->accepted, inverse, (double)m * f->rho), move = 0.0, tau;
         double trial_penalty, trial_worst;
         size_t p;
-        int c;
+        int c, merit;
         if (!(predicted > 0.0)) { /* no factor, or no descent in the step's model: damp more */
             f->lambda *= 8.0;
             stalled = !(f->lambda <= 1e12);
@@ -8788,10 +8785,10 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
         res = sqffd__fit_measure(it, 0, &energy, &stats);
         if (res != SQFFD_OK) return res;
         trial_penalty = sqffd__fit_fold_penalty(f, f->trial, &trial_worst);
-        bound = energy < it->accepted || (f->floor < f->goal && energy + trial_penalty < it->accepted + penalty)
+        merit = energy + trial_penalty < it->accepted + penalty;
+        bound = energy < it->accepted || (f->floor < f->goal && merit)
                     ? sqffd__fit_fold_certify(s->dims, f, control, inverse, o->min_jacobian) : -HUGE_VAL;
         if (bound >= f->floor) { /* lower and certified: accepted (lambda rises when the penalised energy did not fall) */
-            int merit = energy + trial_penalty < it->accepted + penalty;
             double gain = (it->accepted + penalty - energy - trial_penalty) * (double)m / predicted;
             f->lambda = tau < 1.0 || gain < 0.25 ? 2.0 * f->lambda : gain > 0.75 ? f->lambda / 3.0 : f->lambda;
             swap = f->value; f->value = f->trial; f->trial = swap;
