@@ -1407,20 +1407,24 @@ SQFFD_DEF sqffd_result sqffd_motion(const sqffd_model *models, size_t frame_coun
      while the normal crosses the wall as a reader's caliper does (and as
      the centreline method's chords do, across the wall). With
      options->endo_stacks (the endocardium's stacks: short-axis images), as
-     the images show the wall: along the normal's part in frame t's planes,
-     and only at vertices between frame t's outer planes. A reader measures
-     in those planes (so were the normal values and the cut-off below), and
-     only on the slices: beyond the outer ones the surfaces are what closed
-     them (sqffd_stack_lids' lids half a spacing out, where the cavity and
-     the epicardium both end), not a drawn wall; measured up to the lids,
-     a tube's thickening (endocardium 20 -> 15, epicardium 28 -> 25) reads
-     19 % for its 25 %. (On the pig contours of ../shared/data/cardiac,
-     along the 3-D normal over the whole wall, the global thickening read
-     3.3 points from the contours' own on average, 3.03 this way, on
-     0.15.0's fit; bench/bench_wall.c). A ray that meets the endocardium
-     again before the epicardium crosses the cavity, not the wall (a
-     tracked surface's crease or sagging lid by the base, where the
-     normal's in-plane part turns inward): none there;
+     the images show the wall: in frame t's planes, along the ray from the
+     endocardium's centre at the vertex's level (the area-weighted mean of
+     the vertices next to each plane, interpolated between planes) through
+     the vertex, and only at vertices between frame t's outer planes. A
+     reader measures in those planes, radially from the cavity's centre as
+     the contours' thickness is measured (so were the normal values and the
+     cut-off below): where a cross-section is not round, its normal points
+     off that chord. Only on the slices: beyond the outer
+     ones the surfaces are what closed them (sqffd_stack_lids' lids half a
+     spacing out, where the cavity and the epicardium both end), not a
+     drawn wall; measured up to the lids, a tube's thickening (endocardium
+     20 -> 15, epicardium 28 -> 25) reads 19 % for its 25 %. (On the pig
+     contours of ../shared/data/cardiac the global thickening read 2.76
+     points from the contours' own on average this way, 3.68 along the
+     normal's in-plane part; bench/bench_wall.c.) A ray that meets the
+     endocardium again before the epicardium crosses the cavity, not the
+     wall (a tracked surface's crease or sagging lid by the base): none
+     there;
    - the ES segments: placed on the ES mesh as sqffd_motion places the ED
      mesh's, in the same frame (the motion report's axis, septum and
      apex_fraction) but with the ES mesh's own levels (its extent along the
@@ -1468,8 +1472,8 @@ typedef struct sqffd_wall_options {
     const sqffd_stack *stacks;       /* NULL (default): closed volumes; else frame_count stacks (the epicardium's):
                                         the myocardium between their planes (see above) */
     const sqffd_stack *endo_stacks;  /* NULL (default): the thickness along the normals over the whole wall;
-                                        else frame_count stacks (the endocardium's): in their planes, within
-                                        them (see above) */
+                                        else frame_count stacks (the endocardium's): in their planes, radially
+                                        from the cavity's centre, within them (see above) */
 } sqffd_wall_options;
 
 typedef struct sqffd_wall_outputs {
@@ -10291,6 +10295,7 @@ typedef struct sqffd__wall_work {
     double *thickness[2];    /* M: at ED and ES */
     double *thickening;      /* M */
     unsigned char *segment_es; /* M: the ES segments, assigned on the ES mesh */
+    double (*centre)[4];     /* SQFFD_STACK_PLANES: the endocardium's centre at each plane (sqffd__wall_centres) */
     double *epi;             /* E x 3: the epicardium's vertices */
     sqffd__fit_bvh tree[2];  /* the trees over the epicardium's and the endocardium's grid meshes (sqffd__wall_ray) */
     double *myocardium;      /* frame_count */
@@ -10310,6 +10315,7 @@ static void sqffd__wall_layout(sqffd__arena *a, const sqffd_model *endo, const s
     w->thickness[1] = (double *)sqffd__arena_take(a, m, sizeof(double));
     w->thickening = (double *)sqffd__arena_take(a, m, sizeof(double));
     w->segment_es = (unsigned char *)sqffd__arena_take(a, m, 1);
+    w->centre = (double (*)[4])sqffd__arena_take(a, SQFFD_STACK_PLANES, 4 * sizeof(double));
     w->epi = (double *)sqffd__arena_take(a, e, 3 * sizeof(double));
     sqffd__fit_bvh_layout(a, epi->grid, &w->tree[0]);
     sqffd__fit_bvh_layout(a, endo->grid, &w->tree[1]);
@@ -10333,9 +10339,11 @@ SQFFD_DEF sqffd_result sqffd_wall_workspace_size(const sqffd_model *endo, const 
 }
 
 /* The crossing of triangle (a, b, c) by the ray from o along d (Moller &
-   Trumbore's test, u and v in [0, 1] inclusive): its distance along d
-   (negative behind o), HUGE_VAL if none or if the ray runs along the
-   triangle's plane. */
+   Trumbore's test, u and v in [0, 1] widened by SQFFD__WALL_EDGE: a ray
+   through an edge that two triangles share, which rounding may put just
+   outside both, meets one): its distance along d (negative behind o),
+   HUGE_VAL if none or if the ray runs along the triangle's plane. */
+#define SQFFD__WALL_EDGE 1e-9
 static double sqffd__wall_cross(const double *a, const double *b, const double *c, const double o[3], const double d[3])
 {
     double e1[3], e2[3], p[3], s[3], q[3], det, u, v;
@@ -10346,10 +10354,10 @@ static double sqffd__wall_cross(const double *a, const double *b, const double *
     det = sqffd__dot3(e1, p);
     if (det == 0.0) return HUGE_VAL;
     u = sqffd__dot3(s, p) / det;
-    if (!(u >= 0.0 && u <= 1.0)) return HUGE_VAL;
+    if (!(u >= -SQFFD__WALL_EDGE && u <= 1.0 + SQFFD__WALL_EDGE)) return HUGE_VAL;
     sqffd__cross3(s, e1, q);
     v = sqffd__dot3(d, q) / det;
-    if (!(v >= 0.0 && u + v <= 1.0)) return HUGE_VAL;
+    if (!(v >= -SQFFD__WALL_EDGE && u + v <= 1.0 + SQFFD__WALL_EDGE)) return HUGE_VAL;
     return sqffd__dot3(e2, q) / det;
 }
 
@@ -10480,31 +10488,77 @@ static int sqffd__wall_frame_valid(const sqffd_motion_report *motion)
     return motion->apex_fraction >= 0.0 && motion->apex_fraction < 1.0;
 }
 
-/* Frame t's wall thickness along the endocardium's normals (endo vertices x,
-   their normals in w->normal, epicardium model epi) into thickness: NaN off
-   the wall (segment 0), without a crossing, or where the crossing is on
-   the epicardium's valve plane (a triangle facing the base, as
-   sqffd_motion's valve rule: the normal leaves through the base, where the
+/* The plane of stack around level: hi, the first plane at or above it
+   (1..planes-1), and level's place between plane hi-1 (0) and hi (1); -1
+   outside the outer planes. */
+static double sqffd__wall_between(const sqffd_stack *stack, double level, size_t *hi)
+{
+    const double *at = stack->level;
+    if (level < at[0] || level > at[stack->planes - 1]) return -1.0;
+    for (*hi = 1; *hi + 1 < stack->planes && at[*hi] < level; ++*hi) continue;
+    return (level - at[*hi - 1]) / (at[*hi] - at[*hi - 1]);
+}
+
+/* The endocardium's centre at each plane of stack: the mean of the
+   vertices x between the outer planes, each weighted by its area and
+   shared between the two planes around it as it lies between them (a
+   plane's cross-section's centre, from the rows of vertices near it), into
+   w->centre (x y z, then the weight: 0 for a plane no vertex lies next
+   to). */
+static void sqffd__wall_centres(const sqffd_stack *stack, size_t m, const double *x, const double *area, sqffd__wall_work *w)
+{
+    size_t v, p, hi;
+    int k;
+    memset(w->centre, 0, stack->planes * sizeof *w->centre);
+    for (v = 0; v < m; ++v) {
+        double u = sqffd__wall_between(stack, sqffd__dot3(stack->axis, x + 3 * v), &hi), share[2];
+        if (u < 0.0) continue;
+        share[0] = (1.0 - u) * area[v];
+        share[1] = u * area[v];
+        for (p = 0; p < 2; ++p) {
+            for (k = 0; k < 3; ++k) w->centre[hi - 1 + p][k] += share[p] * x[3 * v + (size_t)k];
+            w->centre[hi - 1 + p][3] += share[p];
+        }
+    }
+    for (p = 0; p < stack->planes; ++p)
+        for (k = 0; k < 3; ++k)
+            if (w->centre[p][3] > 0.0) w->centre[p][k] /= w->centre[p][3];
+}
+
+/* Frame t's wall thickness (endo vertices x, their areas and normals in
+   w->normal, epicardium model epi) into thickness: along the endocardium's
+   outward normal; with frame t's stack, in its planes along the ray from
+   the endocardium's centre at the vertex's level (sqffd__wall_centres,
+   between its planes) through the vertex, only between the outer planes.
+   NaN off the wall (segment 0), without a crossing, or where the crossing
+   is on the epicardium's valve plane (a triangle facing the base, as
+   sqffd_motion's valve rule: the ray leaves through the base, where the
    wall is cut, not across it). */
-static void sqffd__wall_thickness(const sqffd_model *endo, const sqffd_model *epi, const double *x,
+static void sqffd__wall_thickness(const sqffd_model *endo, const sqffd_model *epi, const double *x, const double *area,
                                   const unsigned char *segment, const double axis[3], const sqffd_stack *stack,
                                   sqffd__wall_work *w, double *thickness)
 {
-    size_t m = sqffd__fit_grid_count(endo->grid), v;
+    size_t m = sqffd__fit_grid_count(endo->grid), v, hi;
     int k;
     sqffd__fit_surface(epi, epi->grid, w->epi);
     sqffd__fit_bvh_boxes(&w->tree[0], epi->grid, w->epi);
     sqffd__fit_bvh_boxes(&w->tree[1], endo->grid, x);
+    if (stack) sqffd__wall_centres(stack, m, x, area, w);
     for (v = 0; v < m; ++v) {
         double n[3], e1[3], e2[3], face[3], d;
         uint32_t t[3], other[3];
         thickness[v] = NAN;
         if (!segment[v] || !sqffd__unit3(w->normal + 3 * v, 0.0, n)) continue;
         if (stack) {
-            double level = sqffd__dot3(stack->axis, x + 3 * v), along = sqffd__dot3(stack->axis, n);
-            if (level < stack->level[0] || level > stack->level[stack->planes - 1]) continue;
+            double u = sqffd__wall_between(stack, sqffd__dot3(stack->axis, x + 3 * v), &hi), along;
+            const double *below = w->centre[hi - 1], *above = w->centre[hi];
+            if (u < 0.0) continue;
+            if (!(below[3] > 0.0)) u = 1.0; /* (a plane no vertex lies next to: its neighbour's centre) */
+            if (!(above[3] > 0.0)) u = 0.0;
+            for (k = 0; k < 3; ++k) n[k] = x[3 * v + (size_t)k] - ((1.0 - u) * below[k] + u * above[k]);
+            along = sqffd__dot3(stack->axis, n);
             for (k = 0; k < 3; ++k) n[k] -= along * stack->axis[k];
-            if (!sqffd__unit3(n, 1.0, n)) continue;
+            if (!sqffd__unit3(n, sqrt(area[v]), n)) continue; /* (on the centre line: no direction) */
         }
         d = sqffd__wall_ray(&w->tree[0], epi->grid, w->epi, x + 3 * v, n, UINT32_MAX, HUGE_VAL, t);
         if (!(d < HUGE_VAL)) continue;
@@ -10571,12 +10625,12 @@ SQFFD_DEF sqffd_result sqffd_wall(const sqffd_model *endo, const sqffd_model *ep
     /* the thickness at ED (the motion's segments) and at ES (its own, placed on the ES mesh) */
     sqffd__fit_surface(endo + motion->ed_frame, endo->grid, w.ed);
     sqffd__motion_areas(endo->grid, w.ed, w.area[0], w.normal);
-    sqffd__wall_thickness(endo, epi + motion->ed_frame, w.ed, segment, motion->axis, o->endo_stacks ? o->endo_stacks + motion->ed_frame : NULL,
+    sqffd__wall_thickness(endo, epi + motion->ed_frame, w.ed, w.area[0], segment, motion->axis, o->endo_stacks ? o->endo_stacks + motion->ed_frame : NULL,
                           &w, w.thickness[0]);
     sqffd__fit_surface(endo + motion->es_frame, endo->grid, w.es);
     sqffd__motion_areas(endo->grid, w.es, w.area[1], w.normal);
     if (!sqffd__wall_segments(motion, m, w.es, w.area[1], w.normal, w.segment_es)) return SQFFD_ERROR_DEGENERATE;
-    sqffd__wall_thickness(endo, epi + motion->es_frame, w.es, w.segment_es, motion->axis, o->endo_stacks ? o->endo_stacks + motion->es_frame : NULL,
+    sqffd__wall_thickness(endo, epi + motion->es_frame, w.es, w.area[1], w.segment_es, motion->axis, o->endo_stacks ? o->endo_stacks + motion->es_frame : NULL,
                           &w, w.thickness[1]);
     memset(sum, 0, sizeof sum);
     for (v = 0; v < m; ++v) {

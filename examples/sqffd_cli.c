@@ -1851,10 +1851,12 @@ static void track_report_wall(const track_args *a, const track_result *res)
     else
         printf("                   one myocardium weighed twice: the LV mass is the ED figure; the closed surfaces\n"
                "                   hold the whole wall in both frames, so ED and ES differ by the models' error\n");
-    printf("  wall thickness   ED %.4g mm, ES %.4g mm: global thickening %.1f %% (along each endocardial vertex's\n"
-           "                   normal to the epicardium%s; %lu wall vertices measured, %lu not)\n",
+    printf("  wall thickness   ED %.4g mm, ES %.4g mm: global thickening %.1f %% (%s to the epicardium;\n"
+           "                   %lu wall vertices measured, %lu not)\n",
            to_mm(a, w->thickness_ed), to_mm(a, w->thickness_es), 100.0 * w->thickening,
-           a->wall_options.endo_stacks ? ",\n                   its part in the slices' planes, between the outer slices" : "",
+           a->wall_options.endo_stacks ? "in the slices' planes, radially from the cavity's centre,\n"
+                                         "                   between the outer slices,"
+                                       : "along each endocardial vertex's normal",
            (unsigned long)w->measured, (unsigned long)w->unmeasured);
     printf("  segment                  thickness ED mm  ES mm  thickening %%  dysfunctional (thickening < %g %%)\n",
            100.0 * a->wall_options.dysfunctional_thickening);

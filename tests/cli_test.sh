@@ -375,7 +375,7 @@ for f in "ed 20" "es 15" "ed_epi 28" "es_epi 25"; do
         printf "%.6f %.6f %d\n", r * cos(6.283185307179586 * i / 64), r * sin(6.283185307179586 * i / 64), z }' \
         >"$TMP/tube_$1.xyz"
 done
-expect 0 "its part in the slices' planes, between the outer slices" track "$TMP/tube_ed.xyz" "$TMP/tube_es.xyz" \
+expect 0 "in the slices' planes, radially from the cavity's centre" track "$TMP/tube_ed.xyz" "$TMP/tube_es.xyz" \
     --epi "$TMP/tube_ed_epi.xyz,$TMP/tube_es_epi.xyz" -o "$TMP/wtube"
 awk '/^  wall thickness/ { found = 1; t = $4; e = $7; g = $11 } END { exit !(found && (t - 8) ^ 2 < 0.05 ^ 2 &&
     (e - 10) ^ 2 < 0.05 ^ 2 && (g - 25) ^ 2 < 0.5 ^ 2) }' "$TMP/out" && ok ||

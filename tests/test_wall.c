@@ -261,6 +261,61 @@ static void test_wall_stack_planes(void)
     free(segment);
 }
 
+/* In the planes the thickness is radial, as on short-axis contours: an
+   endocardium squeezed to an ellipsoid (the sphere of radius 20 with x
+   scaled by 0.6: cross-sections 12 x 20 at z = 0) inside the sphere of
+   radius 28, planes z = -10 ... 10. From the cavity's centre (the z axis,
+   by symmetry) through the vertex, the wall at height z reads
+   sqrt(28^2 - z^2) - |(x, y)|; along the in-plane normal it would read
+   more where the ellipse's normal leans off the radius. Within 0.08: the
+   epicardium's facets (rows and columns 5.6 degrees apart) lie inside the
+   sphere by up to 28 (1 - cos 2.8 degrees) across each, 0.067 together. */
+static void test_wall_radial(void)
+{
+    const double scales[2] = {1.0, 1.0};
+    sqffd_model endo[2], epi[2];
+    sqffd_motion_report motion;
+    sqffd_stack stacks[2];
+    sqffd_wall_options o = sqffd_wall_options_default();
+    sqffd_wall_outputs out;
+    sqffd_wall_report rep;
+    double *wt, *x, worst = 0.0, oblique = 0.0;
+    unsigned char *segment;
+    size_t m = 32 * 64 + 2, v, k, measured = 0;
+    int t;
+    sphere_frames(20.0, scales, 2, 32, endo);
+    sphere_frames(28.0, scales, 2, 32, epi);
+    for (t = 0; t < 2; t++)
+        for (k = 0; k < SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE * SQFFD_MAX_LATTICE; k++) endo[t].ffd.control[k][0] *= 0.6;
+    segment = (unsigned char *)test_malloc(m);
+    x = (double *)test_malloc(3 * m * sizeof *x);
+    wt = (double *)test_malloc(m * sizeof(double));
+    endo_motion(endo, 2, 0, &motion, segment);
+    z_planes(5, -10.0, 5.0, stacks);
+    o.endo_stacks = stacks;
+    memset(&out, 0, sizeof out);
+    out.thickness_ed = wt;
+    CHECK_RESULT(run_wall(endo, epi, 2, &motion, segment, &o, &out, &rep), SQFFD_OK);
+    CHECK_RESULT(sqffd_model_mesh(endo, endo->grid[0], endo->grid[1], x, NULL), SQFFD_OK);
+    for (v = 0; v < m; v++) {
+        const double *p = x + 3 * v;
+        double radial = sqrt(28.0 * 28.0 - p[2] * p[2]) - sqrt(p[0] * p[0] + p[1] * p[1]);
+        if (!segment[v] || fabs(p[2]) > 10.0) continue;
+        measured++;
+        worst = fmax(worst, fabs(wt[v] - radial));
+        oblique = fmax(oblique, fabs(p[0] * p[1])); /* (vertices where the normal and the radius differ) */
+        CHECK_MSG(fabs(wt[v] - radial) <= 0.08, "vertex %zu at (%.3f %.3f %.3f): %.6f, radial %.6f", v, p[0], p[1], p[2],
+                  wt[v], radial);
+    }
+    printf("    ellipsoid in a sphere, in planes: thickness within %.4f of the radial chord, %zu vertices measured\n",
+           worst, measured);
+    CHECK(measured > 500);
+    CHECK(oblique > 50.0);
+    free(wt);
+    free(x);
+    free(segment);
+}
+
 /* The ES segments are placed on the ES mesh, not carried by the vertices:
    the endocardium 20 -> 15 and turned a quarter about the long axis at ES
    (the surface the same sphere, its vertices slid 16 grid columns round
@@ -815,6 +870,7 @@ void suite_wall(void)
 {
     RUN_TEST(test_wall_spheres);
     RUN_TEST(test_wall_stack_planes);
+    RUN_TEST(test_wall_radial);
     RUN_TEST(test_wall_own_areas);
     RUN_TEST(test_wall_es_segments);
     RUN_TEST(test_wall_cavity_rays);
