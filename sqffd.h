@@ -7480,7 +7480,8 @@ static sqffd_result sqffd__fit_step(const sqffd__fit_system *s, sqffd__fit_work 
    tether exactly: one dense 3L x 3L system. The penalty's samples enter the
    step through its dual: the step is A^-1 (b + sum mu_i g_i), the
    multipliers those of a small problem over the samples the step would
-   sink (one factor of A a step). Levenberg-Marquardt damping lambda times
+   sink (one factor of A, kept over a few steps while A and its damping
+   stay near it: sqffd__fit_fold_factor). Levenberg-Marquardt damping lambda times
    the lattice's graph Laplacian (scaled to the data's point-to-point
    matrix) keeps the step smooth, so that J, cubic in P, stays near its
    linear model; a step that still sinks a sample under the floor is halved
@@ -7514,6 +7515,9 @@ static const int sqffd__fit_region_grid[2] = {32, 64}; /* the superquadric's sur
                                      a slide along the surface, and a step that leaves it free lets the model points drift
                                      (frame to frame: spurious motion; measured 0.1-0.3, bench/NOTES.md) */
 #define SQFFD__FIT_LAMBDA_START 1.0 /* the first step's damping: its matrix's trace that of the data's point-to-point one */
+#define SQFFD__FIT_FACTOR_AGE 4   /* a factor serves the steps of up to this many linearisations (sqffd__fit_fold_factor) */
+#define SQFFD__FIT_FACTOR_SPAN 4.0 /* while its damping is within this factor of the one wanted (measured: 2-16 and 2-100
+                                      linearisations, bench/NOTES.md) */
 #define SQFFD__FIT_SETTLED 10.0   /* converged: a step that lowers the penalised energy by under this x tolerance of it */
 #define SQFFD__FIT_NEAR 10.0      /* samples within this many margins of the floor enter the step's model (a step that
                                      moves J further than that leaves its linear model, and is shortened anyway) */
@@ -7528,7 +7532,9 @@ struct sqffd__fit_fold {
     double goal;               /* min_jacobian: the samples are held above it (the floor rises to it from a start
                                   below it) */
     double rho, lambda;        /* the penalty's weight (energy units), the damping */
-    double factored;           /* the damping f->factor holds (-1: none, or the matrix changed since) */
+    double factored;           /* the lambda f->factor holds */
+    double factored_springs;   /* and its springs' weight, lambda x damping */
+    int factor_age;            /* linearisations since f->factor's matrix (SQFFD__FIT_FACTOR_AGE or more: none) */
     unsigned char *region;     /* SQFFD__FIT_REGION_CELLS: the region's cells */
     unsigned char *coarse;     /* the coarser levels' (a cell meets the region where one of its children does) */
     double (*sample)[3];       /* stu of the samples */
@@ -8077,20 +8083,29 @@ static double sqffd__fit_fold_penalty(const sqffd__fit_fold *f, const double *va
 }
 
 /* The step's matrix without the penalty, the energy's plus lambda x the
-   damping, factored into f->factor (unless it holds that already: a step
-   taken again with new samples); lambda grows tenfold until it factors. 0
-   when it never does. */
+   damping, factored into f->factor; lambda grows tenfold until it factors
+   (0 when it never does). The factor already made serves instead while
+   its matrix is under SQFFD__FIT_FACTOR_AGE linearisations old and its
+   damping within SQFFD__FIT_FACTOR_SPAN of the one wanted (a step taken
+   again with new samples reuses it as it is): a positive definite matrix
+   near the energy's curvature gives a descent step all the same, and the
+   step is measured and certified like any other. */
 static int sqffd__fit_fold_factor(const sqffd__fit_system *s, sqffd__fit_fold *f)
 {
     size_t l = s->lattice, size = 3 * l, c;
+    double wanted = f->lambda * f->damping;
     int tries;
-    if (f->factored == f->lambda) return 1;
-    f->factored = -1.0;
+    if (f->factor_age < SQFFD__FIT_FACTOR_AGE && wanted <= SQFFD__FIT_FACTOR_SPAN * f->factored_springs &&
+        f->factored_springs <= SQFFD__FIT_FACTOR_SPAN * wanted)
+        return 1;
+    f->factor_age = SQFFD__FIT_FACTOR_AGE;
     for (tries = 0; tries < 40; ++tries, f->lambda = f->lambda > 0.0 ? 10.0 * f->lambda : 1e-6) {
         memcpy(f->factor, f->hessian, sqffd__packed_row(size) * sizeof(double));
         for (c = 0; c < 3; ++c) sqffd__fit_add_springs(s->dims, f->lambda * f->damping, f->factor, size, 1, c * l);
         if (sqffd__la_cholesky(f->factor, size, 1) == SQFFD_OK) {
             f->factored = f->lambda;
+            f->factored_springs = f->lambda * f->damping;
+            f->factor_age = 0;
             return 1;
         }
     }
@@ -8688,7 +8703,7 @@ static void sqffd__fit_fold_linearise(sqffd__fit_iteration *it)
     f->damping = trace / sqffd__fit_laplacian_trace(s->dims);
     sqffd__fit_fold_coarsen(s, plane);
     memset(f->hessian, 0, sqffd__packed_row(size) * sizeof(double));
-    f->factored = -1.0;
+    ++f->factor_age;
     for (c = 0; c < 3; ++c)
         for (c2 = 0; c2 <= c; ++c2) {
             for (v = 0; v < m; ++v) w->weights[v] = plane[6 * v + (size_t)entry[c][c2]];
@@ -8752,6 +8767,7 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
     res = sqffd__fit_measure(it, 0, &energy, &stats);
     if (res == SQFFD_OK) res = sqffd__fit_record(it, energy, &stats);
     if (res != SQFFD_OK) return res;
+    f->factor_age = SQFFD__FIT_FACTOR_AGE;
     sqffd__fit_fold_linearise(it);
     f->rho = 2.0 * (energy > 0.0 ? energy : 1.0) / (SQFFD__FIT_MARGIN * SQFFD__FIT_MARGIN);
     penalty = sqffd__fit_fold_penalty(f, f->value, NULL);
@@ -8771,7 +8787,7 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
             stalled = !(f->lambda <= 1e12);
             continue;
         }
-        if (predicted < SQFFD__FIT_SETTLED * o->tolerance * (it->accepted + penalty) * (double)m && f->lambda <= 1.0) {
+        if (predicted < SQFFD__FIT_SETTLED * o->tolerance * (it->accepted + penalty) * (double)m && f->factored <= 1.0) {
             rep->converged = 1; /* the next step would lower the energy by under 10 x tolerance of it: not taken */
             break;
         }

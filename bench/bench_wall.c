@@ -4,7 +4,7 @@
    as `sqffd track` tracks a stack (closed by its lids, default options),
    then sqffd_wall with the endocardium's frame and both surfaces' stacks
    (the epicardium's for the myocardium's slab, the endocardium's for the
-   thickness in the slices' planes):
+   thickness radially in the slices' planes, as the contours' below):
    - mass: the ED and ES myocardial volume against Simpson's (myocardium.csv:
      the myocardial area sums x the spacing), as ratios; and the same from
      the contours as thick-slice label maps (label_maps.h: cavity 3,
