@@ -7912,14 +7912,27 @@ static void sqffd__fit_fold_failed(sqffd__fit_fold *f)
    to f->fails: a corner below it (J itself there), a cell at the deepest
    level (its lowest coefficient's Greville point), or any once
    SQFFD__FIT_CERT_FAILS are found (the answer is known). 0: to be halved. */
+/* The smallest of t[0 .. count) (NaNs skipped; HUGE_VAL if none), in
+   SQFFD__SPLIT_LANES partial minima that the compiler packs into vectors
+   (a cell's minimum is most of the certificate's own time). */
+static double sqffd__fit_least(const double *t, size_t count)
+{
+    double lane[SQFFD__SPLIT_LANES], least = HUGE_VAL;
+    size_t i, q;
+    for (q = 0; q < SQFFD__SPLIT_LANES; ++q) lane[q] = HUGE_VAL;
+    for (i = 0; i + SQFFD__SPLIT_LANES <= count; i += SQFFD__SPLIT_LANES)
+        for (q = 0; q < SQFFD__SPLIT_LANES; ++q) lane[q] = t[i + q] < lane[q] ? t[i + q] : lane[q];
+    for (; i < count; ++i) least = t[i] < least ? t[i] : least;
+    for (q = 0; q < SQFFD__SPLIT_LANES; ++q) least = lane[q] < least ? lane[q] : least;
+    return least;
+}
+
 static int sqffd__fit_fold_cell(const int ej[3], sqffd__fit_fold *f, double target, int level, const int index[3],
                                 const double *t, double *least)
 {
-    size_t count = sqffd__jacobian_count(ej), i, lowest = 0;
+    size_t count = sqffd__jacobian_count(ej), lowest = 0;
     int a, corner, cells = 1 << level, g[3];
-    *least = HUGE_VAL;
-    for (i = 0; i < count; ++i)
-        if (t[i] < *least) { *least = t[i]; lowest = i; }
+    *least = sqffd__fit_least(t, count);
     if (*least >= target || (level >= SQFFD__FIT_REGION_LEVELS && *least >= f->goal)) return 1;
     if (level < SQFFD__FIT_REGION_LEVELS || *least >= f->goal) return 0;
     if (f->failed >= SQFFD__FIT_CERT_FAILS) return 1;
@@ -7932,6 +7945,7 @@ static int sqffd__fit_fold_cell(const int ej[3], sqffd__fit_fold *f, double targ
         }
     }
     if (level < SQFFD__FIT_REGION_LEVELS + SQFFD__FIT_CERT_DEPTH) return 0;
+    while (t[lowest] != *least) ++lowest; /* (its first place) */
     g[2] = (int)(lowest % (size_t)ej[2]);
     g[1] = (int)(lowest / (size_t)ej[2] % (size_t)ej[1]);
     g[0] = (int)(lowest / ((size_t)ej[1] * (size_t)ej[2]));
