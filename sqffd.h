@@ -7516,8 +7516,8 @@ static const int sqffd__fit_region_grid[2] = {32, 64}; /* the superquadric's sur
                                      (frame to frame: spurious motion; measured 0.1-0.3, bench/NOTES.md) */
 #define SQFFD__FIT_LAMBDA_START 1.0 /* the first step's damping: its matrix's trace that of the data's point-to-point one */
 #define SQFFD__FIT_FACTOR_AGE 4   /* a factor serves the steps of up to this many linearisations (sqffd__fit_fold_factor) */
-#define SQFFD__FIT_FACTOR_SPAN 4.0 /* while its damping is within this factor of the one wanted (measured: 2-16 and 2-100
-                                      linearisations, bench/NOTES.md) */
+#define SQFFD__FIT_FACTOR_SPAN 3.0 /* while it damps at least as much as wanted and at most this many times more: one of
+                                      lambda's falls (/3); bench/NOTES.md */
 #define SQFFD__FIT_SETTLED 10.0   /* converged: a step that lowers the penalised energy by under this x tolerance of it */
 #define SQFFD__FIT_NEAR 10.0      /* samples within this many margins of the floor enter the step's model (a step that
                                      moves J further than that leaves its linear model, and is shortened anyway) */
@@ -8099,17 +8099,18 @@ static double sqffd__fit_fold_penalty(const sqffd__fit_fold *f, const double *va
 /* The step's matrix without the penalty, the energy's plus lambda x the
    damping, factored into f->factor; lambda grows tenfold until it factors
    (0 when it never does). The factor already made serves instead while
-   its matrix is under SQFFD__FIT_FACTOR_AGE linearisations old and its
-   damping within SQFFD__FIT_FACTOR_SPAN of the one wanted (a step taken
-   again with new samples reuses it as it is): a positive definite matrix
-   near the energy's curvature gives a descent step all the same, and the
-   step is measured and certified like any other. */
+   its matrix is under SQFFD__FIT_FACTOR_AGE linearisations old and it
+   damps at least as much as wanted, at most SQFFD__FIT_FACTOR_SPAN times
+   more (a step taken again with new samples reuses it as it is): a
+   positive definite matrix near the energy's curvature gives a descent
+   step all the same, a shorter one where it damps more, never a bolder
+   one, and the step is measured and certified like any other. */
 static int sqffd__fit_fold_factor(const sqffd__fit_system *s, sqffd__fit_fold *f)
 {
     size_t l = s->lattice, size = 3 * l, c;
     double wanted = f->lambda * f->damping;
     int tries;
-    if (f->factor_age < SQFFD__FIT_FACTOR_AGE && wanted <= SQFFD__FIT_FACTOR_SPAN * f->factored_springs &&
+    if (f->factor_age < SQFFD__FIT_FACTOR_AGE && f->factored_springs >= wanted &&
         f->factored_springs <= SQFFD__FIT_FACTOR_SPAN * wanted)
         return 1;
     f->factor_age = SQFFD__FIT_FACTOR_AGE;
@@ -8802,6 +8803,10 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
             continue;
         }
         if (predicted < SQFFD__FIT_SETTLED * o->tolerance * (it->accepted + penalty) * (double)m && f->factored <= 1.0) {
+            if (f->factor_age > 0 || f->factored != f->lambda) { /* judged on this model's own matrix, not a kept one */
+                f->factor_age = SQFFD__FIT_FACTOR_AGE;
+                continue;
+            }
             rep->converged = 1; /* the next step would lower the energy by under 10 x tolerance of it: not taken */
             break;
         }
