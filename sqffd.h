@@ -7905,13 +7905,6 @@ static void sqffd__fit_fold_failed(sqffd__fit_fold *f)
     ++f->failed;
 }
 
-/* One cell of the certificate (level: halvings of the box; index: its
-   place; t: its coefficients): 1 when it is settled, its smallest
-   coefficient into *least: at or above target, or (a region cell or
-   below) at or above the goal; or under the goal with a point of it added
-   to f->fails: a corner below it (J itself there), a cell at the deepest
-   level (its lowest coefficient's Greville point), or any once
-   SQFFD__FIT_CERT_FAILS are found (the answer is known). 0: to be halved. */
 /* The smallest of t[0 .. count) (NaNs skipped; HUGE_VAL if none), in
    SQFFD__SPLIT_LANES partial minima that the compiler packs into vectors
    (a cell's minimum is most of the certificate's own time). */
@@ -7927,6 +7920,13 @@ static double sqffd__fit_least(const double *t, size_t count)
     return least;
 }
 
+/* One cell of the certificate (level: halvings of the box; index: its
+   place; t: its coefficients): 1 when it is settled, its smallest
+   coefficient into *least: at or above target, or (a region cell or
+   below) at or above the goal; or under the goal with a point of it added
+   to f->fails: a corner below it (J itself there), a cell at the deepest
+   level (its lowest coefficient's Greville point), or any once
+   SQFFD__FIT_CERT_FAILS are found (the answer is known). 0: to be halved. */
 static int sqffd__fit_fold_cell(const int ej[3], sqffd__fit_fold *f, double target, int level, const int index[3],
                                 const double *t, double *least)
 {
