@@ -366,7 +366,7 @@ PY
 else
     grep -q '"mass_ed_g": ' "$TMP/wtr.json" && grep -q '"dysfunctional": ' "$TMP/wtr.json" && ok || bad "track --epi --json: no mass or flags"
 fi
-# stacks: the thickness in the slices' planes, between the outer slices. A tube of 7 slices (z 0..60, 64 points a
+# stacks: the thickness in the slices' planes (radial), between the outer slices. A tube of 7 slices (z 0..60, 64 points a
 # circle): cavity radius 20 -> 15, epicardium 28 -> 25, so 8 -> 10 mm, thickening 25 %, on every slice (up to the
 # lids half a spacing beyond the outer slices it would read 19 %)
 for f in "ed 20" "es 15" "ed_epi 28" "es_epi 25"; do
