@@ -1020,8 +1020,8 @@ def wall(endo_models, epi_models, motion_result, stacks=None, endo_stacks=None, 
     segments define the AHA segments of both surfaces). stacks: the epicardium's Stack a frame (the
     myocardium between its outer slices +- half a spacing, as motion() measures the cavity), or None
     (closed volumes). endo_stacks: the endocardium's Stack a frame (the thickness in their planes,
-    between their outer slices, as the slices show the wall), or None (along the normals over the
-    whole wall). options: sqffd_wall_options fields (dysfunctional_thickening,
+    radially from the cavity's centre, between their outer slices, as the slices show the wall), or
+    None (along the normals over the whole wall). options: sqffd_wall_options fields (dysfunctional_thickening,
     default 0.2).
     Returns a Wall: the myocardial volume per frame (x 1.05 g/ml for a mass), the wall thickness
     along each endocardial vertex's normal at ED and ES, thickening per vertex, per segment and
