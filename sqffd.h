@@ -10529,7 +10529,8 @@ static int sqffd__wall_frame_valid(const sqffd_motion_report *motion)
 static double sqffd__wall_between(const sqffd_stack *stack, double level, size_t *hi)
 {
     const double *at = stack->level;
-    if (level < at[0] || level > at[stack->planes - 1]) return -1.0;
+    *hi = 1;
+    if (!(level >= at[0] && level <= at[stack->planes - 1])) return -1.0;
     for (*hi = 1; *hi + 1 < stack->planes && at[*hi] < level; ++*hi) continue;
     return (level - at[*hi - 1]) / (at[*hi] - at[*hi - 1]);
 }
@@ -10586,8 +10587,10 @@ static void sqffd__wall_thickness(const sqffd_model *endo, const sqffd_model *ep
         if (!segment[v] || !sqffd__unit3(w->normal + 3 * v, 0.0, n)) continue;
         if (stack) {
             double u = sqffd__wall_between(stack, sqffd__dot3(stack->axis, x + 3 * v), &hi), along;
-            const double *below = w->centre[hi - 1], *above = w->centre[hi];
+            const double *below, *above;
             if (u < 0.0) continue;
+            below = w->centre[hi - 1];
+            above = w->centre[hi];
             if (!(below[3] > 0.0)) u = 1.0; /* (a plane no vertex lies next to: its neighbour's centre) */
             if (!(above[3] > 0.0)) u = 0.0;
             for (k = 0; k < 3; ++k) n[k] = x[3 * v + (size_t)k] - ((1.0 - u) * below[k] + u * above[k]);
