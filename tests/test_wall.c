@@ -195,6 +195,26 @@ static double disc_integral(double a, double z)
     return 0.5 * (z * sqrt(a * a - z * z) + a * a * asin(z / a));
 }
 
+/* sqffd_wall on two frames of endo and epi read as short-axis stacks at
+   z = -10, -5, ..., 10 (the endocardium's, both frames; ED frame 0, its
+   segments into segment): the ED and ES thicknesses into wt_ed and wt_es
+   (either may be NULL), the report into rep. */
+static void run_wall_in_planes(const sqffd_model *endo, const sqffd_model *epi, unsigned char *segment, double *wt_ed,
+                               double *wt_es, sqffd_wall_report *rep)
+{
+    sqffd_motion_report motion;
+    sqffd_stack stacks[2];
+    sqffd_wall_options o = sqffd_wall_options_default();
+    sqffd_wall_outputs out;
+    endo_motion(endo, 2, 0, &motion, segment);
+    z_planes(5, -10.0, 5.0, stacks);
+    o.endo_stacks = stacks;
+    memset(&out, 0, sizeof out);
+    out.thickness_ed = wt_ed;
+    out.thickness_es = wt_es;
+    CHECK_RESULT(run_wall(endo, epi, 2, &motion, segment, &o, &out, rep), SQFFD_OK);
+}
+
 /* The concentric spheres of test_wall_spheres read as short-axis stacks
    (planes z = -10, -5, ..., 10, spacing 5, at both frames): a wall vertex
    at height z is measured only within |z| <= 10 (between the outer
@@ -211,10 +231,6 @@ static void test_wall_stack_planes(void)
 {
     const double endo_scale[2] = {1.0, 0.75}, epi_scale[2] = {1.0, 25.0 / 28.0}, radii[2][2] = {{20.0, 28.0}, {15.0, 25.0}};
     sqffd_model endo[2], epi[2];
-    sqffd_motion_report motion;
-    sqffd_stack stacks[2];
-    sqffd_wall_options o = sqffd_wall_options_default();
-    sqffd_wall_outputs out;
     sqffd_wall_report rep;
     double *wt[2], *x, worst = 0.0, mean[2], band[2] = {-10.0, 10.0};
     unsigned char *segment;
@@ -225,13 +241,7 @@ static void test_wall_stack_planes(void)
     segment = (unsigned char *)test_malloc(m);
     x = (double *)test_malloc(3 * m * sizeof *x);
     for (t = 0; t < 2; t++) wt[t] = (double *)test_malloc(m * sizeof(double));
-    endo_motion(endo, 2, 0, &motion, segment);
-    z_planes(5, -10.0, 5.0, stacks);
-    o.endo_stacks = stacks;
-    memset(&out, 0, sizeof out);
-    out.thickness_ed = wt[0];
-    out.thickness_es = wt[1];
-    CHECK_RESULT(run_wall(endo, epi, 2, &motion, segment, &o, &out, &rep), SQFFD_OK);
+    run_wall_in_planes(endo, epi, segment, wt[0], wt[1], &rep);
     for (t = 0; t < 2; t++) {
         const double r = radii[t][0], p = radii[t][1];
         CHECK_RESULT(sqffd_model_mesh(endo + t, endo->grid[0], endo->grid[1], x, NULL), SQFFD_OK);
@@ -274,10 +284,6 @@ static void test_wall_radial(void)
 {
     const double scales[2] = {1.0, 1.0};
     sqffd_model endo[2], epi[2];
-    sqffd_motion_report motion;
-    sqffd_stack stacks[2];
-    sqffd_wall_options o = sqffd_wall_options_default();
-    sqffd_wall_outputs out;
     sqffd_wall_report rep;
     double *wt, *x, worst = 0.0, oblique = 0.0;
     unsigned char *segment;
@@ -290,12 +296,7 @@ static void test_wall_radial(void)
     segment = (unsigned char *)test_malloc(m);
     x = (double *)test_malloc(3 * m * sizeof *x);
     wt = (double *)test_malloc(m * sizeof(double));
-    endo_motion(endo, 2, 0, &motion, segment);
-    z_planes(5, -10.0, 5.0, stacks);
-    o.endo_stacks = stacks;
-    memset(&out, 0, sizeof out);
-    out.thickness_ed = wt;
-    CHECK_RESULT(run_wall(endo, epi, 2, &motion, segment, &o, &out, &rep), SQFFD_OK);
+    run_wall_in_planes(endo, epi, segment, wt, NULL, &rep);
     CHECK_RESULT(sqffd_model_mesh(endo, endo->grid[0], endo->grid[1], x, NULL), SQFFD_OK);
     for (v = 0; v < m; v++) {
         const double *p = x + 3 * v;
