@@ -1951,13 +1951,16 @@ SQFFD_DEF void sqffd_sym3_eigen(const double a[9], double values[3], double vect
 #define SQFFD__LA_EPS 2.220446049250313080847e-16        /* DBL_EPSILON */
 #define SQFFD__LA_MIN_NORMAL 2.225073858507201383090e-308 /* DBL_MIN */
 
-/* x . y with four partial sums: fixed summation order (deterministic) and
-   enough independent additions to keep the FPU busy without -ffast-math. */
-static double sqffd__la_dot(const double *x, const double *y, size_t n)
+/* x . y in four lanes (lane q sums the terms k = q mod 4, the last n mod 4
+   terms go to lane 0), continued from `lanes`, their sums over the first
+   `done` terms (a multiple of four): a fixed summation order
+   (deterministic) with enough independent additions to keep the FPU busy
+   without -ffast-math. */
+static double sqffd__la_dot_rest(const double *x, const double *y, size_t n, const double lanes[4], size_t done)
 {
-    double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
+    double s0 = lanes[0], s1 = lanes[1], s2 = lanes[2], s3 = lanes[3];
     size_t k;
-    for (k = 0; k + 4 <= n; k += 4) {
+    for (k = done; k + 4 <= n; k += 4) {
         s0 += x[k] * y[k];
         s1 += x[k + 1] * y[k + 1];
         s2 += x[k + 2] * y[k + 2];
@@ -1965,6 +1968,13 @@ static double sqffd__la_dot(const double *x, const double *y, size_t n)
     }
     for (; k < n; ++k) s0 += x[k] * y[k];
     return (s0 + s1) + (s2 + s3);
+}
+
+/* x . y, from no lanes: sqffd__la_dot_rest's order throughout. */
+static double sqffd__la_dot(const double *x, const double *y, size_t n)
+{
+    static const double none[4] = {0.0, 0.0, 0.0, 0.0};
+    return sqffd__la_dot_rest(x, y, n, none, 0);
 }
 
 /* y += alpha x. Unrolled by four like the rotation below: GCC's -O2
@@ -1996,29 +2006,77 @@ static double *sqffd__la_row(const double *a, size_t n, int packed, size_t i)
     return (double *)a + (packed ? sqffd__packed_row(i) : i * n);
 }
 
+/* The lanes of sqffd__la_dot_rest (lane q: the terms k = q mod 4) of the eight dots
+   of rows x[0], x[1] with rows y[0..3] over their first n terms (n a
+   multiple of four) into lanes[r][t]. Eight accumulators, each its own
+   array, which GCC keeps in vector registers; they share each load. */
+static void sqffd__la_lanes_2x4(const double *const x[2], const double *const y[4], size_t n, double lanes[2][4][4])
+{
+    double a[4] = {0.0, 0.0, 0.0, 0.0}, b[4] = {0.0, 0.0, 0.0, 0.0}, c[4] = {0.0, 0.0, 0.0, 0.0}, d[4] = {0.0, 0.0, 0.0, 0.0};
+    double e[4] = {0.0, 0.0, 0.0, 0.0}, f[4] = {0.0, 0.0, 0.0, 0.0}, g[4] = {0.0, 0.0, 0.0, 0.0}, h[4] = {0.0, 0.0, 0.0, 0.0};
+    const double *x0 = x[0], *x1 = x[1], *y0 = y[0], *y1 = y[1], *y2 = y[2], *y3 = y[3];
+    size_t k, q;
+    for (k = 0; k < n; k += 4)
+        for (q = 0; q < 4; ++q) {
+            a[q] += x0[k + q] * y0[k + q];
+            b[q] += x0[k + q] * y1[k + q];
+            c[q] += x0[k + q] * y2[k + q];
+            d[q] += x0[k + q] * y3[k + q];
+            e[q] += x1[k + q] * y0[k + q];
+            f[q] += x1[k + q] * y1[k + q];
+            g[q] += x1[k + q] * y2[k + q];
+            h[q] += x1[k + q] * y3[k + q];
+        }
+    for (q = 0; q < 4; ++q) {
+        lanes[0][0][q] = a[q];
+        lanes[0][1][q] = b[q];
+        lanes[0][2][q] = c[q];
+        lanes[0][3][q] = d[q];
+        lanes[1][0][q] = e[q];
+        lanes[1][1][q] = f[q];
+        lanes[1][2][q] = g[q];
+        lanes[1][3][q] = h[q];
+    }
+}
+
 /* The Cholesky factor L of the lower triangle of a (row-major or packed) in
    its place. Row by row (Cholesky-Crout): L[i][j] = (A[i][j] - L[i][:j].L[j][:j]) / L[j][j];
-   both dot operands are contiguous rows. */
+   both dot operands are contiguous rows. Two rows at a time against four
+   earlier ones: their eight dots share each load and run as independent
+   sums (one dot alone waits on its own additions). */
 static sqffd_result sqffd__la_cholesky(double *a, size_t n, int packed)
 {
-    size_t i, j;
+    size_t i, j, k, r, t, rows;
     for (i = 0; i < n; ++i) {
         const double *li = sqffd__la_row(a, n, packed, i);
         for (j = 0; j <= i; ++j)
             if (!isfinite(li[j])) return SQFFD_ERROR_NON_FINITE;
     }
-    for (i = 0; i < n; ++i) {
-        double *li = sqffd__la_row(a, n, packed, i);
-        for (j = 0; j <= i; ++j) {
-            const double *lj = sqffd__la_row(a, n, packed, j);
-            double sum = li[j] - sqffd__la_dot(li, lj, j);
-            if (j < i) {
-                li[j] = sum / lj[j];
-            } else {
-                if (!(sum > 0.0) || !isfinite(sum)) return SQFFD_ERROR_NOT_POSITIVE_DEFINITE;
-                li[i] = sqrt(sum);
-            }
+    for (i = 0; i < n; i += rows) {
+        double *row[2];
+        rows = i + 1 < n ? 2 : 1;
+        row[0] = sqffd__la_row(a, n, packed, i);
+        row[1] = sqffd__la_row(a, n, packed, i + rows - 1);
+        for (j = 0; j + 4 <= i; j += 4) { /* columns j..j+3, all before both rows' diagonals */
+            const double *col[4];
+            double lanes[2][4][4];
+            for (t = 0; t < 4; ++t) col[t] = sqffd__la_row(a, n, packed, j + t);
+            sqffd__la_lanes_2x4((const double *const *)row, col, j, lanes);
+            for (t = 0; t < 4; ++t)
+                for (r = 0; r < rows; ++r)
+                    row[r][j + t] = (row[r][j + t] - sqffd__la_dot_rest(row[r], col[t], j + t, lanes[r][t], j)) / col[t][j + t];
         }
+        for (r = 0; r < rows; ++r) /* the rest of each row, its diagonal last */
+            for (k = j; k <= i + r; ++k) {
+                const double *lk = sqffd__la_row(a, n, packed, k);
+                double sum = row[r][k] - sqffd__la_dot(row[r], lk, k);
+                if (k < i + r) {
+                    row[r][k] = sum / lk[k];
+                } else {
+                    if (!(sum > 0.0) || !isfinite(sum)) return SQFFD_ERROR_NOT_POSITIVE_DEFINITE;
+                    row[r][k] = sqrt(sum);
+                }
+            }
     }
     return SQFFD_OK;
 }
@@ -2036,15 +2094,33 @@ SQFFD_DEF sqffd_result sqffd_cholesky_factor(double *a, size_t n)
 
 /* L y = b in place for k right-hand sides at once (b: k vectors of n one
    after another; each row of L is read once for all of them), L lower
-   triangular (row-major n x n, or packed). */
+   triangular (row-major n x n, or packed). Four right-hand sides against
+   two rows at a time, as the factor is made. */
 static void sqffd__la_forward(const double *l, size_t n, int packed, double *b, size_t k)
 {
-    size_t i, c;
+    size_t i, c, r, t;
+    for (c = 0; c + 4 <= k; c += 4) {
+        const double *rhs[4];
+        for (t = 0; t < 4; ++t) rhs[t] = b + (c + t) * n;
+        for (i = 0; i < n; i += 2) {
+            const double *row[2];
+            double lanes[2][4][4];
+            size_t rows = i + 1 < n ? 2 : 1, done = i - i % 4;
+            row[0] = sqffd__la_row(l, n, packed, i);
+            row[1] = sqffd__la_row(l, n, packed, i + rows - 1);
+            sqffd__la_lanes_2x4(row, rhs, done, lanes);
+            for (r = 0; r < rows; ++r)
+                for (t = 0; t < 4; ++t) {
+                    double *bt = b + (c + t) * n;
+                    bt[i + r] = (bt[i + r] - sqffd__la_dot_rest(row[r], bt, i + r, lanes[r][t], done)) / row[r][i + r];
+                }
+        }
+    }
     for (i = 0; i < n; ++i) {
         const double *li = sqffd__la_row(l, n, packed, i);
-        for (c = 0; c < k; ++c) {
-            double *bc = b + c * n;
-            bc[i] = (bc[i] - sqffd__la_dot(li, bc, i)) / li[i];
+        for (r = c; r < k; ++r) {
+            double *br = b + r * n;
+            br[i] = (br[i] - sqffd__la_dot(li, br, i)) / li[i];
         }
     }
 }
