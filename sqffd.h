@@ -1958,16 +1958,13 @@ SQFFD_DEF void sqffd_sym3_eigen(const double a[9], double values[3], double vect
    without -ffast-math. */
 static double sqffd__la_dot_rest(const double *x, const double *y, size_t n, const double lanes[4], size_t done)
 {
-    double s0 = lanes[0], s1 = lanes[1], s2 = lanes[2], s3 = lanes[3];
-    size_t k;
-    for (k = done; k + 4 <= n; k += 4) {
-        s0 += x[k] * y[k];
-        s1 += x[k + 1] * y[k + 1];
-        s2 += x[k + 2] * y[k + 2];
-        s3 += x[k + 3] * y[k + 3];
-    }
-    for (; k < n; ++k) s0 += x[k] * y[k];
-    return (s0 + s1) + (s2 + s3);
+    double s[4]; /* (an array: gcc packs its lanes into one vector, four scalars started from lanes[] it leaves) */
+    size_t k, q;
+    for (q = 0; q < 4; ++q) s[q] = lanes[q];
+    for (k = done; k + 4 <= n; k += 4)
+        for (q = 0; q < 4; ++q) s[q] += x[k + q] * y[k + q];
+    for (; k < n; ++k) s[0] += x[k] * y[k];
+    return (s[0] + s[1]) + (s[2] + s[3]);
 }
 
 /* x . y, from no lanes: sqffd__la_dot_rest's order throughout. */
@@ -2042,11 +2039,12 @@ static void sqffd__la_lanes_2x4(const double *const x[2], const double *const y[
 /* The Cholesky factor L of the lower triangle of a (row-major or packed) in
    its place. Row by row (Cholesky-Crout): L[i][j] = (A[i][j] - L[i][:j].L[j][:j]) / L[j][j];
    both dot operands are contiguous rows. Two rows at a time against four
-   earlier ones: their eight dots share each load and run as independent
-   sums (one dot alone waits on its own additions). */
+   columns' rows: their eight dots share each load and run as independent
+   sums (one dot alone waits on its own additions) over the terms before
+   the four, each then finished in sqffd__la_dot_rest's order. */
 static sqffd_result sqffd__la_cholesky(double *a, size_t n, int packed)
 {
-    size_t i, j, k, r, t, rows;
+    size_t i, j, r, t, rows;
     for (i = 0; i < n; ++i) {
         const double *li = sqffd__la_row(a, n, packed, i);
         for (j = 0; j <= i; ++j)
@@ -2057,26 +2055,25 @@ static sqffd_result sqffd__la_cholesky(double *a, size_t n, int packed)
         rows = i + 1 < n ? 2 : 1;
         row[0] = sqffd__la_row(a, n, packed, i);
         row[1] = sqffd__la_row(a, n, packed, i + rows - 1);
-        for (j = 0; j + 4 <= i; j += 4) { /* columns j..j+3, all before both rows' diagonals */
+        for (j = 0; j <= i + rows - 1; j += 4) { /* columns j..j+3 (those past the last row: none) */
             const double *col[4];
             double lanes[2][4][4];
-            for (t = 0; t < 4; ++t) col[t] = sqffd__la_row(a, n, packed, j + t);
+            for (t = 0; t < 4; ++t) col[t] = j + t < i + rows ? sqffd__la_row(a, n, packed, j + t) : row[0];
             sqffd__la_lanes_2x4((const double *const *)row, col, j, lanes);
-            for (t = 0; t < 4; ++t)
-                for (r = 0; r < rows; ++r)
-                    row[r][j + t] = (row[r][j + t] - sqffd__la_dot_rest(row[r], col[t], j + t, lanes[r][t], j)) / col[t][j + t];
-        }
-        for (r = 0; r < rows; ++r) /* the rest of each row, its diagonal last */
-            for (k = j; k <= i + r; ++k) {
-                const double *lk = sqffd__la_row(a, n, packed, k);
-                double sum = row[r][k] - sqffd__la_dot(row[r], lk, k);
-                if (k < i + r) {
-                    row[r][k] = sum / lk[k];
-                } else {
-                    if (!(sum > 0.0) || !isfinite(sum)) return SQFFD_ERROR_NOT_POSITIVE_DEFINITE;
-                    row[r][k] = sqrt(sum);
+            for (t = 0; t < 4; ++t) /* (column by column: an entry needs its row's earlier ones and its column's row) */
+                for (r = 0; r < rows; ++r) {
+                    size_t c = j + t;
+                    double sum;
+                    if (c > i + r) continue;
+                    sum = row[r][c] - sqffd__la_dot_rest(row[r], col[t], c, lanes[r][t], j);
+                    if (c < i + r) {
+                        row[r][c] = sum / col[t][c];
+                    } else {
+                        if (!(sum > 0.0) || !isfinite(sum)) return SQFFD_ERROR_NOT_POSITIVE_DEFINITE;
+                        row[r][c] = sqrt(sum);
+                    }
                 }
-            }
+        }
     }
     return SQFFD_OK;
 }
@@ -7941,11 +7938,11 @@ static double sqffd__fit_fold_values(const int dims[3], sqffd__fit_fold *f, cons
 
 /* The tensor t (extents ext) split at the middle of axis `axis` (de
    Casteljau at 1/2) into its halves' tensors lo (which may be t: in place)
-   and hi. The lines along the axis go four at a time through a small
-   table (their triangles side by side: the compiler packs the four into
-   vectors, and the table stays in registers or L1 instead of every level
-   passing over the tensor). */
-#define SQFFD__SPLIT_LANES 4
+   and hi. The lines along the axis go eight at a time through a small
+   table (their triangles side by side: the compiler packs them into
+   vectors, two or more independent ones a step, and the table stays in
+   registers or L1 instead of every level passing over the tensor). */
+#define SQFFD__SPLIT_LANES 8
 static void sqffd__bernstein_split(const double *t, const int ext[3], int axis, double *lo, double *hi)
 {
     size_t slab = axis == 0 ? (size_t)(ext[1] * ext[2]) : axis == 1 ? (size_t)ext[2] : 1, n = (size_t)ext[axis];
