@@ -140,6 +140,64 @@ static void lagged_load(size_t m, const double *weights, const double *y, double
         for (c = 0; c < 3; c++) target[3 * v + c] = weights[v] * y[3 * v + c];
 }
 
+/* The Cholesky factor and the forward solves work in tiles (two rows
+   against four columns or right-hand sides) yet promise the plain row by
+   row algorithm's results to the bit, each dot summed in sqffd__la_dot's
+   order: checked against that algorithm written out here, for sizes of
+   every remainder mod 4 (odd and even: a last row alone), row-major and
+   packed, and 1-9 right-hand sides; and a matrix that is not positive
+   definite only at its last pivot (on either row of a pair) is refused. */
+static void test_internal_cholesky_tiles(void)
+{
+    static const size_t sizes[] = {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 17, 37, 64};
+    size_t t;
+    srand(11);
+    for (t = 0; t < sizeof sizes / sizeof sizes[0]; t++) {
+        size_t n = sizes[t], i, j, k, c;
+        double *a = (double *)malloc(n * n * sizeof *a), *l = (double *)malloc(n * n * sizeof *l);
+        double *p = (double *)malloc(n * (n + 1) / 2 * sizeof *p), *b = (double *)malloc(9 * n * sizeof *b);
+        double *y = (double *)malloc(9 * n * sizeof *y);
+        int packed;
+        for (i = 0; i < n * n; i++) l[i] = 2.0 * (double)rand() / RAND_MAX - 1.0;
+        for (i = 0; i < n; i++) /* A = M M^T + n I, M (in l meanwhile) uniform in [-1, 1] */
+            for (j = 0; j <= i; j++) {
+                double sum = i == j ? (double)n : 0.0;
+                for (k = 0; k < n; k++) sum += l[i * n + k] * l[j * n + k];
+                a[i * n + j] = a[j * n + i] = sum;
+            }
+        memcpy(l, a, n * n * sizeof *l); /* the reference: row by row, one dot an entry */
+        for (i = 0; i < n; i++)
+            for (j = 0; j <= i; j++) {
+                double sum = l[i * n + j] - sqffd__la_dot(l + i * n, l + j * n, j);
+                l[i * n + j] = j < i ? sum / l[j * n + j] : sqrt(sum);
+            }
+        for (packed = 0; packed <= 1; packed++) {
+            double *m = packed ? p : (double *)malloc(n * n * sizeof *m);
+            for (i = 0; i < n; i++)
+                for (j = 0; j <= i; j++) sqffd__la_row(m, n, packed, i)[j] = a[i * n + j];
+            CHECK_RESULT(sqffd__la_cholesky(m, n, packed), SQFFD_OK);
+            for (i = 0; i < n; i++)
+                for (j = 0; j <= i; j++) CHECK(sqffd__la_row(m, n, packed, i)[j] == l[i * n + j]);
+            for (k = 1; k <= 9; k++) { /* k right-hand sides against the reference's forward solve */
+                for (i = 0; i < k * n; i++) b[i] = y[i] = 2.0 * (double)rand() / RAND_MAX - 1.0;
+                sqffd__la_forward(m, n, packed, b, k);
+                for (c = 0; c < k; c++)
+                    for (i = 0; i < n; i++) {
+                        double *yc = y + c * n;
+                        yc[i] = (yc[i] - sqffd__la_dot(l + i * n, yc, i)) / l[i * n + i];
+                    }
+                for (i = 0; i < k * n; i++) CHECK(b[i] == y[i]);
+            }
+            for (i = 0; i < n; i++) /* the last pivot made -1: refused */
+                for (j = 0; j <= i; j++) sqffd__la_row(m, n, packed, i)[j] = a[i * n + j];
+            sqffd__la_row(m, n, packed, n - 1)[n - 1] -= l[(n - 1) * n + n - 1] * l[(n - 1) * n + n - 1] + 1.0;
+            CHECK_RESULT(sqffd__la_cholesky(m, n, packed), SQFFD_ERROR_NOT_POSITIVE_DEFINITE);
+            if (!packed) free(m);
+        }
+        free(a); free(l); free(p); free(b); free(y);
+    }
+}
+
 /* The step's lagged factor (sqffd__fit_step): with the factor of one set of
    weights, the conjugate-gradient steps on a system whose weights changed
    by up to +-40% (and a tether, so the fixed part is dense) land near the
@@ -592,6 +650,7 @@ void suite_internal(void)
     RUN_TEST(test_internal_certificate);
     RUN_TEST(test_internal_triangle_tree);
     RUN_TEST(test_internal_wall_rays);
+    RUN_TEST(test_internal_cholesky_tiles);
     RUN_TEST(test_internal_lagged_step);
     RUN_TEST(test_internal_pass_order);
 }
