@@ -2003,10 +2003,11 @@ static double *sqffd__la_row(const double *a, size_t n, int packed, size_t i)
     return (double *)a + (packed ? sqffd__packed_row(i) : i * n);
 }
 
-/* The lanes of sqffd__la_dot_rest (lane q: the terms k = q mod 4) of the eight dots
-   of rows x[0], x[1] with rows y[0..3] over their first n terms (n a
-   multiple of four) into lanes[r][t]. Eight accumulators, each its own
-   array, which GCC keeps in vector registers; they share each load. */
+/* The lanes of sqffd__la_dot_rest (lane q: the terms k = q mod 4) of the
+   eight dots of rows x[0], x[1] with rows y[0..3] over their first n
+   terms (n a multiple of four) into lanes[r][t]. Eight accumulators, each
+   its own array, which gcc keeps in vector registers (one [2][4][4] array
+   it leaves scalar); they share each load. */
 static void sqffd__la_lanes_2x4(const double *const x[2], const double *const y[4], size_t n, double lanes[2][4][4])
 {
     double a[4] = {0.0, 0.0, 0.0, 0.0}, b[4] = {0.0, 0.0, 0.0, 0.0}, c[4] = {0.0, 0.0, 0.0, 0.0}, d[4] = {0.0, 0.0, 0.0, 0.0};
