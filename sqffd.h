@@ -2042,39 +2042,47 @@ static void sqffd__la_lanes_2x4(const double *const x[2], const double *const y[
    both dot operands are contiguous rows. Two rows at a time against four
    columns' rows: their eight dots share each load and run as independent
    sums (one dot alone waits on its own additions) over the terms before
-   the four, each then finished in sqffd__la_dot_rest's order. */
+   the four, each then finished in sqffd__la_dot_rest's order. The rows go
+   SQFFD__LA_BLOCK at a time, each group of four columns through all of
+   them before the next: the earlier rows are read from memory once a
+   block instead of once a pair (a matrix larger than the cache is
+   otherwise bound by that reading). Every entry is computed as in plain
+   row order, from the same finished entries. */
+#define SQFFD__LA_BLOCK 32 /* rows (even: whole pairs); 32 of 1,536 doubles (an 8 x 8 x 8 lattice) fill 384 KB of a core's L2 cache */
 static sqffd_result sqffd__la_cholesky(double *a, size_t n, int packed)
 {
-    size_t i, j, r, t, rows;
+    size_t i, j, r, t, rows, block, end;
     for (i = 0; i < n; ++i) {
         const double *li = sqffd__la_row(a, n, packed, i);
         for (j = 0; j <= i; ++j)
             if (!isfinite(li[j])) return SQFFD_ERROR_NON_FINITE;
     }
-    for (i = 0; i < n; i += rows) {
-        double *row[2];
-        rows = i + 1 < n ? 2 : 1;
-        row[0] = sqffd__la_row(a, n, packed, i);
-        row[1] = sqffd__la_row(a, n, packed, i + rows - 1);
-        for (j = 0; j <= i + rows - 1; j += 4) { /* columns j..j+3 (those past the last row: none) */
-            const double *col[4];
-            double lanes[2][4][4];
-            for (t = 0; t < 4; ++t) col[t] = j + t < i + rows ? sqffd__la_row(a, n, packed, j + t) : row[0];
-            sqffd__la_lanes_2x4((const double *const *)row, col, j, lanes);
-            for (t = 0; t < 4; ++t) /* (column by column: an entry needs its row's earlier ones and its column's row) */
-                for (r = 0; r < rows; ++r) {
-                    size_t c = j + t;
-                    double sum;
-                    if (c > i + r) continue;
-                    sum = row[r][c] - sqffd__la_dot_rest(row[r], col[t], c, lanes[r][t], j);
-                    if (c < i + r) {
-                        row[r][c] = sum / col[t][c];
-                    } else {
-                        if (!(sum > 0.0) || !isfinite(sum)) return SQFFD_ERROR_NOT_POSITIVE_DEFINITE;
-                        row[r][c] = sqrt(sum);
+    for (block = 0; block < n; block = end) {
+        end = block + SQFFD__LA_BLOCK < n ? block + SQFFD__LA_BLOCK : n;
+        for (j = 0; j < end; j += 4) /* columns j..j+3 (those past a pair's last row: none) */
+            for (i = block + (j > block ? (j - block) / 2 * 2 : 0); i < end; i += rows) {
+                double *row[2];
+                const double *col[4];
+                double lanes[2][4][4];
+                rows = i + 1 < n ? 2 : 1;
+                row[0] = sqffd__la_row(a, n, packed, i);
+                row[1] = sqffd__la_row(a, n, packed, i + rows - 1);
+                for (t = 0; t < 4; ++t) col[t] = j + t < i + rows ? sqffd__la_row(a, n, packed, j + t) : row[0];
+                sqffd__la_lanes_2x4((const double *const *)row, col, j, lanes);
+                for (t = 0; t < 4; ++t) /* (column by column: an entry needs its row's earlier ones and its column's row) */
+                    for (r = 0; r < rows; ++r) {
+                        size_t c = j + t;
+                        double sum;
+                        if (c > i + r) continue;
+                        sum = row[r][c] - sqffd__la_dot_rest(row[r], col[t], c, lanes[r][t], j);
+                        if (c < i + r) {
+                            row[r][c] = sum / col[t][c];
+                        } else {
+                            if (!(sum > 0.0) || !isfinite(sum)) return SQFFD_ERROR_NOT_POSITIVE_DEFINITE;
+                            row[r][c] = sqrt(sum);
+                        }
                     }
-                }
-        }
+            }
     }
     return SQFFD_OK;
 }
@@ -2092,20 +2100,22 @@ SQFFD_DEF sqffd_result sqffd_cholesky_factor(double *a, size_t n)
 
 /* L y = b in place for k right-hand sides at once (b: k vectors of n one
    after another; each row of L is read once for all of them), L lower
-   triangular (row-major n x n, or packed). Four right-hand sides against
-   two rows at a time, as the factor is made. */
+   triangular (row-major n x n, or packed). Two rows at a time, as the
+   factor is made, against four right-hand sides at a time, then the last
+   k mod 4 one by one. */
 static void sqffd__la_forward(const double *l, size_t n, int packed, double *b, size_t k)
 {
-    size_t i, c, r, t;
-    for (c = 0; c + 4 <= k; c += 4) {
-        const double *rhs[4];
-        for (t = 0; t < 4; ++t) rhs[t] = b + (c + t) * n;
-        for (i = 0; i < n; i += 2) {
-            const double *row[2];
+    size_t i, c, r, t, rows;
+    for (i = 0; i < n; i += rows) {
+        const double *row[2];
+        size_t done = i - i % 4;
+        rows = i + 1 < n ? 2 : 1;
+        row[0] = sqffd__la_row(l, n, packed, i);
+        row[1] = sqffd__la_row(l, n, packed, i + rows - 1);
+        for (c = 0; c + 4 <= k; c += 4) {
+            const double *rhs[4];
             double lanes[2][4][4];
-            size_t rows = i + 1 < n ? 2 : 1, done = i - i % 4;
-            row[0] = sqffd__la_row(l, n, packed, i);
-            row[1] = sqffd__la_row(l, n, packed, i + rows - 1);
+            for (t = 0; t < 4; ++t) rhs[t] = b + (c + t) * n;
             sqffd__la_lanes_2x4(row, rhs, done, lanes);
             for (r = 0; r < rows; ++r)
                 for (t = 0; t < 4; ++t) {
@@ -2113,13 +2123,11 @@ static void sqffd__la_forward(const double *l, size_t n, int packed, double *b, 
                     bt[i + r] = (bt[i + r] - sqffd__la_dot_rest(row[r], bt, i + r, lanes[r][t], done)) / row[r][i + r];
                 }
         }
-    }
-    for (i = 0; i < n; ++i) {
-        const double *li = sqffd__la_row(l, n, packed, i);
-        for (r = c; r < k; ++r) {
-            double *br = b + r * n;
-            br[i] = (br[i] - sqffd__la_dot(li, br, i)) / li[i];
-        }
+        for (r = 0; r < rows; ++r)
+            for (t = c; t < k; ++t) {
+                double *bt = b + t * n;
+                bt[i + r] = (bt[i + r] - sqffd__la_dot(row[r], bt, i + r)) / row[r][i + r];
+            }
     }
 }
 

@@ -141,15 +141,17 @@ static void lagged_load(size_t m, const double *weights, const double *y, double
 }
 
 /* The Cholesky factor and the forward solves work in tiles (two rows
-   against four columns or right-hand sides) yet promise the plain row by
-   row algorithm's results to the bit, each dot summed in sqffd__la_dot's
-   order: checked against that algorithm written out here, for sizes of
-   every remainder mod 4 (odd and even: a last row alone), row-major and
-   packed, and 1-9 right-hand sides; and a matrix that is not positive
-   definite only at its last pivot (on either row of a pair) is refused. */
+   against four columns or right-hand sides) and the factor in blocks of
+   SQFFD__LA_BLOCK rows, yet promise the plain row by row algorithm's
+   results to the bit, each dot summed in sqffd__la_dot's order: checked
+   against that algorithm written out here, for sizes of every remainder
+   mod 4 (odd and even: a last row alone) and of several blocks with a part
+   one last, row-major and packed, and 1-9 right-hand sides; and a matrix
+   that is not positive definite only at its last pivot (on either row of
+   a pair) is refused. */
 static void test_internal_cholesky_tiles(void)
 {
-    static const size_t sizes[] = {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 17, 37, 64};
+    static const size_t sizes[] = {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 17, 37, 64, 83, 150};
     size_t t;
     srand(11);
     for (t = 0; t < sizeof sizes / sizeof sizes[0]; t++) {
