@@ -1951,6 +1951,17 @@ SQFFD_DEF void sqffd_sym3_eigen(const double a[9], double values[3], double vect
 #define SQFFD__LA_EPS 2.220446049250313080847e-16        /* DBL_EPSILON */
 #define SQFFD__LA_MIN_NORMAL 2.225073858507201383090e-308 /* DBL_MIN */
 
+/* The end of sqffd__la_dot_rest (below): the last terms k..n-1 (fewer
+   than four) into lane 0, then the lanes' sum. Small enough to be inlined
+   where a tile's entries are finished one by one. */
+static double sqffd__la_dot_tail(const double *x, const double *y, size_t n, const double lanes[4], size_t k)
+{
+    double s0 = lanes[0];
+    SQFFD_ASSERT(n - k < 4);
+    for (; k < n; ++k) s0 += x[k] * y[k];
+    return (s0 + lanes[1]) + (lanes[2] + lanes[3]);
+}
+
 /* x . y in four lanes (lane q sums the terms k = q mod 4, the last n mod 4
    terms go to lane 0), continued from `lanes`, their sums over the first
    `done` terms (a multiple of four): a fixed summation order
@@ -1963,8 +1974,7 @@ static double sqffd__la_dot_rest(const double *x, const double *y, size_t n, con
     for (q = 0; q < 4; ++q) s[q] = lanes[q];
     for (k = done; k + 4 <= n; k += 4)
         for (q = 0; q < 4; ++q) s[q] += x[k + q] * y[k + q];
-    for (; k < n; ++k) s[0] += x[k] * y[k];
-    return (s[0] + s[1]) + (s[2] + s[3]);
+    return sqffd__la_dot_tail(x, y, n, s, k);
 }
 
 /* x . y, from no lanes: sqffd__la_dot_rest's order throughout. */
@@ -2042,12 +2052,12 @@ static void sqffd__la_lanes_2x4(const double *const x[2], const double *const y[
    both dot operands are contiguous rows. Two rows at a time against four
    columns' rows: their eight dots share each load and run as independent
    sums (one dot alone waits on its own additions) over the terms before
-   the four, each then finished in sqffd__la_dot_rest's order. The rows go
-   SQFFD__LA_BLOCK at a time, each group of four columns through all of
-   them before the next: the earlier rows are read from memory once a
-   block instead of once a pair (a matrix larger than the cache is
-   otherwise bound by that reading). Every entry is computed as in plain
-   row order, from the same finished entries. */
+   the four, each then finished in sqffd__la_dot_rest's order (its tail).
+   The rows go SQFFD__LA_BLOCK at a time, each group of four columns
+   through all of them before the next: the earlier rows are read from
+   memory once a block instead of once a pair (a matrix larger than the
+   cache is otherwise bound by that reading). Every entry is computed as in
+   plain row order, from the same finished entries. */
 #define SQFFD__LA_BLOCK 32 /* rows (even: whole pairs); 32 of 1,536 doubles (an 8 x 8 x 8 lattice) fill 384 KB of a core's L2 cache */
 static sqffd_result sqffd__la_cholesky(double *a, size_t n, int packed)
 {
@@ -2074,7 +2084,7 @@ static sqffd_result sqffd__la_cholesky(double *a, size_t n, int packed)
                         size_t c = j + t;
                         double sum;
                         if (c > i + r) continue;
-                        sum = row[r][c] - sqffd__la_dot_rest(row[r], col[t], c, lanes[r][t], j);
+                        sum = row[r][c] - sqffd__la_dot_tail(row[r], col[t], c, lanes[r][t], j);
                         if (c < i + r) {
                             row[r][c] = sum / col[t][c];
                         } else {
@@ -2120,7 +2130,7 @@ static void sqffd__la_forward(const double *l, size_t n, int packed, double *b, 
             for (r = 0; r < rows; ++r)
                 for (t = 0; t < 4; ++t) {
                     double *bt = b + (c + t) * n;
-                    bt[i + r] = (bt[i + r] - sqffd__la_dot_rest(row[r], bt, i + r, lanes[r][t], done)) / row[r][i + r];
+                    bt[i + r] = (bt[i + r] - sqffd__la_dot_tail(row[r], bt, i + r, lanes[r][t], done)) / row[r][i + r];
                 }
         }
         for (r = 0; r < rows; ++r)
