@@ -7,7 +7,10 @@
            structural checks behind the checksum get exercised), then the
            rest is also read as the raw bytes of an in-memory sqffd_model
            (a corrupted struct) and handed to every function taking a model,
-           which must refuse it or work without a sanitizer report. */
+           which must refuse it or work without a sanitizer report.
+   A valid model's certified Jacobian bound (sqffd_model_jacobian_bound, on
+   small grids) is OK and finite or NON_FINITE; a workspace one byte short
+   is refused; an invalid model gets sqffd_model_validate's code. */
 #define SQFFD_IMPLEMENTATION
 #include "../sqffd.h"
 #include <stdint.h>
@@ -31,11 +34,23 @@ static void use_model(const sqffd_model *m, int must_be_valid)
     r = sqffd_model_point(m, 0.25, 1.0, p);
     if (r == SQFFD_OK && (!isfinite(p[0]) || !isfinite(p[1]) || !isfinite(p[2]))) abort();
     if (valid != SQFFD_OK) {
+        double min;
         if (sqffd_model_distances(m, pts, 4, NULL, NULL, ws, sizeof ws) != valid) abort();
+        if (sqffd_model_jacobian_bound(m, 0.0, &min, ws, sizeof ws) != valid) abort();
         return;
     }
-    if ((size_t)m->grid[0] * (size_t)m->grid[1] <= 64) /* the distances on small grids only: milliseconds per input */
+    if ((size_t)m->grid[0] * (size_t)m->grid[1] <= 64) { /* on small grids only: milliseconds per input */
+        size_t need = 0;
+        double min = 0.0;
+        unsigned char *jw;
         (void)sqffd_model_distances(m, pts, 4, NULL, NULL, ws, sizeof ws);
+        if (sqffd_model_jacobian_workspace_size(m->ffd.dims, &need) != SQFFD_OK || need == 0 || !(jw = (unsigned char *)malloc(need)))
+            abort();
+        if (sqffd_model_jacobian_bound(m, 0.0, &min, jw, need - 1) != SQFFD_ERROR_WORKSPACE_TOO_SMALL) abort();
+        r = sqffd_model_jacobian_bound(m, 0.0, &min, jw, need);
+        if (r == SQFFD_OK ? !isfinite(min) : r != SQFFD_ERROR_NON_FINITE) abort();
+        free(jw);
+    }
 }
 
 static uint32_t crc32_ieee(const uint8_t *p, size_t n)

@@ -14,7 +14,17 @@
      range or bad options); on success every output finite, displacement
      >= 0, low_motion 0 or 1 and 0 on the valve plane, segments 0-17,
      volumes[es] the least and = ESV, volumes[ed] = EDV, a unit axis, the
-     segments' shares in [0, 1]; outputs NULL gives the same report.
+     segments' shares in [0, 1]; outputs NULL gives the same report;
+   - wall (after a successful motion, on its report and segments): the
+     epicardium is each frame's model with its control points scaled about
+     the box's centre (outside, on, or inside the endocardium); only its
+     documented codes (INVALID_ARGUMENT for a bad threshold or a segment
+     label over 17, WORKSPACE_TOO_SMALL one byte short); nothing written on
+     an error; on success measured > 0 and measured + unmeasured the wall
+     vertices, every thickness finite and >= 0 or NaN, a vertex's
+     thickening NaN where either thickness is, finite myocardial volumes,
+     each segment's thickening NaN exactly where it has no thicknesses and
+     dysfunctional 0 or 1 (1 only below the threshold).
 
    Layout (bytes past the end read as 0):
      0  frame count 2..4 (bits 0-1 mod 3); bit 2: motion with NULL outputs too
@@ -30,7 +40,11 @@
      6-11 the shape: half-axes, two rotation angles, contraction per frame
      then per frame: a kind byte (0 jittered ellipsoid, 1 ellipsoid + raw
      double outliers, 2 raw int16 points, 3 flat ellipsoid (coplanar) or
-     one point repeated), a count byte, and the kind's bytes. */
+     one point repeated), a count byte, and the kind's bytes;
+     last, the wall's byte: bits 0-1 the epicardium's scale (1.3, 1.15, 1:
+     the same surface, 0.8: inside), 2 its stacks, 3 the endocardium's,
+     4-5 the threshold (0.2, 5, -1 or NaN: invalid), 6 workspace one byte
+     short first, 7 a segment label made 18 (invalid). */
 #define SQFFD_IMPLEMENTATION
 #include "../sqffd.h"
 #include "fuzz_reader.h"
@@ -157,7 +171,10 @@ static void check_stats(const sqffd_distance_stats *s)
         abort();
 }
 
-static void run_motion(const sqffd_model *models, size_t frames, unsigned mb, int also_null)
+static void run_wall(const sqffd_model *models, size_t frames, const sqffd_motion_report *motion,
+                     const unsigned char *segment, unsigned wb);
+
+static void run_motion(const sqffd_model *models, size_t frames, unsigned mb, int also_null, unsigned wb)
 {
     sqffd_motion_options mo = sqffd_motion_options_default();
     sqffd_motion_outputs out;
@@ -232,6 +249,7 @@ static void run_motion(const sqffd_model *models, size_t frames, unsigned mb, in
                 memcmp(rep2.axis, rep.axis, sizeof rep.axis) != 0 || rep2.median_excursion != rep.median_excursion)
                 abort();
         }
+        run_wall(models, frames, &rep, out.segment, wb);
     } else if (res != SQFFD_ERROR_NON_FINITE && res != SQFFD_ERROR_DEGENERATE && res != SQFFD_ERROR_INVALID_ARGUMENT) {
         abort(); /* (INVALID_ARGUMENT: a given direction along the axis) */
     }
@@ -265,6 +283,106 @@ static void run_motion(const sqffd_model *models, size_t frames, unsigned mb, in
     free(out.excursion);
     free(out.low_motion);
     free(out.segment);
+}
+
+/* The wall of the tracked models against an epicardium made from them (see the top). */
+static void run_wall(const sqffd_model *models, size_t frames, const sqffd_motion_report *motion,
+                     const unsigned char *segment, unsigned wb)
+{
+    static const double scales[4] = {1.3, 1.15, 1.0, 0.8}, thresholds[4] = {0.2, 5.0, -1.0, NAN};
+    sqffd_model epi[MAX_FRAMES];
+    sqffd_stack st[MAX_FRAMES];
+    sqffd_wall_options wo = sqffd_wall_options_default();
+    sqffd_wall_outputs out;
+    sqffd_wall_report rep, untouched;
+    size_t m = (size_t)models[0].grid[0] * (size_t)models[0].grid[1] + 2, ws_size, t, v, seen = 0;
+    unsigned char *labels = (unsigned char *)malloc(m), *ws;
+    sqffd_result res;
+    int expect_invalid = (wb & 32) != 0, k, p, c; /* (thresholds -1 and NaN) */
+    if (!labels) abort();
+    memcpy(labels, segment, m);
+    if (wb & 128) { labels[m / 2] = SQFFD_SEGMENTS + 1; expect_invalid = 1; }
+    for (t = 0; t < frames; t++) { /* control points scaled about the box's centre: the surface scaled about it */
+        const sqffd_ffd *f = &models[t].ffd;
+        double centre[3];
+        size_t count = (size_t)f->dims[0] * (size_t)f->dims[1] * (size_t)f->dims[2];
+        epi[t] = models[t];
+        for (k = 0; k < 3; k++) centre[k] = f->origin[k] + 0.5 * (f->edges[k] + f->edges[3 + k] + f->edges[6 + k]);
+        for (v = 0; v < count; v++)
+            for (k = 0; k < 3; k++)
+                epi[t].ffd.control[v][k] = centre[k] + scales[wb & 3] * (f->control[v][k] - centre[k]);
+        { /* three planes across the superquadric along its third axis */
+            const sqffd_superquadric *q = &models[0].sq;
+            double along = 0.0;
+            for (k = 0; k < 3; k++) {
+                st[t].axis[k] = q->rotation[3 * k + 2];
+                along += st[t].axis[k] * q->center[k];
+            }
+            st[t].planes = 3;
+            st[t].spacing = 0.5 * q->size[2];
+            for (k = 0; k < 3; k++) st[t].level[k] = along + (double)(k - 1) * st[t].spacing;
+        }
+    }
+    wo.stacks = (wb & 4) ? st : NULL;
+    wo.endo_stacks = (wb & 8) ? st : NULL;
+    wo.dysfunctional_thickening = thresholds[(wb >> 4) & 3];
+    if (sqffd_wall_workspace_size(models, epi, frames, &ws_size) != SQFFD_OK || ws_size == 0) abort();
+    ws = (unsigned char *)malloc(ws_size);
+    out.myocardium = (double *)malloc(frames * sizeof(double));
+    out.thickness_ed = (double *)malloc(m * sizeof(double));
+    out.thickness_es = (double *)malloc(m * sizeof(double));
+    out.thickening = (double *)malloc(m * sizeof(double));
+    if (!ws || !out.myocardium || !out.thickness_ed || !out.thickness_es || !out.thickening) abort();
+    for (p = 0; p < 2; p++) {
+        size_t given = p == 0 ? ws_size - 1 : ws_size;
+        if (p == 0 && !(wb & 64)) continue;
+        memset(&rep, 0xA5, sizeof rep);
+        untouched = rep;
+        for (v = 0; v < m; v++) out.thickness_ed[v] = out.thickness_es[v] = out.thickening[v] = -7.0;
+        for (t = 0; t < frames; t++) out.myocardium[t] = -7.0;
+        res = sqffd_wall(models, epi, frames, motion, labels, &wo, &out, &rep, ws, given);
+        if (res != SQFFD_OK) { /* nothing written */
+            if (memcmp(&rep, &untouched, sizeof rep) != 0 || out.myocardium[0] != -7.0 || out.thickness_ed[0] != -7.0 ||
+                out.thickening[m - 1] != -7.0)
+                abort();
+        }
+        if (expect_invalid) {
+            if (res != SQFFD_ERROR_INVALID_ARGUMENT) abort();
+            continue;
+        }
+        if (p == 0) {
+            if (res != SQFFD_ERROR_WORKSPACE_TOO_SMALL) abort();
+            continue;
+        }
+        if (res != SQFFD_OK) {
+            if (res != SQFFD_ERROR_NON_FINITE && res != SQFFD_ERROR_DEGENERATE) abort();
+            continue;
+        }
+        if (rep.measured == 0 || !isfinite(rep.myocardium_ed) || !isfinite(rep.myocardium_es) || !finite_n(out.myocardium, frames) ||
+            !(rep.thickness_ed >= 0.0) || !(rep.thickness_es >= 0.0) || !isfinite(rep.thickness_ed) || !isfinite(rep.thickness_es))
+            abort();
+        for (v = 0; v < m; v++) {
+            double ed = out.thickness_ed[v], es = out.thickness_es[v], th = out.thickening[v];
+            if (!(isnan(ed) || (ed >= 0.0 && isfinite(ed))) || !(isnan(es) || (es >= 0.0 && isfinite(es)))) abort();
+            if ((isnan(ed) || isnan(es)) && !isnan(th)) abort();
+            if (labels[v] && !isnan(th)) seen++;
+        }
+        if (seen != rep.measured) abort(); /* (the wall vertices with a thickening) */
+        for (c = 0; c < SQFFD_SEGMENTS; c++) {
+            const sqffd_segment_wall *g = &rep.segments[c];
+            int none = g->thickness_ed == 0.0 && g->thickness_es == 0.0;
+            if (g->dysfunctional != 0 && g->dysfunctional != 1) abort();
+            if (none ? !isnan(g->thickening) || g->dysfunctional : !isfinite(g->thickening) || !(g->thickness_ed > 0.0))
+                abort();
+            if (g->dysfunctional && !(g->thickening < wo.dysfunctional_thickening)) abort();
+        }
+    }
+    free(ws);
+    free(labels);
+    free(out.myocardium);
+    free(out.thickness_ed);
+    free(out.thickness_es);
+    free(out.thickening);
 }
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
@@ -453,7 +571,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                 if (t > 0 && ps.frame_error[t] != reports[t - 1].error.rms_relative) abort();
             }
         }
-        run_motion(models, frames, b5, (b0 & 4) != 0);
+        run_motion(models, frames, b5, (b0 & 4) != 0, rd_u8(&r));
     }
     free(ws);
 
