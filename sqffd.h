@@ -571,12 +571,13 @@ typedef struct sqffd_superquadric {
 SQFFD_DEF sqffd_result sqffd_sq_validate(const sqffd_superquadric *sq);
 /* Inside-outside function F (tapering undone first): < 1 inside, 1 on the
    surface, > 1 outside. Computed in logarithms; may be +inf far away (not an
-   error). NON_FINITE for a non-finite point. */
+   error). NON_FINITE for a non-finite point, or where F cannot be computed
+   (NaN: an exponent near 0 against sizes far apart; *value is then NaN). */
 SQFFD_DEF sqffd_result sqffd_sq_inside_outside(const sqffd_superquadric *sq, const double point[3], double *value);
 /* Radial distance: |u| |1 - F^(-e1/2)|, u the point in the untapered local
    frame: the distance along the ray from the centre (an approximation of the
    Euclidean distance that is exact for spheres). NON_FINITE for a
-   non-finite point. */
+   non-finite point, or where F cannot be computed (as above). */
 SQFFD_DEF sqffd_result sqffd_sq_radial_distance(const sqffd_superquadric *sq, const double point[3], double *distance);
 /* World surface point and outward unit normal at (eta, omega); normal may be
    NULL. The normal is analytic (finite at the poles and for small e).
@@ -3492,7 +3493,7 @@ SQFFD_DEF sqffd_result sqffd_sq_inside_outside(const sqffd_superquadric *sq, con
     if (r != SQFFD_OK) return r;
     sqffd__sq_untapered(sq, point, u);
     *value = exp(sqffd__sq_log_f_at(sq, u));
-    return SQFFD_OK;
+    return isnan(*value) ? SQFFD_ERROR_NON_FINITE : SQFFD_OK;
 }
 
 SQFFD_DEF sqffd_result sqffd_sq_radial_distance(const sqffd_superquadric *sq, const double point[3], double *distance)
@@ -3503,7 +3504,7 @@ SQFFD_DEF sqffd_result sqffd_sq_radial_distance(const sqffd_superquadric *sq, co
     sqffd__sq_untapered(sq, point, u);
     lf = sqffd__sq_log_f_at(sq, u);
     *distance = sqrt(sqffd__dot3(u, u)) * fabs(1.0 - exp(-0.5 * sq->shape[0] * lf));
-    return SQFFD_OK;
+    return isnan(*distance) ? SQFFD_ERROR_NON_FINITE : SQFFD_OK;
 }
 
 /* Untapered local surface point at (eta, omega). */
@@ -5755,7 +5756,9 @@ static void sqffd__fit_arc_start(sqffd__fit_arc *a, double half0, double half1, 
    at share (0..1) of the length; shares must come in ascending order. */
 static double sqffd__fit_arc_angle(sqffd__fit_arc *a, double share)
 {
-    double target = share * a->total, next[2], chord = 0.0, theta, xy[2];
+    double target = share * a->total, next[2], chord = 0.0, theta, xy[2], own;
+    if (!(a->total > 0.0 && a->total < HUGE_VAL)) /* a superellipse too extreme to measure (sizes or exponent): */
+        return a->from + a->step * SQFFD__FIT_ARC_SAMPLES * share; /* even angles */
     while (a->k < SQFFD__FIT_ARC_SAMPLES) {
         sqffd__fit_arc_point(a, a->from + a->step * (a->k + 1), next);
         chord = hypot(next[0] - a->at[0], next[1] - a->at[1]);
@@ -5767,8 +5770,8 @@ static double sqffd__fit_arc_angle(sqffd__fit_arc *a, double share)
     }
     theta = a->from + a->step * (a->k + (chord > 0.0 ? (target - a->walked) / chord : 0.0));
     sqffd__fit_arc_point(a, theta, xy);
-    return atan2(sqffd__sq_spow(xy[1] / a->half[1], 1.0 / a->exponent),
-                 sqffd__sq_spow(xy[0] / a->half[0], 1.0 / a->exponent));
+    own = atan2(sqffd__sq_spow(xy[1] / a->half[1], 1.0 / a->exponent), sqffd__sq_spow(xy[0] / a->half[0], 1.0 / a->exponent));
+    return isfinite(own) ? own : theta;
 }
 
 /* The mesh neighbours of a vertex in cyclic order: the triangles around v are
@@ -7717,8 +7720,10 @@ static void sqffd__fit_fold_layout(sqffd__arena *a, const int dims[3], size_t m,
    every grid: the coarse stage's and the grid's), its coarser levels, and
    the samples at the corners of its cells. The superquadric's surface
    marks the cells it passes through: the edges of its mesh on
-   sqffd__fit_region_grid, each in pieces under a quarter of a cell. */
-static void sqffd__fit_region(const sqffd_model *model, sqffd__fit_fold *f)
+   sqffd__fit_region_grid, each in pieces under a quarter of a cell.
+   0 (no region) when a point of that mesh is not finite in the box's
+   coordinates (a superquadric or box too large to compute with). */
+static int sqffd__fit_region(const sqffd_model *model, sqffd__fit_fold *f)
 {
     const int r = SQFFD__FIT_REGION;
     size_t rows = (size_t)sqffd__fit_region_grid[0], cols = (size_t)sqffd__fit_region_grid[1], v, at;
@@ -7736,6 +7741,7 @@ static void sqffd__fit_region(const sqffd_model *model, sqffd__fit_fold *f)
             int pieces, e;
             sqffd__ffd_local(&model->ffd, x + 3 * v, from);
             sqffd__ffd_local(&model->ffd, x + 3 * other, to);
+            if (!sqffd__finite3(from) || !sqffd__finite3(to)) return 0;
             for (e = 0; e < 3; ++e) reach = fabs(to[e] - from[e]) > reach ? fabs(to[e] - from[e]) : reach;
             pieces = 1 + (int)(4.0 * r * (reach < 1.0 ? reach : 1.0));
             for (i = 0; i <= pieces; ++i) {
@@ -7785,6 +7791,7 @@ static void sqffd__fit_region(const sqffd_model *model, sqffd__fit_fold *f)
                 f->sample[at][1] = (double)j / r;
                 f->sample[at][2] = (double)k / r;
             }
+    return 1;
 }
 
 /* Whether the cell (cells an axis at its level, index) meets the region. */
@@ -8137,7 +8144,7 @@ SQFFD_DEF sqffd_result sqffd_model_jacobian_bound(const sqffd_model *model, doub
     f = (sqffd__fit_fold *)sqffd__arena_take(&a, 1, sizeof(sqffd__fit_fold));
     sqffd__fit_fold_layout(&a, model->ffd.dims, 0, 0, f);
     if (a.overflow) return sqffd__arena_error(&a);
-    sqffd__fit_region(model, f);
+    if (!sqffd__fit_region(model, f)) return SQFFD_ERROR_NON_FINITE;
     f->floor = f->goal = floor;
     bound = sqffd__fit_fold_certify(model->ffd.dims, f, &model->ffd.control[0][0], model->ffd.inverse, floor);
     if (!isfinite(bound)) return SQFFD_ERROR_NON_FINITE;
@@ -8729,8 +8736,8 @@ static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagon
         if (last && (it.mode & SQFFD__FIT_EXACT_END) && !it.search.exact) /* the model a longer run passes through */
             res = sqffd__fit_measure(&it, 1, &energy, &stats);                  /* too, then measured exactly */
         if (res == SQFFD_OK) res = sqffd__fit_record(&it, energy, &stats);
-        if (last) {
-            sqffd__fit_region(model, w->fold); /* the region's bound, refined where it folds */
+        if (last) { /* the region's bound, refined where it folds */
+            if (!sqffd__fit_region(model, w->fold)) return SQFFD_ERROR_NON_FINITE;
             w->fold->goal = -HUGE_VAL;
             rep->min_jacobian = sqffd__fit_fold_certify(s->dims, w->fold, &model->ffd.control[0][0], model->ffd.inverse, 0.0);
             rep->stop = rep->converged ? SQFFD_FIT_CONVERGED
@@ -8865,7 +8872,7 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
     sqffd_distance_stats stats, accepted_stats;
     int stalled = 0;
     sqffd_result res;
-    sqffd__fit_region(model, f);
+    if (!sqffd__fit_region(model, f)) return SQFFD_ERROR_NON_FINITE;
     f->floor = f->goal = o->min_jacobian;
     bound = sqffd__fit_fold_certify(s->dims, f, control, inverse, o->min_jacobian);
     below = 1e-3 * (fabs(bound) > 1.0 ? fabs(bound) : 1.0); /* (a rising floor stays this far under the bound) */

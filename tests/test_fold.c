@@ -632,10 +632,43 @@ static void test_stack_shifts_phantom(void)
     for (t = 0; t < 2; t++) free(frames[t]);
 }
 
+/* A superquadric the validation accepts at its extremes (e1 just above 0,
+   a size 1e-284 of another's): its mesh (on the grid at equal arc length)
+   is finite, its region certified or refused as NON_FINITE (never a
+   walk over NaN cells), and F at its centre, which the logarithms cannot
+   give, NON_FINITE rather than a NaN called a success. */
+static void test_extreme_superquadric(void)
+{
+    sqffd_fit_options o = sqffd_fit_options_default();
+    sqffd_superquadric sq;
+    sqffd_model m;
+    size_t v, count = 32 * 64 + 2;
+    double *vertices = (double *)test_malloc(3 * count * sizeof(double)), value, bound;
+    uint32_t *triangles = (uint32_t *)test_malloc(3 * 2 * 32 * 64 * sizeof(uint32_t));
+    sqffd_result r;
+    memset(&sq, 0, sizeof sq);
+    sq.size[0] = 1.0; sq.size[1] = 1e-284; sq.size[2] = 0.5;
+    sq.shape[0] = 3e-309; sq.shape[1] = 1.5;
+    sq.taper[0] = 0.3;
+    sq.rotation[1] = 1.0; sq.rotation[3] = -1.0; sq.rotation[8] = 1.0;
+    sq.center[2] = 3.0;
+    CHECK_RESULT(sqffd_sq_validate(&sq), SQFFD_OK);
+    CHECK_RESULT(sqffd_model_init(&m, &sq, &o), SQFFD_OK);
+    CHECK_RESULT(sqffd_model_mesh(&m, 32, 64, vertices, triangles), SQFFD_OK);
+    for (v = 0; v < 3 * count; v++) CHECK_MSG(isfinite(vertices[v]), "vertex coordinate %zu: %g", v, vertices[v]);
+    r = region_bound(&m, 0.0, &bound);
+    CHECK_MSG(r == SQFFD_OK ? isfinite(bound) : r == SQFFD_ERROR_NON_FINITE, "region bound: %s, %g", sqffd_result_string(r), bound);
+    r = sqffd_sq_inside_outside(&sq, sq.center, &value);
+    CHECK_MSG(r == SQFFD_OK ? !isnan(value) : r == SQFFD_ERROR_NON_FINITE, "F at the centre: %s, %g", sqffd_result_string(r), value);
+    free(vertices);
+    free(triangles);
+}
+
 void suite_fold(void)
 {
     RUN_TEST(test_points_stack);
     RUN_TEST(test_jacobian_bound);
+    RUN_TEST(test_extreme_superquadric);
     RUN_TEST(test_fit_stack_fold_free);
     RUN_TEST(test_track_stack_ejection);
     RUN_TEST(test_stack_shifts_exact);

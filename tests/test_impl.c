@@ -493,7 +493,7 @@ static void test_internal_certificate(void)
     sqffd__arena_init(&a, memory, size);
     sqffd__fit_fold_layout(&a, dims, 1, 1, &fold);
     CHECK(!a.overflow);
-    sqffd__fit_region(&model, &fold);
+    CHECK(sqffd__fit_region(&model, &fold));
     srand(17);
     for (trial = 0; trial < 6; trial++) {
         sqffd_model m = model;
