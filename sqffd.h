@@ -1043,8 +1043,10 @@ SQFFD_DEF sqffd_result sqffd_model_load(sqffd_model *model, const void *bytes, s
 /* Triangle mesh of the model surface on an n_eta x n_omega grid laid out as
    above (closed, poles included): n_eta n_omega + 2 vertices (x y z each),
    2 n_eta n_omega triangles (3 uint32 indices each). INVALID_ARGUMENT when
-   n_eta < 2 or n_omega < 3, TOO_LARGE beyond 65,536 per axis or 2^32 vertices.
-   vertices or triangles may be NULL. */
+   n_eta < 2 or n_omega < 3, TOO_LARGE beyond 65,536 per axis or 2^32 vertices,
+   NON_FINITE when a vertex is not finite (a model too extreme to compute
+   with; the vertices are then written, the triangles not). vertices or
+   triangles may be NULL. */
 SQFFD_DEF sqffd_result sqffd_model_mesh_size(int n_eta, int n_omega, size_t *vertex_count, size_t *triangle_count);
 SQFFD_DEF sqffd_result sqffd_model_mesh(const sqffd_model *model, int n_eta, int n_omega, double *vertices, uint32_t *triangles);
 /* Data-to-model distance of each point ("the error"; per_point may be NULL)
@@ -6750,7 +6752,12 @@ SQFFD_DEF sqffd_result sqffd_model_mesh(const sqffd_model *model, int n_eta, int
     grid[0] = n_eta; grid[1] = n_omega;
     r = sqffd__fit_grid_check(grid);
     if (r != SQFFD_OK) return r;
-    if (vertices) sqffd__fit_surface(model, grid, vertices);
+    if (vertices) {
+        size_t v, count = 3 * sqffd__fit_grid_count(grid);
+        sqffd__fit_surface(model, grid, vertices);
+        for (v = 0; v < count; ++v)
+            if (!isfinite(vertices[v])) return SQFFD_ERROR_NON_FINITE;
+    }
     if (!triangles) return SQFFD_OK;
     sqffd__fit_triangles(grid, (uint32_t (*)[3])triangles);
     return SQFFD_OK;

@@ -8,9 +8,10 @@
            rest is also read as the raw bytes of an in-memory sqffd_model
            (a corrupted struct) and handed to every function taking a model,
            which must refuse it or work without a sanitizer report.
-   A valid model's certified Jacobian bound (sqffd_model_jacobian_bound, on
-   small grids) is OK and finite or NON_FINITE; a workspace one byte short
-   is refused; an invalid model gets sqffd_model_validate's code. */
+   A valid model's mesh is finite or NON_FINITE; its certified Jacobian
+   bound (sqffd_model_jacobian_bound, on small grids) is OK and finite or
+   NON_FINITE; a workspace one byte short is refused; an invalid model gets
+   sqffd_model_validate's code. */
 #define SQFFD_IMPLEMENTATION
 #include "../sqffd.h"
 #include <stdint.h>
@@ -30,7 +31,12 @@ static void use_model(const sqffd_model *m, int must_be_valid)
     if (must_be_valid && valid != SQFFD_OK) abort();
     if (sqffd_model_save_size(m, &bytes) != valid || (valid != SQFFD_OK && bytes != 0)) abort();
     r = sqffd_model_mesh(m, MESH_ETA, MESH_OMEGA, v, tri);
-    if ((r == SQFFD_OK) != (valid == SQFFD_OK)) abort();
+    if (valid != SQFFD_OK ? r != valid : r != SQFFD_OK && r != SQFFD_ERROR_NON_FINITE) abort();
+    if (r == SQFFD_OK) {
+        size_t k;
+        for (k = 0; k < sizeof v / sizeof v[0]; k++)
+            if (!isfinite(v[k])) abort(); /* (a mesh called a success is finite) */
+    }
     r = sqffd_model_point(m, 0.25, 1.0, p);
     if (r == SQFFD_OK && (!isfinite(p[0]) || !isfinite(p[1]) || !isfinite(p[2]))) abort();
     if (valid != SQFFD_OK) {

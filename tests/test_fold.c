@@ -636,7 +636,9 @@ static void test_stack_shifts_phantom(void)
    a size 1e-284 of another's): its mesh (on the grid at equal arc length)
    is finite, its region certified or refused as NON_FINITE (never a
    walk over NaN cells), and F at its centre, which the logarithms cannot
-   give, NON_FINITE rather than a NaN called a success. */
+   give, NON_FINITE rather than a NaN called a success. A lattice box too
+   small and too far for the surface's deformation to be computed: its
+   mesh NON_FINITE. */
 static void test_extreme_superquadric(void)
 {
     sqffd_fit_options o = sqffd_fit_options_default();
@@ -660,6 +662,15 @@ static void test_extreme_superquadric(void)
     CHECK_MSG(r == SQFFD_OK ? isfinite(bound) : r == SQFFD_ERROR_NON_FINITE, "region bound: %s, %g", sqffd_result_string(r), bound);
     r = sqffd_sq_inside_outside(&sq, sq.center, &value);
     CHECK_MSG(r == SQFFD_OK ? !isnan(value) : r == SQFFD_ERROR_NON_FINITE, "F at the centre: %s, %g", sqffd_result_string(r), value);
+    { /* a lattice box 1e-100 across, 1e150 away: the surface in its coordinates overflows: NON_FINITE, not a NaN mesh */
+        const int dims[3] = {5, 5, 5};
+        const double origin[3] = {1e150, 0.0, 0.0}, edges[9] = {1e-100, 0, 0, 0, 1e-100, 0, 0, 0, 1e-100};
+        CHECK_RESULT(sqffd_ffd_init(&m.ffd, dims, origin, edges), SQFFD_OK);
+        CHECK_RESULT(sqffd_model_validate(&m), SQFFD_OK);
+        CHECK_RESULT(sqffd_model_mesh(&m, 32, 64, vertices, triangles), SQFFD_ERROR_NON_FINITE);
+        r = region_bound(&m, 0.0, &bound); /* (the surface's box coordinates are finite, far outside it) */
+        CHECK_MSG(r == SQFFD_OK ? isfinite(bound) : r == SQFFD_ERROR_NON_FINITE, "region bound: %s", sqffd_result_string(r));
+    }
     free(vertices);
     free(triangles);
 }
