@@ -581,14 +581,17 @@ SQFFD_DEF sqffd_result sqffd_sq_inside_outside(const sqffd_superquadric *sq, con
 SQFFD_DEF sqffd_result sqffd_sq_radial_distance(const sqffd_superquadric *sq, const double point[3], double *distance);
 /* World surface point and outward unit normal at (eta, omega); normal may be
    NULL. The normal is analytic (finite at the poles and for small e).
-   NON_FINITE for non-finite angles. */
+   NON_FINITE for non-finite angles, or a point or normal that cannot be
+   computed (sizes so far apart or so small that the normal's length
+   underflows). */
 SQFFD_DEF sqffd_result sqffd_sq_point(const sqffd_superquadric *sq, double eta, double omega, double point[3],
                                       double normal[3]);
 /* Regular grid: n_eta rows from eta = -pi/2 to pi/2 (poles included), n_omega
    columns from omega = -pi (included) to pi (excluded); row-major, point
    (i, j) at index i * n_omega + j. normals may be NULL. INVALID_ARGUMENT for
    NULL sq/points, n_eta < 2 or n_omega < 1; TOO_LARGE if 3 n_eta n_omega
-   doubles do not fit a size_t. */
+   doubles do not fit a size_t; NON_FINITE as sqffd_sq_point (the points
+   before the first such one written). */
 SQFFD_DEF sqffd_result sqffd_sq_sample_grid(const sqffd_superquadric *sq, int n_eta, int n_omega, double *points, double *normals);
 /* Near-equal-distance sampling (after Pilu & Fisher): rows of constant eta
    about `spacing` apart (measured on the longest of eight meridians), each
@@ -3572,7 +3575,7 @@ SQFFD_DEF sqffd_result sqffd_sq_point(const sqffd_superquadric *sq, double eta, 
     if (r != SQFFD_OK) return r;
     if (!isfinite(eta) || !isfinite(omega)) return SQFFD_ERROR_NON_FINITE;
     sqffd__sq_point(sq, eta, omega, point, normal);
-    return SQFFD_OK;
+    return sqffd__finite3(point) && (!normal || sqffd__finite3(normal)) ? SQFFD_OK : SQFFD_ERROR_NON_FINITE;
 }
 
 SQFFD_DEF sqffd_result sqffd_sq_sample_grid(const sqffd_superquadric *sq, int n_eta, int n_omega, double *points, double *normals)
@@ -3588,6 +3591,7 @@ SQFFD_DEF sqffd_result sqffd_sq_sample_grid(const sqffd_superquadric *sq, int n_
             double omega = -SQFFD__SQ_PI + 2.0 * SQFFD__SQ_PI * (double)j / (double)n_omega;
             size_t k = 3 * ((size_t)i * (size_t)n_omega + (size_t)j);
             sqffd__sq_point(sq, eta, omega, points + k, normals ? normals + k : NULL);
+            if (!sqffd__finite3(points + k) || (normals && !sqffd__finite3(normals + k))) return SQFFD_ERROR_NON_FINITE;
         }
     }
     return SQFFD_OK;

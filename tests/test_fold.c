@@ -638,7 +638,8 @@ static void test_stack_shifts_phantom(void)
    walk over NaN cells), and F at its centre, which the logarithms cannot
    give, NON_FINITE rather than a NaN called a success. A lattice box too
    small and too far for the surface's deformation to be computed: its
-   mesh NON_FINITE. */
+   mesh NON_FINITE. With e = 4 the normals underflow at some points: those
+   points NON_FINITE, never a NaN normal called a success. */
 static void test_extreme_superquadric(void)
 {
     sqffd_fit_options o = sqffd_fit_options_default();
@@ -670,6 +671,26 @@ static void test_extreme_superquadric(void)
         CHECK_RESULT(sqffd_model_mesh(&m, 32, 64, vertices, triangles), SQFFD_ERROR_NON_FINITE);
         r = region_bound(&m, 0.0, &bound); /* (the surface's box coordinates are finite, far outside it) */
         CHECK_MSG(r == SQFFD_OK ? isfinite(bound) : r == SQFFD_ERROR_NON_FINITE, "region bound: %s", sqffd_result_string(r));
+    }
+    { /* e = 4 with a size 1e-284 of another's: a point and normal called a success are finite */
+        const double pi = 3.14159265358979323846;
+        double *grid = (double *)test_malloc(2 * 3 * 41 * 80 * sizeof(double));
+        int i, j, refused = 0;
+        sq.shape[0] = sq.shape[1] = 4.0;
+        for (i = 0; i <= 40; i++)
+            for (j = 0; j < 80; j++) {
+                double p[3], n[3];
+                r = sqffd_sq_point(&sq, -0.5 * pi + pi * i / 40.0, -pi + pi * j / 40.0, p, n);
+                if (r == SQFFD_OK) CHECK(isfinite(p[0] + p[1] + p[2]) && isfinite(n[0] + n[1] + n[2]));
+                else {
+                    CHECK_RESULT(r, SQFFD_ERROR_NON_FINITE);
+                    ++refused;
+                }
+            }
+        r = sqffd_sq_sample_grid(&sq, 41, 80, grid, grid + 3 * 41 * 80);
+        CHECK_RESULT(r, refused ? SQFFD_ERROR_NON_FINITE : SQFFD_OK);
+        printf("    e = 4, sizes 1 : 1e-284: %d of 3,280 points refused\n", refused);
+        free(grid);
     }
     free(vertices);
     free(triangles);
