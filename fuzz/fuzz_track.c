@@ -171,6 +171,21 @@ static void check_stats(const sqffd_distance_stats *s)
         abort();
 }
 
+/* A stack of three planes across the superquadric along its third axis,
+   half its height apart, the middle one through its centre. */
+static void planes_across(const sqffd_superquadric *q, sqffd_stack *st)
+{
+    double c = 0.0;
+    int k;
+    for (k = 0; k < 3; k++) {
+        st->axis[k] = q->rotation[3 * k + 2];
+        c += st->axis[k] * q->center[k];
+    }
+    st->planes = 3;
+    st->spacing = 0.5 * q->size[2];
+    for (k = 0; k < 3; k++) st->level[k] = c + (double)(k - 1) * st->spacing;
+}
+
 static void run_wall(const sqffd_model *models, size_t frames, const sqffd_motion_report *motion,
                      const unsigned char *segment, unsigned wb);
 
@@ -257,17 +272,7 @@ static void run_motion(const sqffd_model *models, size_t frames, unsigned mb, in
     { /* volumes between slices: three planes across each model's superquadric along its third axis */
         sqffd_motion_options ms = sqffd_motion_options_default();
         sqffd_stack st[MAX_FRAMES];
-        for (t = 0; t < frames; t++) {
-            const sqffd_superquadric *q = &models[0].sq;
-            double c = 0.0;
-            for (k = 0; k < 3; k++) {
-                st[t].axis[k] = q->rotation[3 * k + 2];
-                c += st[t].axis[k] * q->center[k];
-            }
-            st[t].planes = 3;
-            st[t].spacing = 0.5 * q->size[2];
-            for (k = 0; k < 3; k++) st[t].level[k] = c + (double)(k - 1) * st[t].spacing;
-        }
+        for (t = 0; t < frames; t++) planes_across(&models[0].sq, &st[t]);
         ms.stacks = st;
         res = sqffd_motion(models, frames, &ms, NULL, &rep, ws, ws_size);
         if (res == SQFFD_OK ? !isfinite(rep.edv) || !isfinite(rep.ejection_fraction)
@@ -311,17 +316,7 @@ static void run_wall(const sqffd_model *models, size_t frames, const sqffd_motio
         for (v = 0; v < count; v++)
             for (k = 0; k < 3; k++)
                 epi[t].ffd.control[v][k] = centre[k] + scales[wb & 3] * (f->control[v][k] - centre[k]);
-        { /* three planes across the superquadric along its third axis */
-            const sqffd_superquadric *q = &models[0].sq;
-            double along = 0.0;
-            for (k = 0; k < 3; k++) {
-                st[t].axis[k] = q->rotation[3 * k + 2];
-                along += st[t].axis[k] * q->center[k];
-            }
-            st[t].planes = 3;
-            st[t].spacing = 0.5 * q->size[2];
-            for (k = 0; k < 3; k++) st[t].level[k] = along + (double)(k - 1) * st[t].spacing;
-        }
+        planes_across(&models[0].sq, &st[t]);
     }
     wo.stacks = (wb & 4) ? st : NULL;
     wo.endo_stacks = (wb & 8) ? st : NULL;
