@@ -6561,12 +6561,18 @@ static void sqffd__fit_sq_grid(const sqffd_superquadric *sq, const int grid[2], 
     sqffd__sq_point(sq, 0.5 * SQFFD__FIT_PI, 0.0, x + 3 * (rows * cols + 1), NULL);
 }
 
-/* The model's surface points on the grid into x. */
-static void sqffd__fit_surface(const sqffd_model *model, const int grid[2], double *x)
+/* The model's surface points on the grid into x; 0 when one is not finite
+   (a model too extreme to compute with). */
+static int sqffd__fit_surface(const sqffd_model *model, const int grid[2], double *x)
 {
     size_t v, count = sqffd__fit_grid_count(grid);
+    int finite = 1;
     sqffd__fit_sq_grid(&model->sq, grid, x);
-    for (v = 0; v < count; ++v) sqffd__ffd_deform(&model->ffd, x + 3 * v, x + 3 * v);
+    for (v = 0; v < count; ++v) {
+        sqffd__ffd_deform(&model->ffd, x + 3 * v, x + 3 * v);
+        finite &= sqffd__finite3(x + 3 * v);
+    }
+    return finite;
 }
 
 SQFFD_DEF sqffd_result sqffd_model_validate(const sqffd_model *model)
@@ -6756,12 +6762,7 @@ SQFFD_DEF sqffd_result sqffd_model_mesh(const sqffd_model *model, int n_eta, int
     grid[0] = n_eta; grid[1] = n_omega;
     r = sqffd__fit_grid_check(grid);
     if (r != SQFFD_OK) return r;
-    if (vertices) {
-        size_t v, count = 3 * sqffd__fit_grid_count(grid);
-        sqffd__fit_surface(model, grid, vertices);
-        for (v = 0; v < count; ++v)
-            if (!isfinite(vertices[v])) return SQFFD_ERROR_NON_FINITE;
-    }
+    if (vertices && !sqffd__fit_surface(model, grid, vertices)) return SQFFD_ERROR_NON_FINITE;
     if (!triangles) return SQFFD_OK;
     sqffd__fit_triangles(grid, (uint32_t (*)[3])triangles);
     return SQFFD_OK;
@@ -10315,9 +10316,7 @@ SQFFD_DEF sqffd_result sqffd_motion(const sqffd_model *models, size_t frame_coun
     /* every frame's mesh and volume; ES is the least */
     for (t = 0; t < frame_count; ++t) {
         double volume;
-        sqffd__fit_surface(models + t, models->grid, w.x);
-        for (v = 0; v < m; ++v)
-            if (!sqffd__finite3(w.x + 3 * v)) return SQFFD_ERROR_NON_FINITE;
+        if (!sqffd__fit_surface(models + t, models->grid, w.x)) return SQFFD_ERROR_NON_FINITE;
         volume = sqffd__motion_volume(o, t, models->grid, w.x);
         if (out->volumes) out->volumes[t] = volume;
         if (out->trajectories) memcpy(out->trajectories + 3 * m * t, w.x, 3 * m * sizeof(double));
@@ -10732,7 +10731,7 @@ SQFFD_DEF sqffd_result sqffd_wall(const sqffd_model *endo, const sqffd_model *ep
     sqffd__wall_work w;
     sqffd__arena a;
     double sum[SQFFD_SEGMENTS + 1][4], total[4] = {0.0, 0.0, 0.0, 0.0}; /* [c]: area x thickness, [2 + c]: area at ED, ES */
-    size_t m, e, t, v;
+    size_t m, t, v;
     int k, c;
     if (!endo || !epi || !motion || !segment || frame_count == 0 || motion->ed_frame >= frame_count ||
         motion->es_frame >= frame_count || !sqffd__wall_frame_valid(motion) || !(o->dysfunctional_thickening > -1.0) ||
@@ -10750,7 +10749,6 @@ SQFFD_DEF sqffd_result sqffd_wall(const sqffd_model *endo, const sqffd_model *ep
     m = sqffd__fit_grid_count(endo->grid);
     for (v = 0; v < m; ++v)
         if (segment[v] > SQFFD_SEGMENTS) return SQFFD_ERROR_INVALID_ARGUMENT;
-    e = sqffd__fit_grid_count(epi->grid);
     sqffd__arena_init(&a, workspace, workspace_size);
     sqffd__wall_layout(&a, endo, epi, frame_count, &w);
     if (a.overflow) return sqffd__arena_error(&a);
@@ -10760,12 +10758,8 @@ SQFFD_DEF sqffd_result sqffd_wall(const sqffd_model *endo, const sqffd_model *ep
     sqffd__fit_bvh_build(endo->grid, w.tree[1].nodes);
     volumes.stacks = o->stacks;
     for (t = 0; t < frame_count; ++t) { /* the myocardium: the volume between the two surfaces */
-        sqffd__fit_surface(endo + t, endo->grid, w.ed);
-        sqffd__fit_surface(epi + t, epi->grid, w.epi);
-        for (v = 0; v < m; ++v)
-            if (!sqffd__finite3(w.ed + 3 * v)) return SQFFD_ERROR_NON_FINITE;
-        for (v = 0; v < e; ++v)
-            if (!sqffd__finite3(w.epi + 3 * v)) return SQFFD_ERROR_NON_FINITE;
+        if (!sqffd__fit_surface(endo + t, endo->grid, w.ed) || !sqffd__fit_surface(epi + t, epi->grid, w.epi))
+            return SQFFD_ERROR_NON_FINITE;
         w.myocardium[t] = sqffd__motion_volume(&volumes, t, epi->grid, w.epi) - sqffd__motion_volume(&volumes, t, endo->grid, w.ed);
     }
     rep->myocardium_ed = w.myocardium[motion->ed_frame];
