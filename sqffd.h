@@ -8763,10 +8763,12 @@ static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagon
 
 /* ---- the fold-free iteration ----------------------------------------------
    The fold-free step's loop (its section above): measure the start; then
-   per iteration the damped step from the accepted model, measured by a
-   pass; accepted when it lowers the energy (or, from a start under the
-   floor, the penalised energy) and is certified (then linearised anew from
-   that pass), else rolled back with more damping. The fit ends on the last
+   per iteration the damped step from the accepted model, certified, then
+   measured by a pass; accepted when it lowers the energy (or, from a start
+   under the floor, the penalised energy; then linearised anew from that
+   pass), else rolled back with more damping. A trial the certificate fails
+   is not measured: its failing points become samples and the step is
+   taken again. The fit ends on the last
    accepted model the certificate passed. A start that breaks the floor on
    the region runs
    with the floor just under its certified bound, raised after each
@@ -8905,9 +8907,9 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
     memcpy(w->matched_accepted, w->matched, it->points->count * sizeof *w->matched);
     while (rep->iterations < o->max_iterations && !rep->converged && !stalled) {
         double predicted = sqffd__fit_fold_step(s, f, w->accepted, inverse, (double)m * f->rho), move = 0.0, tau;
-        double trial_penalty, trial_worst;
+        double trial_penalty = 0.0, trial_worst = 0.0;
         size_t p;
-        int c, merit;
+        int c, merit = 0, measured;
         if (!(predicted > 0.0)) { /* no factor, or no descent in the step's model: damp more */
             f->lambda *= 8.0;
             stalled = !(f->lambda <= 1e12);
@@ -8928,17 +8930,20 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
             if (!(sqffd__fit_fold_values(s->dims, f, control, inverse, f->trial, NULL) < f->floor - f->goal) || tau < 1e-3) break;
         }
         predicted *= tau * (2.0 - tau);
-        sqffd__fit_control_changed(it); /* (it->next: the accepted model points) */
-        for (v = 0; v < 3 * m; ++v) move += (it->x[v] - it->next[v]) * (it->x[v] - it->next[v]);
-        it->origin = SQFFD__FIT_FROM_PLAIN;
         ++rep->iterations;
-        res = sqffd__fit_measure(it, 0, &energy, &stats);
-        if (res != SQFFD_OK) return res;
-        trial_penalty = sqffd__fit_fold_penalty(f, f->trial, &trial_worst);
-        merit = energy + trial_penalty < it->accepted + penalty;
-        bound = energy < it->accepted || (f->floor < f->goal && merit)
-                    ? sqffd__fit_fold_certify(s->dims, f, control, inverse, o->min_jacobian) : -HUGE_VAL;
-        if (bound >= f->floor) { /* lower and certified: accepted (lambda rises when the penalised energy did not fall) */
+        bound = sqffd__fit_fold_certify(s->dims, f, control, inverse, o->min_jacobian);
+        measured = bound >= f->floor; /* (a trial the certificate fails cannot be accepted: not measured) */
+        if (measured) {
+            sqffd__fit_control_changed(it); /* (it->next: the accepted model points) */
+            for (v = 0; v < 3 * m; ++v) move += (it->x[v] - it->next[v]) * (it->x[v] - it->next[v]);
+            it->origin = SQFFD__FIT_FROM_PLAIN;
+            res = sqffd__fit_measure(it, 0, &energy, &stats);
+            if (res != SQFFD_OK) return res;
+            trial_penalty = sqffd__fit_fold_penalty(f, f->trial, &trial_worst);
+            merit = energy + trial_penalty < it->accepted + penalty;
+        }
+        if (measured && (energy < it->accepted || (f->floor < f->goal && merit))) {
+            /* certified and lower: accepted (lambda rises when the penalised energy did not fall) */
             double gain = (it->accepted + penalty - energy - trial_penalty) * (double)m / predicted;
             f->lambda = tau < 1.0 || gain < 0.25 ? 2.0 * f->lambda : gain > 0.75 ? f->lambda / 3.0 : f->lambda;
             swap = f->value; f->value = f->trial; f->trial = swap;
@@ -8956,9 +8961,10 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
             penalty = sqffd__fit_fold_penalty(f, f->value, NULL);
             rep->converged = tau == 1.0 && rep->step <= o->tolerance;
             sqffd__fit_fold_linearise(it);
-        } else { /* rolled back: more damping, or the certificate's points as samples */
-            sqffd__fit_fold_roll_back(it);
-            if (bound > -HUGE_VAL && f->failed && f->samples < f->capacity) {
+        } else { /* rolled back: the certificate's points as samples, or more damping */
+            if (measured) sqffd__fit_fold_roll_back(it);
+            else memcpy(control, w->accepted, size * sizeof(double)); /* (its model points and matches untouched) */
+            if (!measured && f->failed && f->samples < f->capacity) {
                 sqffd__fit_fold_add_samples(it, w->accepted);
                 penalty = sqffd__fit_fold_penalty(f, f->value, NULL);
             } else {
