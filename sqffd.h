@@ -8931,12 +8931,12 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
         }
         predicted *= tau * (2.0 - tau);
         ++rep->iterations;
+        it->origin = SQFFD__FIT_FROM_PLAIN; /* (recorded as an iteration, measured or not) */
         bound = sqffd__fit_fold_certify(s->dims, f, control, inverse, o->min_jacobian);
         measured = bound >= f->floor; /* (a trial the certificate fails cannot be accepted: not measured) */
         if (measured) {
             sqffd__fit_control_changed(it); /* (it->next: the accepted model points) */
             for (v = 0; v < 3 * m; ++v) move += (it->x[v] - it->next[v]) * (it->x[v] - it->next[v]);
-            it->origin = SQFFD__FIT_FROM_PLAIN;
             res = sqffd__fit_measure(it, 0, &energy, &stats);
             if (res != SQFFD_OK) return res;
             trial_penalty = sqffd__fit_fold_penalty(f, f->trial, &trial_worst);

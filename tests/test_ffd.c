@@ -728,6 +728,18 @@ static void test_fit_convergence_lv(void)
     free(pts);
 }
 
+/* A progress callback counting the FFD stage's calls into calls[0], each
+   the next iteration; it cancels at calls[1]. */
+static int count_calls(void *user, int stage, int iteration, double error)
+{
+    int *calls = (int *)user;
+    if (stage != SQFFD_STAGE_FFD) return 0;
+    CHECK(iteration == calls[0] + 1);
+    CHECK(error > 0.0 && error < 1.0);
+    calls[0]++;
+    return calls[0] == calls[1];
+}
+
 /* Real data: the Stanford bunny (1,839 points). */
 static void test_fit_bunny(void)
 {
@@ -738,12 +750,18 @@ static void test_fit_bunny(void)
     sqffd_fit_report r5, r8, r_free;
     sqffd_model m, m_stiff;
     double rev;
+    int calls[2] = {0, -1};
     if (sqffd_io_read_file("tests/data/bunny.ply", &pts, &n, err, sizeof err) != 0) {
         CHECK_MSG(0, "%s (run the tests from the repository root)", err);
         return;
     }
     CHECK(n == 1839);
+    o.progress = count_calls; /* every grid iteration reported, in order, its trial measured or not (the */
+    o.progress_user = calls;  /* certificate fails the first grid trial here) */
     CHECK_RESULT(test_fit(pts, n, &o, &m, &r5), SQFFD_OK);
+    CHECK_MSG(calls[0] == r5.iterations && r5.history_count == r5.iterations, "%d progress calls, %d history entries, %d iterations",
+              calls[0], r5.history_count, r5.iterations);
+    o.progress = NULL;
     rev = reverse_rms(&m, pts, n);
     CHECK_MSG(2.0 * r5.error.rms_relative <= r5.sq_error.rms_relative, "5x5x5: error %g, superquadric alone %g",
               r5.error.rms_relative, r5.sq_error.rms_relative);
@@ -1222,16 +1240,6 @@ static void test_fit_deterministic_and_restartable(void)
     CHECK_MSG(r3.error.rms_relative <= 1.03 * r1.error.rms_relative, "restart %g, first %g", r3.error.rms_relative,
               r1.error.rms_relative); /* (measured 1.0206: the energy, not the error, is what falls) */
     free(pts);
-}
-
-static int count_calls(void *user, int stage, int iteration, double error)
-{
-    int *calls = (int *)user;
-    if (stage != SQFFD_STAGE_FFD) return 0;
-    CHECK(iteration == calls[0] + 1);
-    CHECK(error > 0.0 && error < 1.0);
-    calls[0]++;
-    return calls[0] == calls[1];
 }
 
 static void test_fit_progress_and_cancel(void)
