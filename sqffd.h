@@ -945,8 +945,9 @@ SQFFD_DEF sqffd_result sqffd_fit_workspace_size(size_t n, const sqffd_fit_option
    floor (the default) it then takes a damped Gauss-Newton step on E (the
    data term by its point-to-plane residuals) with the floor held at
    samples of the region by a penalty, and keeps it when the Jacobian on
-   the region is certified at or above the floor and the step lowers E
-   (a start under the floor, lifted toward it: or E plus the penalty, so E
+   the region is certified at or above the floor (before the step is
+   measured: one that fails is not, and counts as an iteration) and the
+   step lowers E (a start under the floor, lifted toward it: or E plus the penalty, so E
    may rise there). Without a floor: (1) each data point's displacement,
    shared among its closest triangle's corners by barycentric weight, gives
    a weighted least-squares bound of E; (2) the control points minimising
