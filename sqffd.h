@@ -7601,7 +7601,10 @@ static sqffd_result sqffd__fit_step(const sqffd__fit_system *s, sqffd__fit_work 
    after a step that lowered the penalised energy as predicted and rises
    after one that did not. rho starts where a sample sunk by the whole
    margin costs twice the energy, and grows tenfold while a step kept on
-   the penalised energy leaves a sample half the margin short.
+   the penalised energy (from a start under the floor) leaves a sample half
+   the margin short. (Not otherwise: a step kept on the energy alone has
+   the floor certified, and a penalty grown over it would steer the steps
+   by the margin alone, each raising the energy: a long fit stalled.)
    CERTIFIED: a step is kept only when its J is certified on every region
    cell by its Bernstein coefficients (J lies between them), halved up to
    SQFFD__FIT_CERT_DEPTH times where they dip below the floor; a cell still
@@ -8946,6 +8949,7 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
         if (measured && (energy < it->accepted || (f->floor < f->goal && merit))) {
             /* certified and lower: accepted (lambda rises when the penalised energy did not fall) */
             double gain = (it->accepted + penalty - energy - trial_penalty) * (double)m / predicted;
+            int untangling = f->floor < f->goal; /* (kept on the penalised energy) */
             f->lambda = tau < 1.0 || gain < 0.25 ? 2.0 * f->lambda : gain > 0.75 ? f->lambda / 3.0 : f->lambda;
             swap = f->value; f->value = f->trial; f->trial = swap;
             it->accepted = energy;
@@ -8958,7 +8962,7 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
                 if (bound - below > f->floor) f->floor = bound - below < o->min_jacobian ? bound - below : o->min_jacobian;
                 sqffd__fit_fold_add_samples(it, control);
             }
-            if (trial_worst > 0.5 * SQFFD__FIT_MARGIN && merit) f->rho *= 10.0; /* the penalty let a sample sink: stiffer */
+            if (untangling && merit && trial_worst > 0.5 * SQFFD__FIT_MARGIN) f->rho *= 10.0; /* it let a sample sink: stiffer */
             penalty = sqffd__fit_fold_penalty(f, f->value, NULL);
             rep->converged = tau == 1.0 && rep->step <= o->tolerance;
             sqffd__fit_fold_linearise(it);
