@@ -947,8 +947,8 @@ SQFFD_DEF sqffd_result sqffd_fit_workspace_size(size_t n, const sqffd_fit_option
    samples of the region by a penalty, and keeps it when the Jacobian on
    the region is certified at or above the floor (before the step is
    measured: one that fails is not, and counts as an iteration) and the
-   step lowers E (a start under the floor, lifted toward it: or E plus the penalty, so E
-   may rise there). Without a floor: (1) each data point's displacement,
+   step lowers E (a start under the floor, lifted toward it: or E plus the
+   penalty, so E may rise there). Without a floor: (1) each data point's displacement,
    shared among its closest triangle's corners by barycentric weight, gives
    a weighted least-squares bound of E; (2) the control points minimising
    that bound (it cannot raise E), over-relaxed (adaptively), a step that
@@ -8772,12 +8772,10 @@ static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagon
    under the floor, the penalised energy; then linearised anew from that
    pass), else rolled back with more damping. A trial the certificate fails
    is not measured: its failing points become samples and the step is
-   taken again. The fit ends on the last
-   accepted model the certificate passed. A start that breaks the floor on
-   the region runs
-   with the floor just under its certified bound, raised after each
-   certified step toward min_jacobian (a rising threshold that untangles it
-   where it can). */
+   taken again. The fit ends on the last accepted model the certificate
+   passed. A start that breaks the floor on the region runs with the floor
+   just under its certified bound, raised after each certified step toward
+   min_jacobian (a rising threshold that untangles it where it can). */
 
 /* The point-to-plane weights (M x 6) gathered onto every other model point
    of every other row (each takes its own, the next in its row, and those of
