@@ -1,4 +1,4 @@
-/* sqffd.h - v0.19.2 - superquadric + free-form deformation shape fitting
+/* sqffd.h - v0.19.3 - superquadric + free-form deformation shape fitting
    Public domain or MIT, your choice (see the end of this file).
 
    Turns 3-D points into a compact global shape model: a superquadric with
@@ -221,8 +221,8 @@
 
 #define SQFFD_VERSION_MAJOR 0
 #define SQFFD_VERSION_MINOR 19
-#define SQFFD_VERSION_PATCH 2
-#define SQFFD_VERSION_STRING "0.19.2"
+#define SQFFD_VERSION_PATCH 3
+#define SQFFD_VERSION_STRING "0.19.3"
 
 #ifndef SQFFD_DEF
 #ifdef SQFFD_STATIC
