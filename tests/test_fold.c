@@ -174,8 +174,9 @@ static double model_folded(const sqffd_model *m)
 /* From a start that folds on its region (certified bound `start` under
    the floor), the floor's fit never folds it more: each model it accepts
    is certified at or above the start's bound, and the report's bound is
-   the result's; it lifts the bound most of the way (measured: -62.5 to
-   -0.013 in the default 33 iterations). */
+   the result's; it lifts the bound most of the way (measured in the
+   default 33 iterations: -62.5 to -0.013 on x86-64, -62.4 to -0.81 on
+   armhf, whose rounding takes another path). */
 static void untangle(const double *pts, size_t n, const sqffd_fit_options *o, const sqffd_model *folded, double start)
 {
     sqffd_model m = *folded;
@@ -191,7 +192,7 @@ static void untangle(const double *pts, size_t n, const sqffd_fit_options *o, co
     free(ws);
     CHECK_RESULT(region_bound(&m, o->min_jacobian, &bound), SQFFD_OK);
     CHECK_NEAR(bound, rep.min_jacobian, 1e-12);
-    CHECK_MSG(bound > 0.01 * start, "bound %g, the start's %g", bound, start);
+    CHECK_MSG(bound > 0.1 * start, "bound %g, the start's %g", bound, start);
 }
 
 /* A lone fit of a stack: with the bound off (min_jacobian -inf) the
