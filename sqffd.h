@@ -945,10 +945,9 @@ SQFFD_DEF sqffd_result sqffd_fit_workspace_size(size_t n, const sqffd_fit_option
    floor (the default) it then takes a damped Gauss-Newton step on E (the
    data term by its point-to-plane residuals) with the floor held at
    samples of the region by a penalty, and keeps it when the Jacobian on
-   the region is certified at or above the floor (before the step is
-   measured: one that fails is not, and counts as an iteration) and the
-   step lowers E (a start under the floor, lifted toward it: or E plus the
-   penalty, so E may rise there). Without a floor: (1) each data point's displacement,
+   the region is certified at or above the floor and the step lowers E
+   (a start under the floor, lifted toward it: or E plus the penalty, so E
+   may rise there). Without a floor: (1) each data point's displacement,
    shared among its closest triangle's corners by barycentric weight, gives
    a weighted least-squares bound of E; (2) the control points minimising
    that bound (it cannot raise E), over-relaxed (adaptively), a step that
@@ -8767,15 +8766,15 @@ static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagon
 
 /* ---- the fold-free iteration ----------------------------------------------
    The fold-free step's loop (its section above): measure the start; then
-   per iteration the damped step from the accepted model, certified, then
-   measured by a pass; accepted when it lowers the energy (or, from a start
-   under the floor, the penalised energy; then linearised anew from that
-   pass), else rolled back with more damping. A trial the certificate fails
-   is not measured: its failing points become samples and the step is
-   taken again. The fit ends on the last accepted model the certificate
-   passed. A start that breaks the floor on the region runs with the floor
-   just under its certified bound, raised after each certified step toward
-   min_jacobian (a rising threshold that untangles it where it can). */
+   per iteration the damped step from the accepted model, measured by a
+   pass; accepted when it lowers the energy (or, from a start under the
+   floor, the penalised energy) and is certified (then linearised anew from
+   that pass), else rolled back with more damping, or taken again with the
+   certificate's failing points as samples. The fit ends on the last
+   accepted model the certificate passed. A start that breaks the floor on
+   the region runs with the floor just under its certified bound, raised
+   after each certified step toward min_jacobian (a rising threshold that
+   untangles it where it can). */
 
 /* The point-to-plane weights (M x 6) gathered onto every other model point
    of every other row (each takes its own, the next in its row, and those of
@@ -8909,9 +8908,9 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
     memcpy(w->matched_accepted, w->matched, it->points->count * sizeof *w->matched);
     while (rep->iterations < o->max_iterations && !rep->converged && !stalled) {
         double predicted = sqffd__fit_fold_step(s, f, w->accepted, inverse, (double)m * f->rho), move = 0.0, tau;
-        double trial_penalty = 0.0, trial_worst = 0.0;
+        double trial_penalty, trial_worst;
         size_t p;
-        int c, merit = 0, measured;
+        int c, merit;
         if (!(predicted > 0.0)) { /* no factor, or no descent in the step's model: damp more */
             f->lambda *= 8.0;
             stalled = !(f->lambda <= 1e12);
@@ -8932,22 +8931,18 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
             if (!(sqffd__fit_fold_values(s->dims, f, control, inverse, f->trial, NULL) < f->floor - f->goal) || tau < 1e-3) break;
         }
         predicted *= tau * (2.0 - tau);
+        sqffd__fit_control_changed(it); /* (it->next: the accepted model points) */
+        for (v = 0; v < 3 * m; ++v) move += (it->x[v] - it->next[v]) * (it->x[v] - it->next[v]);
+        it->origin = SQFFD__FIT_FROM_PLAIN;
         ++rep->iterations;
-        it->origin = SQFFD__FIT_FROM_PLAIN; /* (recorded as an iteration, measured or not) */
-        bound = sqffd__fit_fold_certify(s->dims, f, control, inverse, o->min_jacobian);
-        measured = bound >= f->floor; /* (a trial the certificate fails cannot be accepted: not measured) */
-        if (measured) {
-            sqffd__fit_control_changed(it); /* (it->next: the accepted model points) */
-            for (v = 0; v < 3 * m; ++v) move += (it->x[v] - it->next[v]) * (it->x[v] - it->next[v]);
-            res = sqffd__fit_measure(it, 0, &energy, &stats);
-            if (res != SQFFD_OK) return res;
-            trial_penalty = sqffd__fit_fold_penalty(f, f->trial, &trial_worst);
-            merit = energy + trial_penalty < it->accepted + penalty;
-        }
-        if (measured && (energy < it->accepted || (f->floor < f->goal && merit))) {
-            /* certified and lower: accepted (lambda rises when the penalised energy did not fall) */
+        res = sqffd__fit_measure(it, 0, &energy, &stats);
+        if (res != SQFFD_OK) return res;
+        trial_penalty = sqffd__fit_fold_penalty(f, f->trial, &trial_worst);
+        merit = energy + trial_penalty < it->accepted + penalty;
+        bound = energy < it->accepted || (f->floor < f->goal && merit)
+                    ? sqffd__fit_fold_certify(s->dims, f, control, inverse, o->min_jacobian) : -HUGE_VAL;
+        if (bound >= f->floor) { /* lower and certified: accepted (lambda rises when the penalised energy did not fall) */
             double gain = (it->accepted + penalty - energy - trial_penalty) * (double)m / predicted;
-            int untangling = f->floor < f->goal; /* (kept on the penalised energy) */
             f->lambda = tau < 1.0 || gain < 0.25 ? 2.0 * f->lambda : gain > 0.75 ? f->lambda / 3.0 : f->lambda;
             swap = f->value; f->value = f->trial; f->trial = swap;
             it->accepted = energy;
@@ -8956,18 +8951,18 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
             memcpy(w->accepted, control, size * sizeof(double));
             memcpy(w->matched_accepted, w->matched, it->points->count * sizeof *w->matched);
             rep->step = sqrt(move / (double)m) / it->diagonal;
-            if (f->floor < o->min_jacobian) { /* the rising floor, and the cells still under the goal as samples */
-                if (bound - below > f->floor) f->floor = bound - below < o->min_jacobian ? bound - below : o->min_jacobian;
-                sqffd__fit_fold_add_samples(it, control);
+            if (f->floor < o->min_jacobian) { /* from a start under the floor (kept on the penalised energy): */
+                if (merit && trial_worst > 0.5 * SQFFD__FIT_MARGIN) f->rho *= 10.0; /* a sample sank: stiffer */
+                if (bound - below > f->floor) /* the rising floor */
+                    f->floor = bound - below < o->min_jacobian ? bound - below : o->min_jacobian;
+                sqffd__fit_fold_add_samples(it, control); /* the cells still under the goal as samples */
             }
-            if (untangling && merit && trial_worst > 0.5 * SQFFD__FIT_MARGIN) f->rho *= 10.0; /* it let a sample sink: stiffer */
             penalty = sqffd__fit_fold_penalty(f, f->value, NULL);
             rep->converged = tau == 1.0 && rep->step <= o->tolerance;
             sqffd__fit_fold_linearise(it);
-        } else { /* rolled back: the certificate's points as samples, or more damping */
-            if (measured) sqffd__fit_fold_roll_back(it);
-            else memcpy(control, w->accepted, size * sizeof(double)); /* (its model points and matches untouched) */
-            if (!measured && f->failed && f->samples < f->capacity) {
+        } else { /* rolled back: more damping, or the certificate's points as samples */
+            sqffd__fit_fold_roll_back(it);
+            if (bound > -HUGE_VAL && f->failed && f->samples < f->capacity) {
                 sqffd__fit_fold_add_samples(it, w->accepted);
                 penalty = sqffd__fit_fold_penalty(f, f->value, NULL);
             } else {
