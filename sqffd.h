@@ -7603,7 +7603,7 @@ static sqffd_result sqffd__fit_step(const sqffd__fit_system *s, sqffd__fit_work 
    the penalised energy (from a start under the floor) leaves a sample half
    the margin short. (Not otherwise: a step kept on the energy alone has
    the floor certified, and a penalty grown over it would steer the steps
-   by the margin alone, each raising the energy: a long fit stalled.)
+   by the margin alone, each raising the energy, until the fit stalls.)
    CERTIFIED: a step is kept only when its J is certified on every region
    cell by its Bernstein coefficients (J lies between them), halved up to
    SQFFD__FIT_CERT_DEPTH times where they dip below the floor; a cell still

@@ -756,8 +756,8 @@ static void test_fit_bunny(void)
         return;
     }
     CHECK(n == 1839);
-    o.progress = count_calls; /* every grid iteration reported, in order, its trial measured or not (the */
-    o.progress_user = calls;  /* certificate fails the first grid trial here) */
+    o.progress = count_calls; /* every grid iteration reported, in order, and in the history (the fit's */
+    o.progress_user = calls;  /* trials here include ones the certificate fails) */
     CHECK_RESULT(test_fit(pts, n, &o, &m, &r5), SQFFD_OK);
     CHECK_MSG(calls[0] == r5.iterations && r5.history_count == r5.iterations, "%d progress calls, %d history entries, %d iterations",
               calls[0], r5.history_count, r5.iterations);

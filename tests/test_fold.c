@@ -172,9 +172,8 @@ static double model_folded(const sqffd_model *m)
 }
 
 /* From a start that folds on its region (certified bound `start` under
-   the floor), the floor's fit never folds it more: each model it accepts
-   is certified at or above the start's bound, and the report's bound is
-   the result's; it lifts the bound most of the way (measured in the
+   the floor), the floor's fit ends on a model whose certified bound is
+   the report's, lifted most of the way (measured in the
    default 33 iterations: -62.5 to -0.013 on x86-64, -62.4 to -0.81 on
    armhf, whose rounding takes another path). */
 static void untangle(const double *pts, size_t n, const sqffd_fit_options *o, const sqffd_model *folded, double start)
