@@ -39,6 +39,8 @@ void test_run(const char *name, void (*fn)(void));
 /* A case that takes seconds: run only where SQFFD_TESTS_THOROUGH is set (make check sets it; make test
    leaves it out, to stay near a minute). */
 void test_run_thorough(const char *name, void (*fn)(void));
+/* 1 where SQFFD_TESTS_THOROUGH is set: a case may then widen its sweep */
+int test_thorough(void);
 #define RUN_THOROUGH_TEST(fn) test_run_thorough(#fn, fn)
 
 /* Test suites, one per layer file; each calls RUN_TEST on its cases. */

@@ -36,10 +36,15 @@ void test_run(const char *name, void (*fn)(void))
     fflush(stdout);
 }
 
-void test_run_thorough(const char *name, void (*fn)(void))
+int test_thorough(void)
 {
     const char *thorough = getenv("SQFFD_TESTS_THOROUGH");
-    if (thorough && *thorough) test_run(name, fn);
+    return thorough && *thorough;
+}
+
+void test_run_thorough(const char *name, void (*fn)(void))
+{
+    if (test_thorough()) test_run(name, fn);
     else if (!filter || strstr(name, filter)) deferred++;
 }
 
