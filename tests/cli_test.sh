@@ -10,6 +10,8 @@ failed=0
 
 ok() { passed=$((passed + 1)); }
 bad() { failed=$((failed + 1)); echo "FAIL cli: $*"; }
+# true under make check (SQFFD_TESTS_THOROUGH set): the longer sweeps run there
+thorough() { [ -n "${SQFFD_TESTS_THOROUGH:-}" ]; }
 
 # expect STATUS 'TEXT IN STDERR OR STDOUT' ARGS...: runs sqffd ARGS, checks the exit status and the text
 expect() {
@@ -654,18 +656,18 @@ for pts in e25 ell; do
     for lat in 2 8; do
         for a in 0 1e-20 1e-9 1e12; do
             for w in 0 100; do
-                [ $lat = 8 ] && [ -z "${SQFFD_TESTS_THOROUGH:-}" ] && [ "$pts$a$w" != ell0100 ] && continue
+                [ $lat = 8 ] && ! thorough && [ "$pts$a$w" != ell0100 ] && continue
                 expect 0 "" fit "$TMP/$pts.xyz" -o "$TMP/x.ply" --alpha $a --model-to-data $w --lattice $lat --iterations 8 --mesh 8 --quiet
             done
         done
     done
-    [ -n "${SQFFD_TESTS_THOROUGH:-}" ] &&
+    thorough &&
         expect 0 "" fit "$TMP/$pts.xyz" -o "$TMP/x.ply" --min-jacobian -1e6 --lattice 8 --iterations 8 --mesh 8 --quiet
     expect 0 "" fit "$TMP/$pts.xyz" -o "$TMP/x.ply" --min-jacobian -1e6 --lattice 2 --iterations 8 --mesh 8 --quiet
     expect 0 "" fit "$TMP/$pts.xyz" -o "$TMP/x.ply" --min-jacobian 1 --iterations 8 --mesh 8 --quiet
 done
 expect 0 "" fit "$DATA" -o "$TMP/x.ply" --alpha 1e12 --robust --iterations 8 --mesh 8 --quiet
-[ -n "${SQFFD_TESTS_THOROUGH:-}" ] &&
+thorough &&
     expect 0 "" track "$TMP/e25.xyz" "$TMP/ell.xyz" -o "$TMP/tb" --alpha 1e-9 --model-to-data 100 --lattice 8 --iterations 8 --quiet
 expect 0 "" track "$TMP/e25.xyz" "$TMP/ell.xyz" -o "$TMP/tb" --alpha 1e-9 --model-to-data 100 --lattice 2 --iterations 8 --quiet
 expect 0 "" track "$TMP/e25.xyz" "$TMP/ell.xyz" -o "$TMP/tb" --alpha 1e12 --lattice 2 --iterations 8 --quiet
