@@ -1,4 +1,4 @@
-/* sqffd.h - v0.19.3 - superquadric + free-form deformation shape fitting
+/* sqffd.h - v0.20.0 - superquadric + free-form deformation shape fitting
    Public domain or MIT, your choice (see the end of this file).
 
    Turns 3-D points into a compact global shape model: a superquadric with
@@ -220,9 +220,9 @@
 #include <stdint.h>
 
 #define SQFFD_VERSION_MAJOR 0
-#define SQFFD_VERSION_MINOR 19
-#define SQFFD_VERSION_PATCH 3
-#define SQFFD_VERSION_STRING "0.19.3"
+#define SQFFD_VERSION_MINOR 20
+#define SQFFD_VERSION_PATCH 0
+#define SQFFD_VERSION_STRING "0.20.0"
 
 #ifndef SQFFD_DEF
 #ifdef SQFFD_STATIC
@@ -945,14 +945,14 @@ SQFFD_DEF sqffd_result sqffd_fit_workspace_size(size_t n, const sqffd_fit_option
    floor (the default) it then takes a damped Gauss-Newton step on E (the
    data term by its point-to-plane residuals) with the floor held at
    samples of the region by a penalty, and keeps it when the Jacobian on
-   the region is certified at or above the floor and the step lowers E
-   (a start under the floor, lifted toward it: or E plus the penalty, so E
-   may rise there). Without a floor: (1) each data point's displacement,
+   the region is certified at or above the floor and the step lowers E (a
+   start that folds on the region, a model handed in, is first drawn
+   toward the regular lattice P0 until it is certified: the result is
+   always certified when an iteration runs). Without a floor: (1) each data point's displacement,
    shared among its closest triangle's corners by barycentric weight, gives
    a weighted least-squares bound of E; (2) the control points minimising
    that bound (it cannot raise E), over-relaxed (adaptively), a step that
-   raised E replaced by the plain step. report->energy_history never rises
-   (but for a start under the floor).
+   raised E replaced by the plain step. report->energy_history never rises.
    From the superquadric, the first options->coarse_iterations of the
    iterations run on a coarse grid (half the rows and columns) and an even
    subsample of at most SQFFD_FIT_COARSE_POINTS points, the same energy on
@@ -984,7 +984,11 @@ SQFFD_DEF sqffd_result sqffd_model_init(sqffd_model *model, const sqffd_superqua
 /* Stage 2 alone: the two-step iteration starting from the model as given (its
    superquadric, box, grid and current control points; the springs' rest
    state P0 is its box's regular lattice). options' lattice, grid, box_margin
-   and sq are not used. report->sq_error is the starting model's error. */
+   and sq are not used. report->sq_error is the starting model's error.
+   Under the floor, a start whose certified Jacobian bound is below
+   options->min_jacobian (a model fitted without the floor) is first drawn
+   toward P0, P0 + s (P - P0) with the largest s the certificate passes,
+   so the result is certified; with max_iterations 0 it is left as given. */
 SQFFD_DEF sqffd_result sqffd_fit_ffd_workspace_size(size_t n, const sqffd_model *model, const sqffd_fit_options *options,
                                                     size_t *size);
 SQFFD_DEF sqffd_result sqffd_fit_ffd(const double *points, size_t n, const sqffd_fit_options *options, sqffd_model *model,
@@ -5670,6 +5674,7 @@ SQFFD_DEF sqffd_result sqffd_ffd_jacobian_bound(const sqffd_ffd *ffd, double *mi
                                   or conjugate-gradient steps), the over-relaxed next control points
      sqffd__fit_iterate_fold_free under the floor:
        sqffd__fit_region          the region's cells and samples (from the superquadric and the box)
+       sqffd__fit_fold_untangle   a start that folds on the region drawn toward P0 until certified
        sqffd__fit_fold_certify    J's Bernstein coefficients on the region's cells, halved where low
        sqffd__fit_fold_frames     J's frames on the region's node lattice (the samples' J, its change
                                   along a step)
@@ -7594,16 +7599,12 @@ static sqffd_result sqffd__fit_step(const sqffd__fit_system *s, sqffd__fit_work 
    linear model; a step that still sinks a sample under the floor is halved
    before it is measured. A step is kept when it lowers the energy, though
    its samples may end inside the margin (the certified floor is the
-   constraint, the margin only steers the step); from a start under the
-   floor also when it lowers the penalised energy (the penalty lifts the
-   start toward the floor). Else the control points go back. lambda falls
-   after a step that lowered the penalised energy as predicted and rises
-   after one that did not. rho starts where a sample sunk by the whole
-   margin costs twice the energy, and grows tenfold while a step kept on
-   the penalised energy (from a start under the floor) leaves a sample half
-   the margin short. (Not otherwise: a step kept on the energy alone has
-   the floor certified, and a penalty grown over it would steer the steps
-   by the margin alone, each raising the energy, until the fit stalls.)
+   constraint, the margin only steers the step). Else the control points go
+   back. lambda falls after a step that lowered the penalised energy as
+   predicted and rises after one that did not. rho is where a sample sunk
+   by the whole margin costs twice the start's energy, and stays there: a
+   penalty grown over the certified floor would steer the steps by the
+   margin alone, each raising the energy, until the fit stalls.
    CERTIFIED: a step is kept only when its J is certified on every region
    cell by its Bernstein coefficients (J lies between them), halved up to
    SQFFD__FIT_CERT_DEPTH times where they dip below the floor; a cell still
@@ -7638,9 +7639,8 @@ static const int sqffd__fit_region_grid[2] = {32, 64}; /* the superquadric's sur
 
 struct sqffd__fit_fold {
     sqffd__jacobian_work at;   /* J's coefficients over the box */
-    double floor;              /* the run's: a certified model keeps J at or above it */
-    double goal;               /* min_jacobian: the samples are held above it (the floor rises to it from a start
-                                  below it) */
+    double goal;               /* min_jacobian: a certified model keeps J at or above it; the samples are held above
+                                  it */
     double rho, lambda;        /* the penalty's weight (energy units), the damping */
     double factored;           /* the lambda f->factor holds */
     double factored_springs;   /* and its springs' weight, lambda x damping */
@@ -8160,7 +8160,7 @@ SQFFD_DEF sqffd_result sqffd_model_jacobian_bound(const sqffd_model *model, doub
     sqffd__fit_fold_layout(&a, model->ffd.dims, 0, 0, f);
     if (a.overflow) return sqffd__arena_error(&a);
     if (!sqffd__fit_region(model, f)) return SQFFD_ERROR_NON_FINITE;
-    f->floor = f->goal = floor;
+    f->goal = floor;
     bound = sqffd__fit_fold_certify(model->ffd.dims, f, &model->ffd.control[0][0], model->ffd.inverse, floor);
     if (!isfinite(bound)) return SQFFD_ERROR_NON_FINITE;
     *min = bound;
@@ -8193,20 +8193,18 @@ static void sqffd__fit_fold_scatter(size_t l, const double *block, size_t c, siz
 }
 
 /* The penalty rho/2 sum max(0, margin - (J - floor))^2 over the samples
-   (energy units) from their values; *worst (if not NULL): the largest shortfall. */
-static double sqffd__fit_fold_penalty(const sqffd__fit_fold *f, const double *value, double *worst)
+   (energy units) from their values. */
+static double sqffd__fit_fold_penalty(const sqffd__fit_fold *f, const double *value)
 {
-    double sum = 0.0, most = 0.0;
+    double sum = 0.0;
     size_t i;
     for (i = 0; i < f->samples; ++i) {
         double v = SQFFD__FIT_MARGIN - value[i];
         if (!(v <= 0.0)) {
             if (!(v < HUGE_VAL)) v = HUGE_VAL;
             sum += v * v;
-            if (v > most) most = v;
         }
     }
-    if (worst) *worst = most;
     return 0.5 * f->rho * sum;
 }
 
@@ -8552,7 +8550,6 @@ static void sqffd__fit_begin(sqffd__fit_iteration *it, const sqffd_points *point
     if (data_tree)
         for (v = 0; v < s->count; ++v) w->data_near[SQFFD__FIT_DATA_KNN * v] = UINT32_MAX;
     w->factored = 0;
-    w->fold->floor = -HUGE_VAL;
     it->planes = NULL;
     it->step1.weights = w->weights;
     it->step1.nu2 = w->nu2;
@@ -8767,14 +8764,12 @@ static sqffd_result sqffd__fit_iterate(const sqffd_points *points, double diagon
 /* ---- the fold-free iteration ----------------------------------------------
    The fold-free step's loop (its section above): measure the start; then
    per iteration the damped step from the accepted model, measured by a
-   pass; accepted when it lowers the energy (or, from a start under the
-   floor, the penalised energy) and is certified (then linearised anew from
-   that pass), else rolled back with more damping, or taken again with the
-   certificate's failing points as samples. The fit ends on the last
-   accepted model the certificate passed. A start that breaks the floor on
-   the region runs with the floor just under its certified bound, raised
-   after each certified step toward min_jacobian (a rising threshold that
-   untangles it where it can). */
+   pass; accepted when it lowers the energy and is certified (then
+   linearised anew from that pass), else rolled back with more damping, or
+   taken again with the certificate's failing points as samples. The fit
+   ends on the last accepted model the certificate passed. A start that
+   breaks the floor on the region is first drawn toward the regular
+   lattice until certified (sqffd__fit_fold_untangle). */
 
 /* The point-to-plane weights (M x 6) gathered onto every other model point
    of every other row (each takes its own, the next in its row, and those of
@@ -8872,6 +8867,34 @@ static void sqffd__fit_fold_add_samples(sqffd__fit_iteration *it, const double *
     }
 }
 
+/* A start under the floor on its region (a folded model handed in) drawn
+   toward the regular lattice P0, where J is 1 everywhere: P0 + s (P - P0)
+   with the largest s in [0, 1] the certificate passes at the floor, found
+   to 1/2^SQFFD__FIT_UNTANGLE by halving (s = 0 always passes: min_jacobian
+   is at most 1), so every fit under the floor starts, and ends, certified.
+   The model keeps as much of its deformation as the floor allows along
+   that line; the fit then recovers the rest the floor allows. Returns the
+   start's certified bound. */
+#define SQFFD__FIT_UNTANGLE 10 /* halvings: the start within 1/1024 of the line's last certified point */
+static double sqffd__fit_fold_untangle(sqffd__fit_iteration *it)
+{
+    const sqffd__fit_system *s = it->s;
+    sqffd__fit_fold *f = it->w->fold;
+    double *control = &it->model->ffd.control[0][0], *start = it->w->accepted, kept = 0.0, cut = 1.0;
+    size_t size = 3 * s->lattice, v;
+    int k;
+    memcpy(start, control, size * sizeof(double));
+    for (k = 0; k <= SQFFD__FIT_UNTANGLE; ++k) {
+        double share = k < SQFFD__FIT_UNTANGLE ? 0.5 * (kept + cut) : kept; /* (last: the share kept) */
+        for (v = 0; v < size; ++v) control[v] = s->rest_control[v] + share * (start[v] - s->rest_control[v]);
+        if (k == SQFFD__FIT_UNTANGLE) break;
+        if (sqffd__fit_fold_certify(s->dims, f, control, it->model->ffd.inverse, f->goal) >= f->goal) kept = share;
+        else cut = share;
+    }
+    sqffd__fit_control_changed(it);
+    return sqffd__fit_fold_certify(s->dims, f, control, it->model->ffd.inverse, f->goal);
+}
+
 static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
 {
     const sqffd__fit_system *s = it->s;
@@ -8883,15 +8906,14 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
     double *control = &model->ffd.control[0][0], *swap;
     const double *inverse = model->ffd.inverse;
     size_t size = 3 * s->lattice, m = s->count, v;
-    double energy, penalty, bound, below;
+    double energy, penalty, bound;
     sqffd_distance_stats stats, accepted_stats;
     int stalled = 0;
     sqffd_result res;
     if (!sqffd__fit_region(model, f)) return SQFFD_ERROR_NON_FINITE;
-    f->floor = f->goal = o->min_jacobian;
+    f->goal = o->min_jacobian;
     bound = sqffd__fit_fold_certify(s->dims, f, control, inverse, o->min_jacobian);
-    below = 1e-3 * (fabs(bound) > 1.0 ? fabs(bound) : 1.0); /* (a rising floor stays this far under the bound) */
-    if (bound < f->floor) f->floor = bound - below;
+    if (bound < o->min_jacobian && rep->iterations < o->max_iterations) bound = sqffd__fit_fold_untangle(it);
     it->planes = f->planes;
     res = sqffd__fit_measure(it, 0, &energy, &stats);
     if (res == SQFFD_OK) res = sqffd__fit_record(it, energy, &stats);
@@ -8899,7 +8921,7 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
     f->factor_age = SQFFD__FIT_FACTOR_AGE;
     sqffd__fit_fold_linearise(it);
     f->rho = 2.0 * (energy > 0.0 ? energy : 1.0) / (SQFFD__FIT_MARGIN * SQFFD__FIT_MARGIN);
-    penalty = sqffd__fit_fold_penalty(f, f->value, NULL);
+    penalty = sqffd__fit_fold_penalty(f, f->value);
     f->lambda = SQFFD__FIT_LAMBDA_START;
     it->accepted = energy;
     accepted_stats = stats;
@@ -8908,9 +8930,9 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
     memcpy(w->matched_accepted, w->matched, it->points->count * sizeof *w->matched);
     while (rep->iterations < o->max_iterations && !rep->converged && !stalled) {
         double predicted = sqffd__fit_fold_step(s, f, w->accepted, inverse, (double)m * f->rho), move = 0.0, tau;
-        double trial_penalty, trial_worst;
+        double trial_penalty;
         size_t p;
-        int c, merit;
+        int c;
         if (!(predicted > 0.0)) { /* no factor, or no descent in the step's model: damp more */
             f->lambda *= 8.0;
             stalled = !(f->lambda <= 1e12);
@@ -8928,7 +8950,7 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
             for (p = 0; p < s->lattice; ++p)
                 for (c = 0; c < 3; ++c)
                     control[3 * p + (size_t)c] = w->accepted[3 * p + (size_t)c] + tau * f->move[(size_t)c * s->lattice + p];
-            if (!(sqffd__fit_fold_values(s->dims, f, control, inverse, f->trial, NULL) < f->floor - f->goal) || tau < 1e-3) break;
+            if (!(sqffd__fit_fold_values(s->dims, f, control, inverse, f->trial, NULL) < 0.0) || tau < 1e-3) break;
         }
         predicted *= tau * (2.0 - tau);
         sqffd__fit_control_changed(it); /* (it->next: the accepted model points) */
@@ -8937,11 +8959,9 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
         ++rep->iterations;
         res = sqffd__fit_measure(it, 0, &energy, &stats);
         if (res != SQFFD_OK) return res;
-        trial_penalty = sqffd__fit_fold_penalty(f, f->trial, &trial_worst);
-        merit = energy + trial_penalty < it->accepted + penalty;
-        bound = energy < it->accepted || (f->floor < f->goal && merit)
-                    ? sqffd__fit_fold_certify(s->dims, f, control, inverse, o->min_jacobian) : -HUGE_VAL;
-        if (bound >= f->floor) { /* lower and certified: accepted (lambda rises when the penalised energy did not fall) */
+        trial_penalty = sqffd__fit_fold_penalty(f, f->trial);
+        bound = energy < it->accepted ? sqffd__fit_fold_certify(s->dims, f, control, inverse, o->min_jacobian) : -HUGE_VAL;
+        if (bound >= o->min_jacobian) { /* lower and certified: accepted (lambda rises when the penalised energy did not fall) */
             double gain = (it->accepted + penalty - energy - trial_penalty) * (double)m / predicted;
             f->lambda = tau < 1.0 || gain < 0.25 ? 2.0 * f->lambda : gain > 0.75 ? f->lambda / 3.0 : f->lambda;
             swap = f->value; f->value = f->trial; f->trial = swap;
@@ -8951,20 +8971,14 @@ static sqffd_result sqffd__fit_iterate_fold_free(sqffd__fit_iteration *it)
             memcpy(w->accepted, control, size * sizeof(double));
             memcpy(w->matched_accepted, w->matched, it->points->count * sizeof *w->matched);
             rep->step = sqrt(move / (double)m) / it->diagonal;
-            if (f->floor < o->min_jacobian) { /* from a start under the floor (kept on the penalised energy): */
-                if (merit && trial_worst > 0.5 * SQFFD__FIT_MARGIN) f->rho *= 10.0; /* a sample sank: stiffer */
-                if (bound - below > f->floor) /* the rising floor */
-                    f->floor = bound - below < o->min_jacobian ? bound - below : o->min_jacobian;
-                sqffd__fit_fold_add_samples(it, control); /* the cells still under the goal as samples */
-            }
-            penalty = sqffd__fit_fold_penalty(f, f->value, NULL);
+            penalty = sqffd__fit_fold_penalty(f, f->value);
             rep->converged = tau == 1.0 && rep->step <= o->tolerance;
             sqffd__fit_fold_linearise(it);
         } else { /* rolled back: more damping, or the certificate's points as samples */
             sqffd__fit_fold_roll_back(it);
             if (bound > -HUGE_VAL && f->failed && f->samples < f->capacity) {
                 sqffd__fit_fold_add_samples(it, w->accepted);
-                penalty = sqffd__fit_fold_penalty(f, f->value, NULL);
+                penalty = sqffd__fit_fold_penalty(f, f->value);
             } else {
                 f->lambda *= 8.0;
                 stalled = !(f->lambda <= 1e12);

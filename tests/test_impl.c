@@ -506,7 +506,7 @@ static void test_internal_certificate(void)
         else { /* the corner control point (0, 0, 0) pushed through the box: a fold there alone */
             for (k = 0; k < 3; k++) control[k] += 0.3 * (model.ffd.edges[k] + model.ffd.edges[3 + k] + model.ffd.edges[6 + k]);
         }
-        fold.floor = fold.goal = 0.02;
+        fold.goal = 0.02;
         bound = sqffd__fit_fold_certify(dims, &fold, control, m.ffd.inverse, 0.02);
         for (k = 0; k < 20000; k++) { /* a random point of a random region cell */
             double stu[3], j;
