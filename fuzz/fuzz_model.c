@@ -11,7 +11,10 @@
    A valid model's mesh is finite or NON_FINITE; its certified Jacobian
    bound (sqffd_model_jacobian_bound, on small grids) is OK and finite or
    NON_FINITE; a workspace one byte short is refused; an invalid model gets
-   sqffd_model_validate's code. */
+   sqffd_model_validate's code. A valid model of up to 64 control points (4 x 4 x 4),
+   refitted under the floor on a 4 x 8 grid to its own mesh's vertices (sqffd_fit_ffd, which
+   first draws a start that folds toward the regular lattice), ends with its
+   certified bound at or above the floor whenever the fit succeeds. */
 #define SQFFD_IMPLEMENTATION
 #include "../sqffd.h"
 #include <stdint.h>
@@ -20,17 +23,18 @@
 
 #define MESH_ETA 3
 #define MESH_OMEGA 5
+#define MESH_POINTS (MESH_ETA * MESH_OMEGA + 2)
 
 static void use_model(const sqffd_model *m, int must_be_valid)
 {
-    double v[3 * (MESH_ETA * MESH_OMEGA + 2)], p[3], pts[12] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1};
+    double v[3 * MESH_POINTS], p[3], pts[12] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1};
     uint32_t tri[3 * 2 * MESH_ETA * MESH_OMEGA];
     static unsigned char ws[1 << 16];
-    sqffd_result valid = sqffd_model_validate(m), r;
+    sqffd_result valid = sqffd_model_validate(m), r, meshed;
     size_t bytes = 1;
     if (must_be_valid && valid != SQFFD_OK) abort();
     if (sqffd_model_save_size(m, &bytes) != valid || (valid != SQFFD_OK && bytes != 0)) abort();
-    r = sqffd_model_mesh(m, MESH_ETA, MESH_OMEGA, v, tri);
+    r = meshed = sqffd_model_mesh(m, MESH_ETA, MESH_OMEGA, v, tri);
     if (valid != SQFFD_OK ? r != valid : r != SQFFD_OK && r != SQFFD_ERROR_NON_FINITE) abort();
     if (r == SQFFD_OK) {
         size_t k;
@@ -56,6 +60,21 @@ static void use_model(const sqffd_model *m, int must_be_valid)
         r = sqffd_model_jacobian_bound(m, 0.0, &min, jw, need);
         if (r == SQFFD_OK ? !isfinite(min) : r != SQFFD_ERROR_NON_FINITE) abort();
         free(jw);
+    }
+    if (meshed == SQFFD_OK && m->ffd.dims[0] * m->ffd.dims[1] * m->ffd.dims[2] <= 64) {
+        sqffd_fit_options o = sqffd_fit_options_default();
+        sqffd_model fitted = *m;
+        sqffd_fit_report rep;
+        size_t need = 0;
+        unsigned char *fw;
+        fitted.grid[0] = 4; /* (a small grid: milliseconds per input) */
+        fitted.grid[1] = 8;
+        o.max_iterations = 2;
+        if (sqffd_fit_ffd_workspace_size(MESH_POINTS, &fitted, &o, &need) != SQFFD_OK || !(fw = (unsigned char *)malloc(need)))
+            abort();
+        if (sqffd_fit_ffd(v, MESH_POINTS, &o, &fitted, &rep, fw, need) == SQFFD_OK && !(rep.min_jacobian >= o.min_jacobian))
+            abort();
+        free(fw);
     }
 }
 
