@@ -8886,7 +8886,7 @@ static double sqffd__fit_fold_untangle(sqffd__fit_iteration *it)
     memcpy(start, control, size * sizeof(double));
     for (k = 0; k <= SQFFD__FIT_UNTANGLE; ++k) {
         double share = k < SQFFD__FIT_UNTANGLE ? 0.5 * (kept + cut) : kept; /* (last: the share kept) */
-        for (v = 0; v < size; ++v) control[v] = s->rest_control[v] + share * (start[v] - s->rest_control[v]);
+        for (v = 0; v < size; ++v) control[v] = (1.0 - share) * s->rest_control[v] + share * start[v]; /* (no overflow) */
         if (k == SQFFD__FIT_UNTANGLE) break;
         if (sqffd__fit_fold_certify(s->dims, f, control, it->model->ffd.inverse, f->goal) >= f->goal) kept = share;
         else cut = share;
