@@ -948,11 +948,12 @@ SQFFD_DEF sqffd_result sqffd_fit_workspace_size(size_t n, const sqffd_fit_option
    the region is certified at or above the floor and the step lowers E (a
    start that folds on the region, a model handed in, is first drawn
    toward the regular lattice P0 until it is certified: the result is
-   always certified when an iteration runs). Without a floor: (1) each data point's displacement,
-   shared among its closest triangle's corners by barycentric weight, gives
-   a weighted least-squares bound of E; (2) the control points minimising
-   that bound (it cannot raise E), over-relaxed (adaptively), a step that
-   raised E replaced by the plain step. report->energy_history never rises.
+   certified whenever an iteration runs). Without a floor: (1) each data
+   point's displacement, shared among its closest triangle's corners by
+   barycentric weight, gives a weighted least-squares bound of E; (2) the
+   control points minimising that bound (it cannot raise E), over-relaxed
+   (adaptively), a step that raised E replaced by the plain step.
+   report->energy_history never rises.
    From the superquadric, the first options->coarse_iterations of the
    iterations run on a coarse grid (half the rows and columns) and an even
    subsample of at most SQFFD_FIT_COARSE_POINTS points, the same energy on
@@ -8870,8 +8871,9 @@ static void sqffd__fit_fold_add_samples(sqffd__fit_iteration *it, const double *
 /* A start under the floor on its region (a folded model handed in) drawn
    toward the regular lattice P0, where J is 1 everywhere: P0 + s (P - P0)
    with the largest s in [0, 1] the certificate passes at the floor, found
-   to 1/2^SQFFD__FIT_UNTANGLE by halving (s = 0 always passes: min_jacobian
-   is at most 1), so every fit under the floor starts, and ends, certified.
+   to 1/2^SQFFD__FIT_UNTANGLE by halving (s = 0 passes at any floor under 1;
+   at exactly 1 the box's rounding decides), so every fit under the floor
+   starts, and ends, certified.
    The model keeps as much of its deformation as the floor allows along
    that line; the fit then recovers the rest the floor allows. Returns the
    start's certified bound. */
