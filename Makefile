@@ -67,6 +67,9 @@ CC_O0 = $(CC)
 CC_asan = $(CC)
 CC_clang-asan = clang
 FLAGS_O2 = -O2 -g1 -Wall -Wextra
+# The O2 flavour's test files at -O1: their own code is not what is measured (the core, sqffd.o, is -O2);
+# they build in 60 % of the time and the runner takes 2 s more.
+TEST_OPT_O2 = -O1
 FLAGS_O0 = -O0 $(STRICT)
 FLAGS_asan = $(SAN) -Wall -Wextra
 FLAGS_clang-asan = $(SAN) -Wall -Wextra
@@ -76,22 +79,28 @@ $(BUILD)/$(1)/sqffd.o: tests/check_header.c
 	$(CC_$(1)) $(FLAGS_$(1)) -std=c99 -MMD -MP -c $$< -o $$@
 $(BUILD)/$(1)/%.o: tests/%.c
 	@mkdir -p $$(@D)
-	$(CC_$(1)) $(FLAGS_$(1)) -std=c99 -MMD -MP -c $$< -o $$@
+	$(CC_$(1)) $(FLAGS_$(1)) $(TEST_OPT_$(1)) -std=c99 -MMD -MP -c $$< -o $$@
 $(BUILD)/$(1)/sqffd_tests: $(BUILD)/$(1)/sqffd.o $(patsubst tests/%.c,$(BUILD)/$(1)/%.o,$(wildcard tests/test_*.c))
 	$(CC_$(1)) $(FLAGS_$(1)) -o $$@ $$^ -lm
 endef
 $(foreach f,$(FLAVOURS),$(eval $(call FLAVOUR,$(f))))
 -include $(wildcard $(BUILD)/*/*.d)
 
-# $(call RUN_UNIT,BINARY,DIR[,WRAPPER]): the runner with DIR as its working directory (the tests
+# $(call RUN_UNIT,BINARY,DIR[,WRAPPER[,ARGS]]): the runner with DIR as its working directory (the tests
 # write scratch files there; tests/data is reached through a link), its output in DIR/unit.log.
-RUN_UNIT = mkdir -p $(2) && ln -sfn $(CURDIR)/tests $(2)/tests && (cd $(2) && $(3) $(CURDIR)/$(1)) > $(2)/unit.log 2>&1
+RUN_UNIT = mkdir -p $(2) && ln -sfn $(CURDIR)/tests $(2)/tests && (cd $(2) && $(3) $(CURDIR)/$(1) $(4)) > $(2)/unit.log 2>&1
 # ... then one status line TITLE: N passed, N failed (the log's end when it fails)
 UNIT_STATUS = { $(call RUN_UNIT,$(1),$(2),$(4)) && tail -n 1 $(2)/unit.log | sed 's/^/$(3): /'; } \
   || { tail -n 30 $(2)/unit.log; exit 1; }
 
+# Two runners at once, every other case each (--shard), each in its own directory; unit.log holds both
+# logs, their "N passed, N failed" lines summed into one.
 unit: $(BUILD)/O2/sqffd_tests
-	@echo "== unit tests (-O2)"; $(call RUN_UNIT,$<,$(BUILD)/O2); s=$$?; cat $(BUILD)/O2/unit.log; exit $$s
+	@echo "== unit tests (-O2, two shards)"; \
+	{ $(call RUN_UNIT,$<,$(BUILD)/O2/shard1,,--shard 1/2); } & other=$$!; \
+	$(call RUN_UNIT,$<,$(BUILD)/O2/shard0,,--shard 0/2); s=$$?; wait $$other || s=1; \
+	cat $(BUILD)/O2/shard0/unit.log $(BUILD)/O2/shard1/unit.log | awk '/^[0-9]+ passed, [0-9]+ failed$$/ { p += $$1; f += $$3; next } \
+	  { print } END { printf "%d passed, %d failed\n", p, f }' > $(BUILD)/O2/unit.log; cat $(BUILD)/O2/unit.log; exit $$s
 
 unit-asan: $(BUILD)/asan/sqffd_tests
 	@$(call UNIT_STATUS,$<,$(BUILD)/asan,unit tests ($(CC) address+undefined sanitizers))

@@ -1,13 +1,23 @@
 /* Test runner: every suite, then the line "N passed, N failed".
-   Usage: sqffd_tests [SUBSTRING]   runs only the cases whose name contains it. */
+   Usage: sqffd_tests [--shard K/N] [SUBSTRING]
+     SUBSTRING    runs only the cases whose name contains it;
+     --shard K/N  of those, only every N-th from the K-th (0 <= K < N): N
+                  runners, one a shard, run every case once between them. */
 #include "test.h"
 #include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
 
-static int passed, failed, case_failures, deferred;
+static int passed, failed, case_failures, deferred, shard, shards = 1, seen;
 static const char *filter;
+
+/* The case is this runner's: its name matches the filter, and it falls in the shard. */
+static int selected(const char *name)
+{
+    if (filter && !strstr(name, filter)) return 0;
+    return seen++ % shards == shard;
+}
 
 void test_fail(const char *file, int line, const char *fmt, ...)
 {
@@ -25,7 +35,7 @@ void test_fail(const char *file, int line, const char *fmt, ...)
 void test_run(const char *name, void (*fn)(void))
 {
     clock_t start;
-    if (filter && !strstr(name, filter)) return;
+    if (!selected(name)) return;
     case_failures = 0;
     start = clock();
     fn();
@@ -45,12 +55,20 @@ int test_thorough(void)
 void test_run_thorough(const char *name, void (*fn)(void))
 {
     if (test_thorough()) test_run(name, fn);
-    else if (!filter || strstr(name, filter)) deferred++;
+    else if (selected(name)) deferred++;
 }
 
 int main(int argc, char **argv)
 {
-    filter = argc > 1 ? argv[1] : NULL;
+    int arg = 1;
+    if (argc > 2 && strcmp(argv[1], "--shard") == 0) {
+        if (sscanf(argv[2], "%d/%d", &shard, &shards) != 2 || shards < 1 || shard < 0 || shard >= shards) {
+            fprintf(stderr, "sqffd_tests: --shard K/N with 0 <= K < N\n");
+            return 2;
+        }
+        arg = 3;
+    }
+    filter = argc > arg ? argv[arg] : NULL;
     suite_linalg();
     suite_kdtree();
     suite_superquadric();
