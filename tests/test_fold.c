@@ -171,6 +171,14 @@ static double model_folded(const sqffd_model *m)
     return share;
 }
 
+/* The report's energy history never rises. */
+static void check_energy_never_rises(const sqffd_fit_report *rep)
+{
+    int k;
+    for (k = 1; k < rep->history_count; k++)
+        CHECK_MSG(rep->energy_history[k] <= rep->energy_history[k - 1], "energy rose at iteration %d", k + 1);
+}
+
 /* From a start that folds on its region (certified bound `start` under
    the floor), the floor's fit ends certified at or above the floor (the
    start drawn toward the regular lattice first), the report's bound the
@@ -188,7 +196,6 @@ static void untangle(const double *pts, size_t n, const sqffd_fit_options *o, co
     size_t size;
     void *ws;
     double bound;
-    int k;
     CHECK_RESULT(region_bound(&m, o->min_jacobian, &bound), SQFFD_OK);
     CHECK_NEAR(bound, start, 1e-12);
     CHECK_RESULT(sqffd_fit_ffd_workspace_size(n, &m, o, &size), SQFFD_OK);
@@ -204,8 +211,7 @@ static void untangle(const double *pts, size_t n, const sqffd_fit_options *o, co
     CHECK_RESULT(region_bound(&m, o->min_jacobian, &bound), SQFFD_OK);
     CHECK_NEAR(bound, rep.min_jacobian, 1e-12);
     CHECK_MSG(model_folded(&m) == 0.0, "folded share %g", model_folded(&m));
-    for (k = 1; k < rep.history_count; k++)
-        CHECK_MSG(rep.energy_history[k] <= rep.energy_history[k - 1], "energy rose at iteration %d", k + 1);
+    check_energy_never_rises(&rep);
     CHECK_MSG(rep.error.rms_relative <= 1.5 * fresh, "error %g from the folded start, %g from the regular lattice",
               rep.error.rms_relative, fresh);
 }
@@ -224,7 +230,6 @@ static void test_fit_stack_fold_free(void)
     sqffd_fit_options o = sqffd_fit_options_default();
     sqffd_model m, folded;
     sqffd_fit_report rep;
-    int k;
     CHECK(n == 8 * 96);
     o.min_jacobian = -HUGE_VAL;
     CHECK_RESULT(test_fit(pts, n, &o, &folded, &rep), SQFFD_OK);
@@ -240,8 +245,7 @@ static void test_fit_stack_fold_free(void)
     CHECK_MSG(bound >= o.min_jacobian - 1e-6, "J %g inside the solid, under the floor", bound);
     CHECK_MSG(model_folded(&m) == 0.0, "folded share %g", model_folded(&m));
     CHECK_MSG(rep.error.rms_relative < 0.02, "error %g", rep.error.rms_relative);
-    for (k = 1; k < rep.history_count; k++)
-        CHECK_MSG(rep.energy_history[k] <= rep.energy_history[k - 1], "energy rose at iteration %d", k + 1);
+    check_energy_never_rises(&rep);
     o.min_jacobian = NAN;
     CHECK_RESULT(test_fit(pts, n, &o, &m, &rep), SQFFD_ERROR_INVALID_ARGUMENT);
     o.min_jacobian = 1.5;
